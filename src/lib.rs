@@ -1,0 +1,7 @@
+//! spmcal — calibration of spherical parallel manipulators (first of all the Agile Wrist)
+//! from joint readings and stereo-camera marker positions.
+//!
+//! Data flows one way: dataset → vision → calib (uses model) → compare / record.
+
+pub mod model;
+pub mod so3;

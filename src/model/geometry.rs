@@ -1,0 +1,153 @@
+//! SPM geometry: the per-leg parameters of DESIGN.md and the validated, cached form
+//! that the kinematics evaluate.
+//!
+//! Leg i (conventions of DESIGN.md): actuated axis `u`, joint zero direction `z ⟂ u`,
+//! intermediate axis `w(θ) = cos α1 u + sin α1 (cos φ z + sin φ (u × z))` with `φ = θ + δ`,
+//! platform axis `v = R v0`, and the loop closure `w(θ) · R v0 = cos α2`.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+/// Geometry of one leg: the parameters a calibration identifies.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LegGeometry {
+    /// Actuated (base) joint axis, in B.
+    pub u: Vector3<f64>,
+    /// Joint zero direction, in B, orthogonal to `u`.
+    pub z: Vector3<f64>,
+    /// Angle between `u` and the intermediate axis `w` (proximal link angle), radians.
+    pub alpha1: f64,
+    /// Angle between `w` and the platform axis `v` (distal link angle), radians.
+    pub alpha2: f64,
+    /// Platform joint axis, in P.
+    pub v0: Vector3<f64>,
+    /// Encoder zero offset: `φ = θ + δ`, radians.
+    pub delta: f64,
+}
+
+/// Why a geometry cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GeometryError {
+    #[error("leg {leg}: {what} is not finite")]
+    NotFinite { leg: usize, what: &'static str },
+    #[error("leg {leg}: axis {what} has length {norm:.3e}; a joint axis must be a unit vector")]
+    NotUnit {
+        leg: usize,
+        what: &'static str,
+        norm: f64,
+    },
+    #[error("leg {leg}: zero direction z is not orthogonal to u (u·z = {dot:.3e})")]
+    ZeroDirectionNotOrthogonal { leg: usize, dot: f64 },
+    #[error("leg {leg}: {what} = {value_deg:.4}° is outside (0°, 180°)")]
+    LinkAngleOutOfRange {
+        leg: usize,
+        what: &'static str,
+        value_deg: f64,
+    },
+}
+
+/// Tolerance on unit length and orthogonality of axes read from files: loose enough for
+/// axes printed with 9 significant digits, tight enough to catch a wrong axis.
+pub const AXIS_TOLERANCE: f64 = 1e-6;
+
+impl LegGeometry {
+    /// The nominal leg `i` (0-based) of DESIGN.md for cone angles `b`, `p` and link angles `α1`, `α2`.
+    pub fn nominal(i: usize, base_cone: f64, platform_cone: f64, alpha1: f64, alpha2: f64) -> Self {
+        let eta = 2.0 * std::f64::consts::PI * i as f64 / 3.0;
+        let (se, ce) = eta.sin_cos();
+        LegGeometry {
+            u: Vector3::new(
+                -se * base_cone.sin(),
+                ce * base_cone.sin(),
+                -base_cone.cos(),
+            ),
+            z: Vector3::new(ce, se, 0.0),
+            alpha1,
+            alpha2,
+            v0: Vector3::new(
+                -se * platform_cone.sin(),
+                ce * platform_cone.sin(),
+                platform_cone.cos(),
+            ),
+            delta: 0.0,
+        }
+    }
+
+    /// Check the leg (`leg` is 1-based, for messages) and normalise its axes.
+    pub fn validated(mut self, leg: usize) -> Result<Self, GeometryError> {
+        for (what, v) in [("u", self.u), ("z", self.z), ("v0", self.v0)] {
+            if !v.iter().all(|c| c.is_finite()) {
+                return Err(GeometryError::NotFinite { leg, what });
+            }
+            let norm = v.norm();
+            if (norm - 1.0).abs() > AXIS_TOLERANCE {
+                return Err(GeometryError::NotUnit { leg, what, norm });
+            }
+        }
+        for (what, value) in [
+            ("alpha1", self.alpha1),
+            ("alpha2", self.alpha2),
+            ("delta", self.delta),
+        ] {
+            if !value.is_finite() {
+                return Err(GeometryError::NotFinite { leg, what });
+            }
+        }
+        for (what, value) in [("alpha1", self.alpha1), ("alpha2", self.alpha2)] {
+            if value <= 0.0 || value >= std::f64::consts::PI {
+                return Err(GeometryError::LinkAngleOutOfRange {
+                    leg,
+                    what,
+                    value_deg: value.to_degrees(),
+                });
+            }
+        }
+        self.u.normalize_mut();
+        self.v0.normalize_mut();
+        let dot = self.u.dot(&self.z);
+        if dot.abs() > AXIS_TOLERANCE {
+            return Err(GeometryError::ZeroDirectionNotOrthogonal { leg, dot });
+        }
+        // Remove the tolerated residue exactly, so that the kinematics see an orthonormal pair.
+        self.z = (self.z - self.u * dot).normalize();
+        Ok(self)
+    }
+}
+
+/// A leg prepared for fast evaluation (all trigonometry of the constants done once).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Leg {
+    pub u: Vector3<f64>,
+    pub z: Vector3<f64>,
+    /// `u × z`, the direction of `dw/dφ` at `φ = 0`.
+    pub y: Vector3<f64>,
+    pub cos_a1: f64,
+    pub sin_a1: f64,
+    pub cos_a2: f64,
+    pub sin_a2: f64,
+    pub v0: Vector3<f64>,
+    pub delta: f64,
+}
+
+impl Leg {
+    pub fn new(g: &LegGeometry) -> Self {
+        Leg {
+            u: g.u,
+            z: g.z,
+            y: g.u.cross(&g.z),
+            cos_a1: g.alpha1.cos(),
+            sin_a1: g.alpha1.sin(),
+            cos_a2: g.alpha2.cos(),
+            sin_a2: g.alpha2.sin(),
+            v0: g.v0,
+            delta: g.delta,
+        }
+    }
+
+    /// Intermediate axis `w(θ)` in B.
+    #[inline]
+    pub fn w(&self, theta: f64) -> Vector3<f64> {
+        let (s, c) = (theta + self.delta).sin_cos();
+        self.u * self.cos_a1 + (self.z * c + self.y * s) * self.sin_a1
+    }
+}

@@ -1,0 +1,56 @@
+//! Random geometries around a nominal one: the manufacturing and assembly errors that a
+//! calibration must recover (used by the simulator and by the tests).
+
+use nalgebra::Vector3;
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+
+use super::geometry::LegGeometry;
+
+/// Standard deviations of the per-leg errors, radians.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GeometrySpread {
+    /// Tilt of the axes `u` and `v0` (each tangent component), rad.
+    pub axis_tilt: f64,
+    /// Error of the link angles `α1`, `α2`, rad.
+    pub link_angle: f64,
+    /// Encoder zero offset `δ`, rad.
+    pub joint_offset: f64,
+}
+
+/// Tilt the unit vector `a` by a random tangent vector with components of deviation `sigma`.
+pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vector3<f64> {
+    let normal = Normal::new(0.0, sigma.max(0.0)).expect("finite, non-negative deviation");
+    let e1 = a
+        .cross(&if a.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        })
+        .normalize();
+    let e2 = a.cross(&e1);
+    let omega = e1 * normal.sample(rng) + e2 * normal.sample(rng);
+    crate::so3::exp(&omega) * a
+}
+
+/// A geometry drawn around `nominal`: axes tilted, link angles and offsets shifted. `z` is
+/// re-orthogonalised against the moved `u`, as the conventions require.
+pub fn perturb<R: Rng + ?Sized>(
+    nominal: &[LegGeometry; 3],
+    spread: &GeometrySpread,
+    rng: &mut R,
+) -> [LegGeometry; 3] {
+    let angle = Normal::new(0.0, spread.link_angle.max(0.0)).expect("finite deviation");
+    let offset = Normal::new(0.0, spread.joint_offset.max(0.0)).expect("finite deviation");
+    nominal.map(|g| {
+        let u = tilt(&g.u, spread.axis_tilt, rng);
+        LegGeometry {
+            u,
+            z: (g.z - u * u.dot(&g.z)).normalize(),
+            alpha1: g.alpha1 + angle.sample(rng),
+            alpha2: g.alpha2 + angle.sample(rng),
+            v0: tilt(&g.v0, spread.axis_tilt, rng),
+            delta: g.delta + offset.sample(rng),
+        }
+    })
+}

@@ -1,0 +1,425 @@
+//! The spherical parallel manipulator: inverse kinematics (closed form per leg),
+//! forward displacement analysis by Newton tracking and by continuation from home,
+//! Jacobians and singularity measures.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use super::geometry::{GeometryError, Leg, LegGeometry};
+use crate::so3;
+
+/// Which of the two inverse-kinematics solutions of a leg.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Branch {
+    /// `(u × w) · v < 0`, as at the nominal home pose: the working mode.
+    Working,
+    /// `(u × w) · v > 0`: the leg folded the other way.
+    Other,
+}
+
+impl Branch {
+    /// One-character label: `-` for the working branch, `+` for the other (the sign of `(u×w)·v`).
+    pub fn sign_char(self) -> char {
+        match self {
+            Branch::Working => '-',
+            Branch::Other => '+',
+        }
+    }
+}
+
+/// Numerical settings of the forward displacement analysis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FdaSettings {
+    /// Newton stops when every closure residual `|w·v − cos α2|` is below this.
+    pub tolerance: f64,
+    /// Newton iterations allowed per solve.
+    pub max_iterations: u32,
+    /// Smallest accepted conditioning index `1/κ_F` of the closure Jacobian (parallel singularity).
+    pub min_conditioning: f64,
+    /// Smallest accepted `|(u×w)·v| / sin α1` of any leg (serial singularity, branch ambiguity).
+    pub min_branch_margin: f64,
+    /// `track` refuses a solution farther than this (rad) from the previous orientation:
+    /// a larger jump means the start was not in the basin of the tracked mode.
+    pub max_track_jump: f64,
+    /// Largest joint increment (rad) of one continuation step in `forward`.
+    pub continuation_step: f64,
+}
+
+impl Default for FdaSettings {
+    fn default() -> Self {
+        FdaSettings {
+            // A few ulps of the cosines; Newton's quadratic convergence gets there in one more step.
+            tolerance: 1e-14,
+            max_iterations: 20,
+            min_conditioning: 0.02,
+            min_branch_margin: 0.02,
+            max_track_jump: 0.35,
+            continuation_step: 0.25,
+        }
+    }
+}
+
+/// Why an orientation has no working-mode joint solution.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IkError {
+    #[error(
+        "orientation outside the workspace: leg {leg} cannot reach it (needs |cos| = {ratio:.6} > 1)"
+    )]
+    OutsideWorkspace { leg: usize, ratio: f64 },
+    #[error("orientation is not finite")]
+    NotFinite,
+}
+
+/// Why the forward displacement analysis gave no trustworthy working-mode orientation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FdaError {
+    #[error("joint readings are not finite")]
+    NotFinite,
+    #[error("Newton did not converge in {iterations} iterations (closure residual {residual:.3e})")]
+    NotConverged { iterations: u32, residual: f64 },
+    #[error("pose at or near a parallel singularity (conditioning index {conditioning:.3e})")]
+    NearSingular { conditioning: f64 },
+    #[error(
+        "leg {leg} is at or beyond its serial singularity (branch margin {margin:.3e}): not the working mode"
+    )]
+    LeftWorkingMode { leg: usize, margin: f64 },
+    #[error(
+        "tracking jumped {jump_deg:.2}° from the previous orientation: start too far from the solution"
+    )]
+    JumpTooLarge { jump_deg: f64 },
+}
+
+/// Velocity relation `A ω = B θ̇` at a pose: `A` rows `(w_i × v_i)ᵀ`, `B = diag((u_i × w_i) · v_i)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Jacobians {
+    pub a: Matrix3<f64>,
+    pub b: Matrix3<f64>,
+}
+
+impl Jacobians {
+    /// `J = A⁻¹ B`, mapping joint rates to the MP angular velocity; `None` at a parallel singularity.
+    pub fn forward(&self) -> Option<Matrix3<f64>> {
+        self.a.try_inverse().map(|ai| ai * self.b)
+    }
+}
+
+/// Conditioning index `1/κ_F(M) = 3 / (‖M‖_F ‖M⁻¹‖_F)` in `[0, 1]`: 1 for a multiple of an
+/// orthogonal matrix, 0 when singular. The Frobenius condition number is Angeles' choice for
+/// manipulator dexterity and costs one 3×3 inverse, which the haptic path computes anyway.
+pub fn conditioning_index(m: &Matrix3<f64>) -> f64 {
+    match m.try_inverse() {
+        Some(inv) => (3.0 / (m.norm() * inv.norm())).min(1.0),
+        None => 0.0,
+    }
+}
+
+/// A spherical parallel manipulator with validated geometry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spm {
+    geometry: [LegGeometry; 3],
+    pub(crate) legs: [Leg; 3],
+    /// Joint readings at the home orientation `R = I` (working mode).
+    home_joints: Vector3<f64>,
+    pub settings: FdaSettings,
+}
+
+/// Why a geometry does not make a usable manipulator.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SpmError {
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
+    #[error("the loop closure has no solution at home (R = I): {0}")]
+    NoHomeClosure(IkError),
+    #[error("the home pose (R = I) is at or near a singularity: {0}")]
+    SingularHome(FdaError),
+    #[error("platform axes v0 of legs {0} and {1} are parallel")]
+    ParallelPlatformAxes(usize, usize),
+}
+
+impl Spm {
+    /// Validate the three legs and prepare them; the home pose must be assemblable and regular.
+    pub fn new(geometry: [LegGeometry; 3]) -> Result<Self, SpmError> {
+        let mut checked = geometry;
+        for (i, g) in checked.iter_mut().enumerate() {
+            *g = g.validated(i + 1)?;
+        }
+        for (i, j) in [(0, 1), (1, 2), (0, 2)] {
+            if checked[i].v0.cross(&checked[j].v0).norm() < 1e-6 {
+                return Err(SpmError::ParallelPlatformAxes(i + 1, j + 1));
+            }
+        }
+        let mut spm = Spm {
+            geometry: checked,
+            legs: checked.map(|g| Leg::new(&g)),
+            home_joints: Vector3::zeros(),
+            settings: FdaSettings::default(),
+        };
+        let home = Rotation3::identity();
+        spm.home_joints = spm.ik(&home).map_err(SpmError::NoHomeClosure)?;
+        spm.check_pose(&spm.home_joints.clone(), &home)
+            .map_err(SpmError::SingularHome)?;
+        Ok(spm)
+    }
+
+    /// The nominal Agile Wrist of DESIGN.md: α1 = α2 = 90°, b = p = arctan √2.
+    pub fn agile_wrist_nominal() -> Self {
+        let cone = 2f64.sqrt().atan();
+        let right = std::f64::consts::FRAC_PI_2;
+        Spm::new([0, 1, 2].map(|i| LegGeometry::nominal(i, cone, cone, right, right)))
+            .expect("the nominal Agile Wrist is a valid geometry")
+    }
+
+    /// The validated per-leg geometry.
+    pub fn geometry(&self) -> &[LegGeometry; 3] {
+        &self.geometry
+    }
+
+    /// Joint readings of the home orientation `R = I` in the working mode.
+    pub fn home_joints(&self) -> Vector3<f64> {
+        self.home_joints
+    }
+
+    /// Intermediate axes `w_i` for the joint readings.
+    pub fn intermediate_axes(&self, joints: &Vector3<f64>) -> [Vector3<f64>; 3] {
+        [0, 1, 2].map(|i| self.legs[i].w(joints[i]))
+    }
+
+    /// Platform axes `v_i = R v0_i` in B.
+    pub fn platform_axes(&self, r: &Rotation3<f64>) -> [Vector3<f64>; 3] {
+        [0, 1, 2].map(|i| r * self.legs[i].v0)
+    }
+
+    /// Loop-closure residuals `w_i(θ_i) · R v0_i − cos α2_i`.
+    pub fn closure_residual(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Vector3<f64> {
+        let w = self.intermediate_axes(joints);
+        self.residual_with_axes(&w, r)
+    }
+
+    fn residual_with_axes(&self, w: &[Vector3<f64>; 3], r: &Rotation3<f64>) -> Vector3<f64> {
+        Vector3::from_fn(|i, _| w[i].dot(&(r * self.legs[i].v0)) - self.legs[i].cos_a2)
+    }
+
+    // ----- inverse kinematics -------------------------------------------------------------
+
+    /// Joint readings (rad, in `(−π, π]`) that put the MP at `r`, every leg in the working branch.
+    pub fn ik(&self, r: &Rotation3<f64>) -> Result<Vector3<f64>, IkError> {
+        let mut joints = Vector3::zeros();
+        for i in 0..3 {
+            joints[i] = self.ik_leg(i, r, Branch::Working)?;
+        }
+        Ok(joints)
+    }
+
+    /// Joint reading of leg `i` (0-based) for orientation `r` on the chosen branch.
+    ///
+    /// The closure `w(φ)·v = cos α2` reads `A cos φ + B sin φ = C` with
+    /// `A = sin α1 z·v`, `B = sin α1 (u×z)·v`, `C = cos α2 − cos α1 u·v`; writing
+    /// `A = ρ cos ψ`, `B = ρ sin ψ` gives `φ = ψ ± acos(C/ρ)`. Since
+    /// `(u×w)·v = ρ sin(ψ − φ)`, the working branch (negative sign) is `φ = ψ + acos(C/ρ)`.
+    pub fn ik_leg(&self, i: usize, r: &Rotation3<f64>, branch: Branch) -> Result<f64, IkError> {
+        let leg = &self.legs[i];
+        let v = r * leg.v0;
+        let a = leg.sin_a1 * leg.z.dot(&v);
+        let b = leg.sin_a1 * leg.y.dot(&v);
+        let c = leg.cos_a2 - leg.cos_a1 * leg.u.dot(&v);
+        let rho = a.hypot(b);
+        if !(rho.is_finite() && c.is_finite()) {
+            return Err(IkError::NotFinite);
+        }
+        let ratio = c / rho;
+        // Beyond 1 by more than rounding: the cone of v around w does not meet the circle of w.
+        if ratio.abs() > 1.0 + 1e-12 || rho == 0.0 {
+            return Err(IkError::OutsideWorkspace {
+                leg: i + 1,
+                ratio: ratio.abs(),
+            });
+        }
+        let gamma = ratio.clamp(-1.0, 1.0).acos();
+        let psi = b.atan2(a);
+        let phi = match branch {
+            Branch::Working => psi + gamma,
+            Branch::Other => psi - gamma,
+        };
+        Ok(wrap_angle(phi - leg.delta))
+    }
+
+    // ----- Jacobians and singularities ----------------------------------------------------
+
+    /// Velocity Jacobians at joints `θ` and orientation `r` (assumed to close the loops).
+    pub fn jacobians(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Jacobians {
+        let w = self.intermediate_axes(joints);
+        let v = self.platform_axes(r);
+        let a = Matrix3::from_rows(&[0, 1, 2].map(|i| w[i].cross(&v[i]).transpose()));
+        let b = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| {
+            self.legs[i].u.cross(&w[i]).dot(&v[i])
+        }));
+        Jacobians { a, b }
+    }
+
+    /// Branch margins `(u_i×w_i)·v_i / sin α1_i` in `[−1, 1]`: negative in the working branch,
+    /// zero at a serial singularity of the leg.
+    pub fn branch_margins(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Vector3<f64> {
+        let w = self.intermediate_axes(joints);
+        Vector3::from_fn(|i, _| {
+            let leg = &self.legs[i];
+            leg.u.cross(&w[i]).dot(&(r * leg.v0)) / leg.sin_a1
+        })
+    }
+
+    /// Branch of each leg at a pose.
+    pub fn branches(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> [Branch; 3] {
+        let m = self.branch_margins(joints, r);
+        [0, 1, 2].map(|i| {
+            if m[i] < 0.0 {
+                Branch::Working
+            } else {
+                Branch::Other
+            }
+        })
+    }
+
+    /// Reject a pose that is near a parallel singularity or has a leg off the working branch.
+    fn check_pose(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Result<(), FdaError> {
+        let conditioning = conditioning_index(&self.jacobians(joints, r).a);
+        if conditioning < self.settings.min_conditioning {
+            return Err(FdaError::NearSingular { conditioning });
+        }
+        let margins = self.branch_margins(joints, r);
+        for i in 0..3 {
+            if margins[i] > -self.settings.min_branch_margin {
+                return Err(FdaError::LeftWorkingMode {
+                    leg: i + 1,
+                    margin: margins[i],
+                });
+            }
+        }
+        Ok(())
+    }
+
+    // ----- forward displacement analysis --------------------------------------------------
+
+    /// Newton on the closure equations from `start`, with the analytic Jacobian: perturbing
+    /// `R ← exp(ω) R` changes residual i by `ω · (v_i × w_i)`. No allocation.
+    /// Returns the orientation and the iterations used.
+    pub(crate) fn newton(
+        &self,
+        w: &[Vector3<f64>; 3],
+        start: &Rotation3<f64>,
+        max_iterations: u32,
+    ) -> Result<(Rotation3<f64>, u32), FdaError> {
+        let mut r = *start;
+        let mut residual = f64::INFINITY;
+        for iteration in 0..=max_iterations {
+            let v = self.platform_axes(&r);
+            let f = Vector3::from_fn(|i, _| w[i].dot(&v[i]) - self.legs[i].cos_a2);
+            residual = f.amax();
+            if residual <= self.settings.tolerance {
+                return Ok((r, iteration));
+            }
+            if !residual.is_finite() || iteration == max_iterations {
+                break;
+            }
+            let jac = Matrix3::from_rows(&[0, 1, 2].map(|i| v[i].cross(&w[i]).transpose()));
+            let Some(step) = jac.lu().solve(&(-f)) else {
+                break;
+            };
+            r = so3::exp(&step) * r;
+        }
+        Err(FdaError::NotConverged {
+            iterations: max_iterations,
+            residual,
+        })
+    }
+
+    /// Tracking FDA, the haptic-loop path: Newton from the `previous` orientation, then checks
+    /// that the result is near it, regular and in the working mode. No heap allocation.
+    pub fn track(
+        &self,
+        joints: &Vector3<f64>,
+        previous: &Rotation3<f64>,
+    ) -> Result<Rotation3<f64>, FdaError> {
+        if !joints.iter().all(|j| j.is_finite()) {
+            return Err(FdaError::NotFinite);
+        }
+        let w = self.intermediate_axes(joints);
+        let (r, _) = self.newton(&w, previous, self.settings.max_iterations)?;
+        let jump = so3::geodesic_angle(previous, &r);
+        if jump > self.settings.max_track_jump {
+            return Err(FdaError::JumpTooLarge {
+                jump_deg: jump.to_degrees(),
+            });
+        }
+        self.check_pose(joints, &r)?;
+        Ok(r)
+    }
+
+    /// FDA in the working mode: the solution continuously connected to home, followed along the
+    /// straight joint-space path from the home readings by predictor–corrector continuation with
+    /// step halving. Fails with a typed error at or near a singularity.
+    pub fn forward(&self, joints: &Vector3<f64>) -> Result<Rotation3<f64>, FdaError> {
+        if !joints.iter().all(|j| j.is_finite()) {
+            return Err(FdaError::NotFinite);
+        }
+        let start = self.home_joints;
+        let delta = Vector3::from_fn(|i, _| wrap_angle(joints[i] - start[i]));
+        let mut r = Rotation3::identity();
+        let (mut s, mut ds) = (
+            0.0_f64,
+            (self.settings.continuation_step / delta.amax().max(1e-300)).min(1.0),
+        );
+        while s < 1.0 {
+            let next = (s + ds).min(1.0);
+            let (from, to) = (start + delta * s, start + delta * next);
+            match self.continuation_step(&from, &to, &r) {
+                Ok(r_next) => {
+                    r = r_next;
+                    s = next;
+                }
+                Err(e) if ds < 1e-6 => return Err(e),
+                Err(_) => ds *= 0.5,
+            }
+        }
+        self.check_pose(joints, &r)?;
+        Ok(r)
+    }
+
+    /// One predictor–corrector step of `forward`: first-order predictor `A ω = B Δθ`, Newton corrector.
+    fn continuation_step(
+        &self,
+        from: &Vector3<f64>,
+        to: &Vector3<f64>,
+        r: &Rotation3<f64>,
+    ) -> Result<Rotation3<f64>, FdaError> {
+        let jac = self.jacobians(from, r);
+        let conditioning = conditioning_index(&jac.a);
+        if conditioning < self.settings.min_conditioning {
+            return Err(FdaError::NearSingular { conditioning });
+        }
+        let omega = jac
+            .forward()
+            .ok_or(FdaError::NearSingular { conditioning: 0.0 })?
+            * (to - from);
+        let predicted = so3::exp(&omega) * r;
+        let w = self.intermediate_axes(to);
+        // A corrector that needs many iterations left the predictor's basin: halve the step instead.
+        let (corrected, _) = self.newton(&w, &predicted, 8)?;
+        let expected = omega.norm();
+        if so3::geodesic_angle(&predicted, &corrected) > 0.5 * expected.max(1e-3) {
+            return Err(FdaError::JumpTooLarge {
+                jump_deg: so3::geodesic_angle(r, &corrected).to_degrees(),
+            });
+        }
+        Ok(corrected)
+    }
+}
+
+/// Wrap an angle to `(−π, π]`.
+pub fn wrap_angle(a: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let w = a - two_pi * (a / two_pi).round();
+    if w <= -std::f64::consts::PI {
+        w + two_pi
+    } else {
+        w
+    }
+}
