@@ -3,5 +3,8 @@
 //!
 //! Data flows one way: dataset → vision → calib (uses model) → compare / record.
 
+pub mod dataset;
+pub mod files;
 pub mod model;
 pub mod so3;
+pub mod table;

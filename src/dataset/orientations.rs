@@ -1,0 +1,83 @@
+//! Orientation tables: `pose,qw,qx,qy,qz` (unit quaternion, scalar first, MP frame → base frame),
+//! with an optional `mode` column after `pose` for the FDA's assembly modes.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use nalgebra::Rotation3;
+
+use crate::files::{FileError, number};
+use crate::so3;
+use crate::table::Table;
+
+/// One orientation of a table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OrientationRecord {
+    pub pose: u64,
+    /// Assembly mode index (FDA with all modes), if any.
+    pub mode: Option<usize>,
+    pub rotation: Rotation3<f64>,
+    /// Extra trailing columns, `(name, value)`, written after the quaternion.
+    pub extra: Vec<(String, String)>,
+    /// Line of the file it came from (0 when not read from a file).
+    pub line: usize,
+}
+
+/// Read `pose,qw,qx,qy,qz`; a quaternion whose norm is not 1 (within 1e-6) is an error.
+pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
+    let mut table = Table::open(path, &["pose", "qw", "qx", "qy", "qz"])?;
+    let rows: Vec<_> = table.rows().collect::<Result<_, _>>()?;
+    let mut out = Vec::with_capacity(rows.len());
+    for row in rows {
+        let pose = table.index(&row, 0)?;
+        let q = [
+            table.number(&row, 1)?,
+            table.number(&row, 2)?,
+            table.number(&row, 3)?,
+            table.number(&row, 4)?,
+        ];
+        let rotation = so3::from_wxyz(q).ok_or_else(|| {
+            table.error(&row, 1, format!("quaternion {q:?} does not have unit norm"))
+        })?;
+        out.push(OrientationRecord {
+            pose,
+            mode: None,
+            rotation,
+            extra: Vec::new(),
+            line: row.line,
+        });
+    }
+    Ok(out)
+}
+
+/// The table as CSV text; a `mode` column follows `pose` when any record has a mode, and the
+/// extra columns of the first record name the trailing columns.
+pub fn write_orientations(records: &[OrientationRecord]) -> String {
+    let with_mode = records.iter().any(|r| r.mode.is_some());
+    let mut text = String::from(if with_mode {
+        "pose,mode,qw,qx,qy,qz"
+    } else {
+        "pose,qw,qx,qy,qz"
+    });
+    if let Some(first) = records.first() {
+        for (name, _) in &first.extra {
+            text.push(',');
+            text.push_str(name);
+        }
+    }
+    text.push('\n');
+    for r in records {
+        let _ = write!(text, "{}", r.pose);
+        if with_mode {
+            let _ = write!(text, ",{}", r.mode.unwrap_or(0));
+        }
+        for c in so3::to_wxyz(&r.rotation) {
+            let _ = write!(text, ",{}", number(c));
+        }
+        for (_, value) in &r.extra {
+            let _ = write!(text, ",{value}");
+        }
+        text.push('\n');
+    }
+    text
+}

@@ -1,0 +1,90 @@
+//! File plumbing shared by every reader and writer: atomic writes and located errors.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// An error in an input file, located as precisely as the format allows.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct FileError {
+    pub path: PathBuf,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// Column name (CSV) or field (YAML), when known.
+    pub column: Option<String>,
+    pub reason: String,
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.path.display())?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if let Some(column) = &self.column {
+            write!(f, ": column `{column}`")?;
+        }
+        write!(f, ": {}", self.reason)
+    }
+}
+
+impl FileError {
+    pub fn new(path: &Path, reason: impl Into<String>) -> Self {
+        FileError {
+            path: path.to_path_buf(),
+            line: None,
+            column: None,
+            reason: reason.into(),
+        }
+    }
+
+    pub fn at_line(mut self, line: usize) -> Self {
+        self.line = Some(line);
+        self
+    }
+
+    pub fn in_column(mut self, column: impl Into<String>) -> Self {
+        self.column = Some(column.into());
+        self
+    }
+
+    /// A YAML error: serde_yaml gives line and column except for a missing field.
+    pub fn from_yaml(path: &Path, e: &serde_yaml::Error) -> Self {
+        let err = FileError::new(path, e.to_string());
+        match e.location() {
+            Some(loc) => err.at_line(loc.line()),
+            None => err,
+        }
+    }
+}
+
+/// Write `contents` to `path` atomically: a temporary file in the same folder, then a rename,
+/// so that a reader never sees a half-written file and a failure leaves the old one intact.
+pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
+    use std::io::Write;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
+    tmp.write_all(contents).map_err(fail)?;
+    tmp.as_file().sync_all().map_err(fail)?;
+    tmp.persist(path).map_err(|e| fail(e.error))?;
+    Ok(())
+}
+
+/// Read a whole text file, naming it in the error.
+pub fn read_text(path: &Path) -> Result<String, FileError> {
+    std::fs::read_to_string(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))
+}
+
+/// A number for a text file: shortest text that reads back to the same `f64`, in plain
+/// notation where that is readable and in exponent notation for very small or large values.
+pub fn number(x: f64) -> String {
+    let a = x.abs();
+    if a == 0.0 || (1e-4..1e7).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}

@@ -1,0 +1,200 @@
+//! The parameters file (`params.yaml`): per-leg geometry, optional camera registration,
+//! and a header saying where it came from. Angles are degrees (`_deg`), lengths metres (`_m`).
+//!
+//! ```yaml
+//! format: spmcal-parameters/1
+//! source: nominal            # nominal | calibrated | truth
+//! model: models/agile_wrist.urdf
+//! legs:                      # three, in leg order
+//!   - u: [0.0, 0.816496580927726, -0.577350269189626]
+//!     z: [1.0, 0.0, 0.0]
+//!     alpha1_deg: 90.0
+//!     alpha2_deg: 90.0
+//!     v0: [0.0, 0.816496580927726, 0.577350269189626]
+//!     delta_deg: 0.0
+//! camera:                    # optional: x_C = R_CB x_B + t_CB
+//!   r_cb_wxyz: [1.0, 0.0, 0.0, 0.0]
+//!   t_cb_m: [0.0, 0.0, 0.8]
+//! fit: {}                    # optional: statistics of the fit that produced the file
+//! ```
+
+use std::path::Path;
+
+use nalgebra::{Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::geometry::LegGeometry;
+use super::spm::Spm;
+use crate::files::{FileError, read_text, write_atomic};
+use crate::so3;
+
+/// The format tag written at the top of every parameters file.
+pub const PARAMETERS_FORMAT: &str = "spmcal-parameters/1";
+
+/// Where a parameter set came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParameterSource {
+    Nominal,
+    Calibrated,
+    /// The true geometry of a simulated session.
+    Truth,
+}
+
+/// Camera registration `x_C = R_CB x_B + t_CB`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraRegistration {
+    pub rotation: Rotation3<f64>,
+    pub translation: Vector3<f64>,
+}
+
+/// A complete parameter set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameters {
+    pub source: ParameterSource,
+    /// The model the parameters were derived from, as written in the file.
+    pub model: Option<String>,
+    pub legs: [LegGeometry; 3],
+    pub camera: Option<CameraRegistration>,
+    /// Statistics of the fit that produced the file (informational).
+    pub fit: Option<serde_yaml::Value>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LegRecord {
+    u: [f64; 3],
+    z: [f64; 3],
+    alpha1_deg: f64,
+    alpha2_deg: f64,
+    v0: [f64; 3],
+    delta_deg: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraRecord {
+    r_cb_wxyz: [f64; 4],
+    t_cb_m: [f64; 3],
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ParametersRecord {
+    format: String,
+    source: ParameterSource,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    model: Option<String>,
+    legs: Vec<LegRecord>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    camera: Option<CameraRecord>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    fit: Option<serde_yaml::Value>,
+}
+
+impl Parameters {
+    /// Nominal parameters of a manipulator, without camera registration.
+    pub fn nominal(spm: &Spm, model: Option<String>) -> Self {
+        Parameters {
+            source: ParameterSource::Nominal,
+            model,
+            legs: *spm.geometry(),
+            camera: None,
+            fit: None,
+        }
+    }
+
+    /// The manipulator these parameters describe (validated).
+    pub fn spm(&self) -> Result<Spm, super::SpmError> {
+        Spm::new(self.legs)
+    }
+
+    /// Read and validate a parameters file.
+    pub fn read(path: &Path) -> Result<Self, FileError> {
+        let text = read_text(path)?;
+        let record: ParametersRecord =
+            serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
+        if record.format != PARAMETERS_FORMAT {
+            return Err(FileError::new(
+                path,
+                format!(
+                    "format is `{}`, expected `{PARAMETERS_FORMAT}`",
+                    record.format
+                ),
+            )
+            .in_column("format"));
+        }
+        let legs: [LegRecord; 3] = record.legs.try_into().map_err(|v: Vec<LegRecord>| {
+            FileError::new(path, format!("`legs` has {} entries, expected 3", v.len()))
+                .in_column("legs")
+        })?;
+        let legs = legs.map(|l| LegGeometry {
+            u: Vector3::from(l.u),
+            z: Vector3::from(l.z),
+            alpha1: l.alpha1_deg.to_radians(),
+            alpha2: l.alpha2_deg.to_radians(),
+            v0: Vector3::from(l.v0),
+            delta: l.delta_deg.to_radians(),
+        });
+        Spm::new(legs).map_err(|e| FileError::new(path, e.to_string()).in_column("legs"))?;
+        let camera = match record.camera {
+            None => None,
+            Some(c) => {
+                let rotation = so3::from_wxyz(c.r_cb_wxyz).ok_or_else(|| {
+                    FileError::new(path, "`r_cb_wxyz` is not a unit quaternion").in_column("camera")
+                })?;
+                if !c.t_cb_m.iter().all(|x| x.is_finite()) {
+                    return Err(FileError::new(path, "`t_cb_m` is not finite").in_column("camera"));
+                }
+                Some(CameraRegistration {
+                    rotation,
+                    translation: Vector3::from(c.t_cb_m),
+                })
+            }
+        };
+        Ok(Parameters {
+            source: record.source,
+            model: record.model,
+            legs,
+            camera,
+            fit: record.fit,
+        })
+    }
+
+    /// The file text, with a comment header.
+    pub fn to_yaml(&self) -> String {
+        let record = ParametersRecord {
+            format: PARAMETERS_FORMAT.to_string(),
+            source: self.source,
+            model: self.model.clone(),
+            legs: self
+                .legs
+                .iter()
+                .map(|g| LegRecord {
+                    u: g.u.into(),
+                    z: g.z.into(),
+                    alpha1_deg: g.alpha1.to_degrees(),
+                    alpha2_deg: g.alpha2.to_degrees(),
+                    v0: g.v0.into(),
+                    delta_deg: g.delta.to_degrees(),
+                })
+                .collect(),
+            camera: self.camera.map(|c| CameraRecord {
+                r_cb_wxyz: so3::to_wxyz(&c.rotation),
+                t_cb_m: c.translation.into(),
+            }),
+            fit: self.fit.clone(),
+        };
+        let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");
+        format!(
+            "# spmcal parameters of a spherical parallel manipulator (conventions: shared/DESIGN.md).\n\
+             # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
+             # axis v0 in P, encoder offset delta (phi = theta + delta). Camera: x_C = R_CB x_B + t_CB.\n{body}"
+        )
+    }
+
+    /// Write the file atomically.
+    pub fn write(&self, path: &Path) -> Result<(), FileError> {
+        write_atomic(path, self.to_yaml().as_bytes())
+    }
+}

@@ -1,0 +1,523 @@
+//! Loading the nominal model from a URDF and its YAML companion.
+//!
+//! URDF holds trees only, so `NAME.urdf` comes with `NAME.yaml` beside it, which names the
+//! three joints of each leg, says which link of legs 2 and 3 is rigidly the MP once the loop
+//! is closed, and gives the marker positions in P. The geometry of DESIGN.md is read off the
+//! tree at the zero configuration (all joint values 0 = the home pose `R = I`):
+//! `u` = actuated axis, `w(0)` = intermediate axis, `v0` = platform axis, all in B;
+//! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, `δ = 0`.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use serde::Deserialize;
+
+use super::geometry::LegGeometry;
+use super::spm::{Spm, SpmError};
+
+/// Largest distance (m) from O of a joint axis line still accepted as passing through O:
+/// a few CAD rounding steps, far below any real misalignment worth calibrating.
+pub const CONCURRENCY_TOLERANCE_M: f64 = 1e-6;
+/// Largest angle (rad) between a closure link and the MP at the zero configuration.
+pub const CLOSURE_TOLERANCE_RAD: f64 = 1e-6;
+
+/// A named marker on the MP.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Marker {
+    pub name: String,
+    /// Position in the MP frame P, metres.
+    pub position: Vector3<f64>,
+}
+
+/// Which rigid body of the mechanism a collision shape belongs to (legs 0-based).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Body {
+    Base,
+    Proximal(usize),
+    Distal(usize),
+    Platform,
+}
+
+/// A collision primitive.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// Along the local z axis, centred.
+    Cylinder {
+        radius: f64,
+        length: f64,
+    },
+    /// Along the local z axis, centred; `length` excludes the caps.
+    Capsule {
+        radius: f64,
+        length: f64,
+    },
+    Cuboid {
+        half_extents: Vector3<f64>,
+    },
+    Sphere {
+        radius: f64,
+    },
+}
+
+/// A collision shape with its pose in B at the home pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodyShape {
+    pub body: Body,
+    pub shape: Shape,
+    pub pose_at_home: Isometry3<f64>,
+}
+
+/// The nominal model: geometry, markers and collision shapes.
+#[derive(Debug, Clone)]
+pub struct RobotModel {
+    pub name: String,
+    pub urdf_path: PathBuf,
+    pub spm: Spm,
+    pub markers: Vec<Marker>,
+    pub shapes: Vec<BodyShape>,
+}
+
+/// Why a model could not be loaded. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("{path}: {reason}")]
+    Unreadable { path: PathBuf, reason: String },
+    #[error("{path}:{line}: {reason}")]
+    Companion {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error("{path}: joint `{joint}` {reason}")]
+    Joint {
+        path: PathBuf,
+        joint: String,
+        reason: String,
+    },
+    #[error("{path}: link `{link}` {reason}")]
+    Link {
+        path: PathBuf,
+        link: String,
+        reason: String,
+    },
+    #[error(
+        "{path}: axis of joint `{joint}` misses the centre of rotation O by {distance_mm:.4} mm (tolerance {tolerance_mm} mm)"
+    )]
+    AxisMissesCentre {
+        path: PathBuf,
+        joint: String,
+        distance_mm: f64,
+        tolerance_mm: f64,
+    },
+    #[error("{path}: the loop closure of leg {leg} has no solution at home: {reason}")]
+    Closure {
+        path: PathBuf,
+        leg: usize,
+        reason: String,
+    },
+    #[error("{path}: {source}")]
+    Geometry { path: PathBuf, source: SpmError },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Companion {
+    platform_link: String,
+    legs: Vec<CompanionLeg>,
+    markers_m: BTreeMap<String, [f64; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CompanionLeg {
+    actuated: String,
+    intermediate: String,
+    platform: String,
+    closes_on: Option<String>,
+}
+
+/// The companion file of a URDF: same folder and stem, extension `.yaml`.
+pub fn companion_path(urdf: &Path) -> PathBuf {
+    urdf.with_extension("yaml")
+}
+
+/// A joint of the tree at the zero configuration, in B.
+struct PlacedJoint<'a> {
+    joint: &'a urdf_rs::Joint,
+    /// Pose of the joint (= child link) frame in B.
+    frame: Isometry3<f64>,
+}
+
+impl PlacedJoint<'_> {
+    fn axis(&self) -> Vector3<f64> {
+        self.frame.rotation * Vector3::from(self.joint.axis.xyz.0)
+    }
+}
+
+fn origin_isometry(pose: &urdf_rs::Pose) -> Isometry3<f64> {
+    let [r, p, y] = pose.rpy.0;
+    Isometry3::from_parts(
+        Translation3::from(Vector3::from(pose.xyz.0)),
+        UnitQuaternion::from_euler_angles(r, p, y),
+    )
+}
+
+impl RobotModel {
+    /// Load `urdf` and its companion, derive and validate the geometry.
+    pub fn load(urdf: &Path) -> Result<Self, ModelError> {
+        let robot = urdf_rs::read_file(urdf).map_err(|e| ModelError::Unreadable {
+            path: urdf.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+        let companion_file = companion_path(urdf);
+        let companion = read_companion(&companion_file)?;
+        Loader {
+            path: urdf,
+            robot: &robot,
+        }
+        .build(companion, &companion_file)
+    }
+}
+
+fn read_companion(path: &Path) -> Result<Companion, ModelError> {
+    let text = std::fs::read_to_string(path).map_err(|e| ModelError::Unreadable {
+        path: path.to_path_buf(),
+        reason: format!("cannot read the URDF companion: {e}"),
+    })?;
+    let companion: Companion = serde_yaml::from_str(&text).map_err(|e| ModelError::Companion {
+        path: path.to_path_buf(),
+        line: e.location().map_or(0, |l| l.line()),
+        reason: e.to_string(),
+    })?;
+    if companion.legs.len() != 3 {
+        return Err(ModelError::Companion {
+            path: path.to_path_buf(),
+            line: 0,
+            reason: format!(
+                "`legs` lists {} legs; an SPM of this kind has 3",
+                companion.legs.len()
+            ),
+        });
+    }
+    Ok(companion)
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    robot: &'a urdf_rs::Robot,
+}
+
+impl<'a> Loader<'a> {
+    fn joint_error(&self, joint: &str, reason: impl Into<String>) -> ModelError {
+        ModelError::Joint {
+            path: self.path.to_path_buf(),
+            joint: joint.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    fn link_error(&self, link: &str, reason: impl Into<String>) -> ModelError {
+        ModelError::Link {
+            path: self.path.to_path_buf(),
+            link: link.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    /// Pose in B of every link at the zero configuration, from the tree's root.
+    fn link_frames(&self) -> Result<HashMap<&'a str, Isometry3<f64>>, ModelError> {
+        let children: std::collections::HashSet<&str> = self
+            .robot
+            .joints
+            .iter()
+            .map(|j| j.child.link.as_str())
+            .collect();
+        let roots: Vec<&str> = self
+            .robot
+            .links
+            .iter()
+            .map(|l| l.name.as_str())
+            .filter(|n| !children.contains(n))
+            .collect();
+        let [root] = roots[..] else {
+            return Err(ModelError::Unreadable {
+                path: self.path.to_path_buf(),
+                reason: format!("expected one root link (the base), found {roots:?}"),
+            });
+        };
+        let mut frames = HashMap::from([(root, Isometry3::identity())]);
+        // The tree is small: settle joints whose parent is placed until none is left.
+        let mut pending: Vec<&urdf_rs::Joint> = self.robot.joints.iter().collect();
+        while !pending.is_empty() {
+            let before = pending.len();
+            pending.retain(|j| match frames.get(j.parent.link.as_str()) {
+                Some(parent) => {
+                    let frame = parent * origin_isometry(&j.origin);
+                    frames.insert(j.child.link.as_str(), frame);
+                    false
+                }
+                None => true,
+            });
+            if pending.len() == before {
+                return Err(self.joint_error(
+                    &pending[0].name,
+                    format!(
+                        "has parent link `{}`, which is not in the tree",
+                        pending[0].parent.link
+                    ),
+                ));
+            }
+        }
+        Ok(frames)
+    }
+
+    fn placed(
+        &self,
+        frames: &HashMap<&str, Isometry3<f64>>,
+        name: &str,
+    ) -> Result<PlacedJoint<'a>, ModelError> {
+        let joint = self
+            .robot
+            .joints
+            .iter()
+            .find(|j| j.name == name)
+            .ok_or_else(|| self.joint_error(name, "is missing"))?;
+        if !matches!(
+            joint.joint_type,
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous
+        ) {
+            return Err(self.joint_error(
+                name,
+                format!(
+                    "is {:?}; the legs' joints must be revolute",
+                    joint.joint_type
+                ),
+            ));
+        }
+        let frame = frames[joint.parent.link.as_str()] * origin_isometry(&joint.origin);
+        let placed = PlacedJoint { joint, frame };
+        let axis = placed.axis();
+        if !axis.iter().all(|c| c.is_finite()) || axis.norm() < 1e-9 {
+            return Err(self.joint_error(name, "has a zero-length axis"));
+        }
+        let distance = frame.translation.vector.cross(&axis.normalize()).norm();
+        if distance > CONCURRENCY_TOLERANCE_M {
+            return Err(ModelError::AxisMissesCentre {
+                path: self.path.to_path_buf(),
+                joint: name.to_string(),
+                distance_mm: distance * 1e3,
+                tolerance_mm: CONCURRENCY_TOLERANCE_M * 1e3,
+            });
+        }
+        Ok(placed)
+    }
+
+    fn build(&self, companion: Companion, companion_file: &Path) -> Result<RobotModel, ModelError> {
+        let frames = self.link_frames()?;
+        let platform = frames
+            .get(companion.platform_link.as_str())
+            .copied()
+            .ok_or_else(|| {
+                self.link_error(
+                    &companion.platform_link,
+                    "(the MP, per the companion) is missing",
+                )
+            })?;
+        let tilt = platform.rotation.angle();
+        if tilt > CLOSURE_TOLERANCE_RAD {
+            return Err(self.link_error(
+                &companion.platform_link,
+                format!("is rotated {:.4}° from B at the zero configuration; the home pose must be R = I", tilt.to_degrees()),
+            ));
+        }
+        let mut legs = [LegGeometry::nominal(0, 1.0, 1.0, 1.0, 1.0); 3];
+        let mut leg_links: Vec<[String; 2]> = Vec::new();
+        for (i, leg) in companion.legs.iter().enumerate() {
+            let actuated = self.placed(&frames, &leg.actuated)?;
+            let intermediate = self.placed(&frames, &leg.intermediate)?;
+            let wrist = self.placed(&frames, &leg.platform)?;
+            self.check_chain(
+                i,
+                [&actuated, &intermediate, &wrist],
+                leg,
+                &companion.platform_link,
+            )?;
+            self.check_closure(i, &frames, leg, &platform)?;
+            let u = actuated.axis().normalize();
+            let w0 = intermediate.axis().normalize();
+            let v0 = platform.rotation.inverse() * wrist.axis().normalize();
+            let alpha1 = u.dot(&w0).clamp(-1.0, 1.0).acos();
+            legs[i] = LegGeometry {
+                u,
+                z: (w0 - u * alpha1.cos()).normalize(),
+                alpha1,
+                alpha2: w0.dot(&(platform.rotation * v0)).clamp(-1.0, 1.0).acos(),
+                v0,
+                delta: 0.0,
+            };
+            leg_links.push([
+                actuated.joint.child.link.clone(),
+                intermediate.joint.child.link.clone(),
+            ]);
+        }
+        let spm = Spm::new(legs).map_err(|source| ModelError::Geometry {
+            path: self.path.to_path_buf(),
+            source,
+        })?;
+        let markers = companion
+            .markers_m
+            .into_iter()
+            .map(|(name, p)| {
+                if p.iter().all(|c| c.is_finite()) {
+                    Ok(Marker {
+                        name,
+                        position: Vector3::from(p),
+                    })
+                } else {
+                    Err(ModelError::Companion {
+                        path: companion_file.to_path_buf(),
+                        line: 0,
+                        reason: format!("marker `{name}` has a non-finite position"),
+                    })
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;
+        Ok(RobotModel {
+            name: self.robot.name.clone(),
+            urdf_path: self.path.to_path_buf(),
+            spm,
+            markers,
+            shapes,
+        })
+    }
+
+    /// The three joints of a leg must form a chain from the base to the MP (leg 1) or to its closure link.
+    fn check_chain(
+        &self,
+        leg: usize,
+        joints: [&PlacedJoint; 3],
+        names: &CompanionLeg,
+        platform: &str,
+    ) -> Result<(), ModelError> {
+        let [a, b, c] = joints.map(|j| j.joint);
+        let end = if leg == 0 {
+            platform
+        } else {
+            names.closes_on.as_deref().unwrap_or(platform)
+        };
+        if b.parent.link != a.child.link || c.parent.link != b.child.link {
+            return Err(self.joint_error(
+                &b.name,
+                format!(
+                    "is not in a chain `{}` → `{}` → `{}` (leg {})",
+                    a.name,
+                    b.name,
+                    c.name,
+                    leg + 1
+                ),
+            ));
+        }
+        if c.child.link != end {
+            return Err(self.joint_error(
+                &c.name,
+                format!(
+                    "ends at link `{}`, but leg {} should end at `{end}`",
+                    c.child.link,
+                    leg + 1
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A closure link must coincide with the MP at the zero configuration.
+    fn check_closure(
+        &self,
+        leg: usize,
+        frames: &HashMap<&str, Isometry3<f64>>,
+        names: &CompanionLeg,
+        platform: &Isometry3<f64>,
+    ) -> Result<(), ModelError> {
+        let Some(link) = names.closes_on.as_deref() else {
+            return if leg == 0 {
+                Ok(())
+            } else {
+                Err(ModelError::Closure {
+                    path: self.path.to_path_buf(),
+                    leg: leg + 1,
+                    reason: "the companion gives no `closes_on` link".into(),
+                })
+            };
+        };
+        let frame = frames.get(link).ok_or_else(|| {
+            self.link_error(link, "(a closure link, per the companion) is missing")
+        })?;
+        let angle = frame.rotation.angle_to(&platform.rotation);
+        let offset = (frame.translation.vector - platform.translation.vector).norm();
+        if angle > CLOSURE_TOLERANCE_RAD || offset > CONCURRENCY_TOLERANCE_M {
+            return Err(ModelError::Closure {
+                path: self.path.to_path_buf(),
+                leg: leg + 1,
+                reason: format!(
+                    "at the zero configuration link `{link}` is {:.4}° and {:.4} mm away from the MP",
+                    angle.to_degrees(),
+                    offset * 1e3
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    fn shapes(
+        &self,
+        frames: &HashMap<&str, Isometry3<f64>>,
+        leg_links: &[[String; 2]],
+        platform: &str,
+    ) -> Result<Vec<BodyShape>, ModelError> {
+        let mut shapes = Vec::new();
+        for link in &self.robot.links {
+            let body = if link.name == platform {
+                Body::Platform
+            } else if let Some(i) = leg_links.iter().position(|l| l[0] == link.name) {
+                Body::Proximal(i)
+            } else if let Some(i) = leg_links.iter().position(|l| l[1] == link.name) {
+                Body::Distal(i)
+            } else if frames
+                .get(link.name.as_str())
+                .is_some_and(|f| *f == Isometry3::identity())
+                && !link.collision.is_empty()
+            {
+                Body::Base
+            } else {
+                continue;
+            };
+            for c in &link.collision {
+                let shape = match &c.geometry {
+                    urdf_rs::Geometry::Cylinder { radius, length } => Shape::Cylinder {
+                        radius: *radius,
+                        length: *length,
+                    },
+                    urdf_rs::Geometry::Capsule { radius, length } => Shape::Capsule {
+                        radius: *radius,
+                        length: *length,
+                    },
+                    urdf_rs::Geometry::Box { size } => Shape::Cuboid {
+                        half_extents: Vector3::from(size.0) / 2.0,
+                    },
+                    urdf_rs::Geometry::Sphere { radius } => Shape::Sphere { radius: *radius },
+                    urdf_rs::Geometry::Mesh { filename, .. } => {
+                        return Err(self.link_error(&link.name, format!("has mesh collision geometry `{filename}`; spmcal needs primitives (cylinder, capsule, box, sphere)")));
+                    }
+                };
+                shapes.push(BodyShape {
+                    body,
+                    shape,
+                    pose_at_home: frames[link.name.as_str()] * origin_isometry(&c.origin),
+                });
+            }
+        }
+        Ok(shapes)
+    }
+}
