@@ -17,7 +17,6 @@
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 use super::spm::{Branch, Spm, conditioning_index};
-use crate::so3;
 
 /// One real solution of the FDA.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -203,10 +202,12 @@ impl Spm {
                 self.add_polished(&w, joints, &guess, &mut modes);
             }
         }
-        let home = Rotation3::identity();
+        // Distance from home grows as the trace falls: sort on the trace, computed once per mode.
         modes.sort_by(|a, b| {
-            so3::geodesic_angle(&home, &a.rotation)
-                .total_cmp(&so3::geodesic_angle(&home, &b.rotation))
+            b.rotation
+                .matrix()
+                .trace()
+                .total_cmp(&a.rotation.matrix().trace())
         });
         modes
     }
@@ -222,9 +223,10 @@ impl Spm {
         let Ok((rotation, _)) = self.newton(w, guess, 30) else {
             return;
         };
+        // Same solution: matrices equal to 1e-8 (converged copies agree to ~1e-15).
         if modes
             .iter()
-            .any(|m| so3::geodesic_angle(&m.rotation, &rotation) < 1e-8)
+            .any(|m| (m.rotation.matrix() - rotation.matrix()).amax() < 1e-8)
         {
             return;
         }
