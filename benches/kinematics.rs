@@ -10,11 +10,8 @@ use spmcal::so3;
 
 fn pose() -> Rotation3<f64> {
     // 20° tilt and 15° yaw: a typical joystick deflection.
-    so3::exp(
-        &Vector3::new(0.3, -0.25, 0.0)
-            .normalize()
-            .scale(20f64.to_radians()),
-    ) * so3::exp(&(Vector3::z() * 15f64.to_radians()))
+    so3::exp(&Vector3::new(0.3, -0.25, 0.0).normalize().scale(20f64.to_radians()))
+        * so3::exp(&(Vector3::z() * 15f64.to_radians()))
 }
 
 fn kinematics(c: &mut Criterion) {
@@ -24,15 +21,9 @@ fn kinematics(c: &mut Criterion) {
     // The previous haptic sample: 1 ms earlier at 1 rad/s, i.e. 1 mrad away.
     let previous = so3::exp(&Vector3::new(0.0006, -0.0005, 0.0006)) * r;
     c.bench_function("ik", |b| b.iter(|| spm.ik(black_box(&r)).unwrap()));
-    c.bench_function("fda_track", |b| {
-        b.iter(|| spm.track(black_box(&joints), black_box(&previous)).unwrap())
-    });
-    c.bench_function("fda_forward_from_home", |b| {
-        b.iter(|| spm.forward(black_box(&joints)).unwrap())
-    });
-    c.bench_function("fda_all_modes", |b| {
-        b.iter(|| spm.all_modes(black_box(&joints)))
-    });
+    c.bench_function("fda_track", |b| b.iter(|| spm.track(black_box(&joints), black_box(&previous)).unwrap()));
+    c.bench_function("fda_forward_from_home", |b| b.iter(|| spm.forward(black_box(&joints)).unwrap()));
+    c.bench_function("fda_all_modes", |b| b.iter(|| spm.all_modes(black_box(&joints))));
 }
 
 criterion_group!(benches, kinematics);

@@ -6,7 +6,8 @@ directly in B at the zero configuration (all joint values 0 = the home pose R = 
   theta_i  axis u_i  (actuated),  elbow_i  axis z_i = w_i(0),  wrist_i  axis v0_i.
 Collision geometry: the proximal links are arcs of radius 0.13 m from u_i to w_i, the distal
 links arcs of radius 0.16 m from w_i to v_i, each approximated by three chord cylinders;
-the MP is a disc (radius 0.10 m, top at 0.055 m) with a joystick column to 0.21 m.
+the MP is a disc (radius 0.10 m, top at 0.055 m) with a joystick column to 0.21 m; the
+motors sit on the actuated axes 0.18-0.22 m from O, outside the shell the distal links sweep.
 Run: python3 models/generate_agile_wrist.py > models/agile_wrist.urdf
 """
 import math
@@ -90,12 +91,12 @@ out = ['<?xml version="1.0"?>\n',
 base = cylinder([0, 0, -0.24], [0, 0, -0.21], 0.19)
 for i in range(3):
     u, _, _ = leg_axes(i)
-    base += cylinder(mul(u, 0.14), mul(u, 0.20), 0.03)  # motor along its axis
+    base += cylinder(mul(u, 0.18), mul(u, 0.22), 0.022)  # motor, outside the shell the distal links sweep
 out.append(link("base_link", base))
 for i in range(3):
     u, z, v0 = leg_axes(i)
     k = i + 1
-    out.append(link(f"proximal{k}", arc(u, z, R_PROX) + cylinder(mul(u, 0.11), mul(u, 0.14), 0.02)))
+    out.append(link(f"proximal{k}", arc(u, z, R_PROX) + cylinder(mul(u, 0.125), mul(u, 0.18), 0.008)))  # arc + motor shaft
     out.append(link(f"distal{k}", arc(z, v0, R_DIST) + cylinder(mul(z, 0.125), mul(z, 0.165), 0.015)))
     out.append(joint(f"theta{k}", "base_link", f"proximal{k}", u))
     out.append(joint(f"elbow{k}", f"proximal{k}", f"distal{k}", z))

@@ -29,12 +29,7 @@ impl fmt::Display for FileError {
 
 impl FileError {
     pub fn new(path: &Path, reason: impl Into<String>) -> Self {
-        FileError {
-            path: path.to_path_buf(),
-            line: None,
-            column: None,
-            reason: reason.into(),
-        }
+        FileError { path: path.to_path_buf(), line: None, column: None, reason: reason.into() }
     }
 
     pub fn at_line(mut self, line: usize) -> Self {
@@ -68,6 +63,12 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
     let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
     let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
     tmp.write_all(contents).map_err(fail)?;
+    // A temporary file is private (0600); the result is an ordinary file, like any other output.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(fail)?;
+    }
     tmp.as_file().sync_all().map_err(fail)?;
     tmp.persist(path).map_err(|e| fail(e.error))?;
     Ok(())
@@ -82,9 +83,20 @@ pub fn read_text(path: &Path) -> Result<String, FileError> {
 /// notation where that is readable and in exponent notation for very small or large values.
 pub fn number(x: f64) -> String {
     let a = x.abs();
-    if a == 0.0 || (1e-4..1e7).contains(&a) {
-        format!("{x}")
-    } else {
-        format!("{x:e}")
-    }
+    if a == 0.0 || (1e-4..1e7).contains(&a) { format!("{x}") } else { format!("{x:e}") }
+}
+
+/// The path of `target` relative to the folder `from` (both must exist), e.g. `../../models/a.urdf`.
+pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
+    let canon = |p: &Path| p.canonicalize().map_err(|e| FileError::new(p, format!("cannot resolve: {e}")));
+    let (from, target) = (canon(from)?, canon(target)?);
+    let common = from.components().zip(target.components()).take_while(|(a, b)| a == b).count();
+    let mut out: PathBuf = from.components().skip(common).map(|_| "..").collect();
+    out.extend(target.components().skip(common));
+    Ok(out)
+}
+
+/// Line of the first `key:` in a YAML text, for errors about values serde accepted but we refuse.
+pub fn yaml_key_line(text: &str, key: &str) -> Option<usize> {
+    text.lines().position(|l| l.trim_start().trim_start_matches("- ").starts_with(&format!("{key}:"))).map(|i| i + 1)
 }

@@ -6,5 +6,6 @@
 pub mod dataset;
 pub mod files;
 pub mod model;
+pub mod sim;
 pub mod so3;
 pub mod table;

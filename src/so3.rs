@@ -23,11 +23,7 @@ pub fn exp(omega: &Vector3<f64>) -> Rotation3<f64> {
 pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
     let q = UnitQuaternion::from_rotation_matrix(r);
     // q and -q are the same rotation; take the one with w >= 0 so that angle <= pi.
-    let (w, v) = if q.w >= 0.0 {
-        (q.w, q.imag())
-    } else {
-        (-q.w, -q.imag())
-    };
+    let (w, v) = if q.w >= 0.0 { (q.w, q.imag()) } else { (-q.w, -q.imag()) };
     let s = v.norm();
     if s < 1e-300 {
         return Vector3::zeros();
@@ -39,12 +35,7 @@ pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
 /// Geodesic angle between two rotations (radians, in `[0, π]`), accurate for tiny angles.
 pub fn geodesic_angle(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
     let d = a.matrix().transpose() * b.matrix();
-    let sin2 = Vector3::new(
-        d[(2, 1)] - d[(1, 2)],
-        d[(0, 2)] - d[(2, 0)],
-        d[(1, 0)] - d[(0, 1)],
-    )
-    .norm();
+    let sin2 = Vector3::new(d[(2, 1)] - d[(1, 2)], d[(0, 2)] - d[(2, 0)], d[(1, 0)] - d[(0, 1)]).norm();
     let cos2 = d.trace() - 1.0;
     sin2.atan2(cos2)
 }
@@ -89,10 +80,7 @@ mod tests {
         for &angle in &[0.0, 1e-12, 1e-6, 0.3, 2.0, 3.1] {
             let omega = Vector3::new(0.3, -0.5, 0.8).normalize() * angle;
             let back = log(&exp(&omega));
-            assert!(
-                (back - omega).norm() <= 1e-15 + 1e-14 * angle,
-                "angle {angle}: {back:?}"
-            );
+            assert!((back - omega).norm() <= 1e-15 + 1e-14 * angle, "angle {angle}: {back:?}");
         }
     }
 

@@ -1,19 +1,21 @@
 //! Reading CSV tables by column name, with errors that name the file, line and column.
-//! Extra columns are allowed (and ignored); required ones must be present.
+//! Extra columns are allowed (and ignored); required ones must be present, optional ones may be.
 
 use std::path::{Path, PathBuf};
 
 use crate::files::FileError;
 
-/// A CSV file opened for reading required columns by name.
+/// A CSV file opened for reading columns by name.
 pub struct Table {
     path: PathBuf,
     reader: csv::Reader<std::fs::File>,
-    columns: Vec<usize>,
+    /// Column index of each requested name; `None` for an optional column the file lacks.
+    columns: Vec<Option<usize>>,
     names: Vec<String>,
 }
 
-/// One data row: its 1-based line in the file and the required fields, in the order asked.
+/// One data row: its 1-based line in the file and the requested fields, in the order asked
+/// (an absent optional column reads as an empty field).
 pub struct Row {
     pub line: usize,
     pub fields: Vec<String>,
@@ -22,36 +24,26 @@ pub struct Row {
 impl Table {
     /// Open `path` and locate the `required` columns in its header.
     pub fn open(path: &Path, required: &[&str]) -> Result<Self, FileError> {
-        let file = std::fs::File::open(path)
-            .map_err(|e| FileError::new(path, format!("cannot read: {e}")))?;
-        let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_reader(file);
-        let header = reader
-            .headers()
-            .map_err(|e| FileError::new(path, format!("bad header: {e}")).at_line(1))?
-            .clone();
-        let columns = required
-            .iter()
-            .map(|name| {
-                header.iter().position(|h| h == *name).ok_or_else(|| {
-                    FileError::new(
-                        path,
-                        format!(
-                            "the header has no column `{name}` (it has: {})",
-                            header.iter().collect::<Vec<_>>().join(",")
-                        ),
-                    )
-                    .at_line(1)
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok(Table {
-            path: path.to_path_buf(),
-            reader,
-            columns,
-            names: required.iter().map(|s| s.to_string()).collect(),
-        })
+        Self::open_with_optional(path, required, &[])
+    }
+
+    /// Open `path`, locate the `required` columns, then the `optional` ones (which may be absent).
+    pub fn open_with_optional(path: &Path, required: &[&str], optional: &[&str]) -> Result<Self, FileError> {
+        let file = std::fs::File::open(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))?;
+        let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(file);
+        let header = reader.headers().map_err(|e| FileError::new(path, format!("bad header: {e}")).at_line(1))?.clone();
+        let find = |name: &&str| header.iter().position(|h| h == *name);
+        let mut columns = Vec::with_capacity(required.len() + optional.len());
+        for name in required {
+            let listed = header.iter().collect::<Vec<_>>().join(",");
+            let column = find(name).ok_or_else(|| {
+                FileError::new(path, format!("the header has no column `{name}` (it has: {listed})")).at_line(1)
+            })?;
+            columns.push(Some(column));
+        }
+        columns.extend(optional.iter().map(find));
+        let names = required.iter().chain(optional).map(|s| s.to_string()).collect();
+        Ok(Table { path: path.to_path_buf(), reader, columns, names })
     }
 
     pub fn path(&self) -> &Path {
@@ -64,52 +56,46 @@ impl Table {
         let columns = self.columns.clone();
         self.reader.records().map(move |record| {
             let record = record.map_err(|e| {
-                let line = e.position().map(|p| p.line() as usize);
                 let err = FileError::new(&path, format!("malformed CSV: {e}"));
-                match line {
-                    Some(l) => err.at_line(l),
+                match e.position() {
+                    Some(p) => err.at_line(p.line() as usize),
                     None => err,
                 }
             })?;
             let line = record.position().map_or(0, |p| p.line() as usize);
-            Ok(Row {
-                line,
-                fields: columns
-                    .iter()
-                    .map(|&c| record.get(c).unwrap_or("").to_string())
-                    .collect(),
-            })
+            let field = |c: &Option<usize>| c.and_then(|c| record.get(c)).unwrap_or("").to_string();
+            Ok(Row { line, fields: columns.iter().map(field).collect() })
         })
     }
 
-    /// An error at `row`, in the `k`-th required column.
-    pub fn error(&self, row: &Row, k: usize, reason: impl Into<String>) -> FileError {
-        FileError::new(&self.path, reason)
-            .at_line(row.line)
-            .in_column(&self.names[k])
+    /// All data rows, or the first malformed one's error.
+    pub fn all_rows(&mut self) -> Result<Vec<Row>, FileError> {
+        self.rows().collect()
     }
 
-    /// The `k`-th required field of `row` as a finite number.
+    /// An error at `row`, in the `k`-th requested column.
+    pub fn error(&self, row: &Row, k: usize, reason: impl Into<String>) -> FileError {
+        FileError::new(&self.path, reason).at_line(row.line).in_column(&self.names[k])
+    }
+
+    /// The `k`-th field of `row` as a finite number.
     pub fn number(&self, row: &Row, k: usize) -> Result<f64, FileError> {
         let text = &row.fields[k];
-        let value: f64 = text
-            .parse()
-            .map_err(|_| self.error(row, k, format!("`{text}` is not a number")))?;
+        let value: f64 = text.parse().map_err(|_| self.error(row, k, format!("`{text}` is not a number")))?;
         if !value.is_finite() {
             return Err(self.error(row, k, format!("`{text}` is not finite")));
         }
         Ok(value)
     }
 
-    /// The `k`-th required field of `row` as a non-negative integer.
+    /// The `k`-th field as a finite number, or `None` when that optional column is absent.
+    pub fn optional_number(&self, row: &Row, k: usize) -> Result<Option<f64>, FileError> {
+        if self.columns[k].is_none() { Ok(None) } else { self.number(row, k).map(Some) }
+    }
+
+    /// The `k`-th field of `row` as a pose number (non-negative integer).
     pub fn index(&self, row: &Row, k: usize) -> Result<u64, FileError> {
         let text = &row.fields[k];
-        text.parse().map_err(|_| {
-            self.error(
-                row,
-                k,
-                format!("`{text}` is not a pose number (a non-negative integer)"),
-            )
-        })
+        text.parse().map_err(|_| self.error(row, k, format!("`{text}` is not a pose number (a non-negative integer)")))
     }
 }

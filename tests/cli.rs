@@ -3,10 +3,7 @@
 use std::process::Command;
 
 fn spmcal(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_spmcal"))
-        .args(args)
-        .output()
-        .unwrap()
+    Command::new(env!("CARGO_BIN_EXE_spmcal")).args(args).output().unwrap()
 }
 
 #[test]
@@ -17,30 +14,10 @@ fn ik_then_fda_through_files_recovers_the_orientations() {
     let back = dir.path().join("back.csv");
     // 20° about x, then 25° about (1,1,1)/√3 — quaternions written to 12 digits.
     std::fs::write(&orientations, "pose,qw,qx,qy,qz\n0,1,0,0,0\n1,0.984807753012,0.173648177667,0,0\n2,0.976296007120,0.124961469370,0.124961469370,0.124961469370\n").unwrap();
-    let out = spmcal(&[
-        "ik",
-        "--orientations",
-        orientations.to_str().unwrap(),
-        "--out",
-        joints.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let out = spmcal(&[
-        "fda",
-        "--joints",
-        joints.to_str().unwrap(),
-        "--out",
-        back.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = spmcal(&["ik", "--orientations", orientations.to_str().unwrap(), "--out", joints.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = spmcal(&["fda", "--joints", joints.to_str().unwrap(), "--out", back.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let a = spmcal::dataset::read_orientations(&orientations).unwrap();
     let b = spmcal::dataset::read_orientations(&back).unwrap();
     assert_eq!(a.len(), b.len());
@@ -55,38 +32,16 @@ fn ik_then_fda_through_files_recovers_the_orientations() {
 fn fda_all_modes_lists_eight_modes_with_the_working_one_first() {
     let dir = tempfile::tempdir().unwrap();
     let joints = dir.path().join("joints.csv");
-    std::fs::write(
-        &joints,
-        "pose,theta1_rad,theta2_rad,theta3_rad,time_s\n4,0.1,-0.2,0.3,0.5\n",
-    )
-    .unwrap();
+    std::fs::write(&joints, "pose,theta1_rad,theta2_rad,theta3_rad,time_s\n4,0.1,-0.2,0.3,0.5\n").unwrap();
     let out = spmcal(&["fda", "--joints", joints.to_str().unwrap(), "--all-modes"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     let lines: Vec<_> = text.lines().collect();
-    assert!(
-        lines[0].starts_with("pose,mode,qw,qx,qy,qz"),
-        "{}",
-        lines[0]
-    );
+    assert!(lines[0].starts_with("pose,mode,qw,qx,qy,qz"), "{}", lines[0]);
     assert_eq!(lines.len(), 1 + 8, "{text}");
-    assert!(
-        lines[1].starts_with("4,0,") && lines[1].ends_with(",true"),
-        "{}",
-        lines[1]
-    );
+    assert!(lines[1].starts_with("4,0,") && lines[1].ends_with(",true"), "{}", lines[1]);
     assert_eq!(lines.iter().filter(|l| l.ends_with(",true")).count(), 1);
-    let json = spmcal(&[
-        "fda",
-        "--joints",
-        joints.to_str().unwrap(),
-        "--all-modes",
-        "--json",
-    ]);
+    let json = spmcal(&["fda", "--joints", joints.to_str().unwrap(), "--all-modes", "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
     assert_eq!(v["results"][0]["modes"].as_array().unwrap().len(), 8);
 }
@@ -96,49 +51,23 @@ fn bad_joint_file_is_reported_with_file_line_and_column() {
     let dir = tempfile::tempdir().unwrap();
     let joints = dir.path().join("joints.csv");
     for (body, expected) in [
-        (
-            "0,0,0,0\n1,0.1,NaN,0\n",
-            "joints.csv:3: column `theta2_rad`: `NaN` is not finite",
-        ),
-        (
-            "0,0,0,0\n0,0.1,0,0\n",
-            "joints.csv:3: column `pose`: pose 0 appears twice",
-        ),
-        (
-            "0,0,zero,0\n",
-            "joints.csv:2: column `theta2_rad`: `zero` is not a number",
-        ),
+        ("0,0,0,0\n1,0.1,NaN,0\n", "joints.csv:3: column `theta2_rad`: `NaN` is not finite"),
+        ("0,0,0,0\n0,0.1,0,0\n", "joints.csv:3: column `pose`: pose 0 appears twice"),
+        ("0,0,zero,0\n", "joints.csv:2: column `theta2_rad`: `zero` is not a number"),
     ] {
-        std::fs::write(
-            &joints,
-            format!("pose,theta1_rad,theta2_rad,theta3_rad\n{body}"),
-        )
-        .unwrap();
+        std::fs::write(&joints, format!("pose,theta1_rad,theta2_rad,theta3_rad\n{body}")).unwrap();
         let out = spmcal(&["fda", "--joints", joints.to_str().unwrap()]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(expected), "{err}");
     }
     std::fs::write(&joints, "pose,theta1,theta2_rad,theta3_rad\n0,0,0,0\n").unwrap();
-    let err =
-        String::from_utf8(spmcal(&["fda", "--joints", joints.to_str().unwrap()]).stderr).unwrap();
-    assert!(
-        err.contains("joints.csv:1") && err.contains("no column `theta1_rad`"),
-        "{err}"
-    );
+    let err = String::from_utf8(spmcal(&["fda", "--joints", joints.to_str().unwrap()]).stderr).unwrap();
+    assert!(err.contains("joints.csv:1") && err.contains("no column `theta1_rad`"), "{err}");
 }
 
 #[test]
 fn unreachable_orientation_names_the_pose() {
-    let out = spmcal(&[
-        "ik",
-        "--quat",
-        "1,0,0,0",
-        "--params",
-        "/nonexistent/params.yaml",
-    ]);
+    let out = spmcal(&["ik", "--quat", "1,0,0,0", "--params", "/nonexistent/params.yaml"]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("/nonexistent/params.yaml"),
-        "{err}"
-    );
+    assert!(!out.status.success() && err.contains("/nonexistent/params.yaml"), "{err}");
 }

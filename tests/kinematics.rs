@@ -16,18 +16,12 @@ fn workspace_orientation(rng: &mut impl Rng, max_tilt: f64, max_yaw: f64) -> Rot
     let azimuth = rng.random_range(0.0..std::f64::consts::TAU);
     let tilt = rng.random_range(0.0..max_tilt);
     let yaw = rng.random_range(-max_yaw..max_yaw);
-    so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt))
-        * so3::exp(&(Vector3::z() * yaw))
+    so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt)) * so3::exp(&(Vector3::z() * yaw))
 }
 
 fn perturbed(rng: &mut StdRng) -> Spm {
-    let spread = GeometrySpread {
-        axis_tilt: 1.0 * DEG,
-        link_angle: 0.5 * DEG,
-        joint_offset: 3.0 * DEG,
-    };
-    Spm::new(perturb(Spm::agile_wrist_nominal().geometry(), &spread, rng))
-        .expect("small perturbations stay valid")
+    let spread = GeometrySpread { axis_tilt: 1.0 * DEG, link_angle: 0.5 * DEG, joint_offset: 3.0 * DEG };
+    Spm::new(perturb(Spm::agile_wrist_nominal().geometry(), &spread, rng)).expect("small perturbations stay valid")
 }
 
 #[test]
@@ -49,9 +43,7 @@ fn assert_round_trip(spm: &Spm, rng: &mut StdRng, n: usize) {
     for k in 0..n {
         let r = workspace_orientation(rng, 30.0 * DEG, 30.0 * DEG);
         let joints = spm.ik(&r).unwrap_or_else(|e| panic!("pose {k}: {e}"));
-        let back = spm
-            .forward(&joints)
-            .unwrap_or_else(|e| panic!("pose {k} ({joints:?}): {e}"));
+        let back = spm.forward(&joints).unwrap_or_else(|e| panic!("pose {k} ({joints:?}): {e}"));
         let err = so3::geodesic_angle(&r, &back);
         assert!(err < 1e-10, "pose {k}: round trip error {err:e} rad");
         // The haptic path from a nearby previous orientation lands on the same pose.
@@ -111,11 +103,7 @@ fn ik_rejects_orientations_outside_the_workspace() {
     let spm = general_geometry(60.0 * DEG, 75.0 * DEG);
     let g = spm.geometry()[0];
     let r = Rotation3::rotation_between(&g.v0, &(-g.u)).unwrap();
-    assert!(
-        matches!(spm.ik(&r), Err(IkError::OutsideWorkspace { .. })),
-        "{:?}",
-        spm.ik(&r)
-    );
+    assert!(matches!(spm.ik(&r), Err(IkError::OutsideWorkspace { .. })), "{:?}", spm.ik(&r));
 }
 
 #[test]
@@ -133,12 +121,7 @@ fn round_trip_general_geometry() {
 }
 
 /// Dense multi-start Newton with backtracking on |f|²: every solution it can find.
-fn multistart(
-    spm: &Spm,
-    joints: &Vector3<f64>,
-    rng: &mut StdRng,
-    starts: usize,
-) -> Vec<Rotation3<f64>> {
+fn multistart(spm: &Spm, joints: &Vector3<f64>, rng: &mut StdRng, starts: usize) -> Vec<Rotation3<f64>> {
     let mut found: Vec<Rotation3<f64>> = Vec::new();
     for _ in 0..starts {
         let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
@@ -171,9 +154,7 @@ fn multistart(
                 break;
             }
         }
-        if spm.closure_residual(joints, &r).amax() < 1e-12
-            && !found.iter().any(|s| so3::geodesic_angle(s, &r) < 1e-7)
-        {
+        if spm.closure_residual(joints, &r).amax() < 1e-12 && !found.iter().any(|s| so3::geodesic_angle(s, &r) < 1e-7) {
             found.push(r);
         }
     }
@@ -187,10 +168,7 @@ fn all_modes_is_complete_and_has_no_spurious_solutions() {
     for case in 0..25 {
         let spm = match case {
             0 => Spm::agile_wrist_nominal(),
-            1..=5 => general_geometry(
-                (50.0 + 6.0 * case as f64) * DEG,
-                (80.0 - 4.0 * case as f64) * DEG,
-            ),
+            1..=5 => general_geometry((50.0 + 6.0 * case as f64) * DEG, (80.0 - 4.0 * case as f64) * DEG),
             _ => perturbed(&mut rng),
         };
         let r = workspace_orientation(&mut rng, 20.0 * DEG, 30.0 * DEG);
@@ -198,32 +176,22 @@ fn all_modes_is_complete_and_has_no_spurious_solutions() {
         let modes = spm.all_modes(&joints);
         assert!(modes.len() <= 8 && !modes.is_empty());
         for m in &modes {
-            assert!(
-                spm.closure_residual(&joints, &m.rotation).amax() < 1e-12,
-                "case {case}: spurious solution"
-            );
+            assert!(spm.closure_residual(&joints, &m.rotation).amax() < 1e-12, "case {case}: spurious solution");
         }
         assert!(
-            modes
-                .iter()
-                .any(|m| so3::geodesic_angle(&m.rotation, &r) < 1e-10),
+            modes.iter().any(|m| so3::geodesic_angle(&m.rotation, &r) < 1e-10),
             "case {case}: generating pose missing"
         );
         for s in multistart(&spm, &joints, &mut rng, 400) {
             assert!(
-                modes
-                    .iter()
-                    .any(|m| so3::geodesic_angle(&m.rotation, &s) < 1e-8),
+                modes.iter().any(|m| so3::geodesic_angle(&m.rotation, &s) < 1e-8),
                 "case {case}: multi-start found a solution all_modes missed ({} modes)",
                 modes.len()
             );
         }
         total += modes.len();
     }
-    assert!(
-        total > 25 * 2,
-        "only {total} solutions over 25 cases: the search is not exploring"
-    );
+    assert!(total > 25 * 2, "only {total} solutions over 25 cases: the search is not exploring");
 }
 
 #[test]
@@ -242,11 +210,7 @@ fn jacobians_match_finite_differences() {
             let minus = spm.track(&(joints - dj), &r).unwrap();
             let omega = so3::log(&(plus * minus.inverse())) / (2.0 * h);
             // Central differences: error O(h²) ≈ 1e-12 times third derivatives of order one.
-            assert!(
-                (omega - j.column(k)).amax() < 1e-8,
-                "column {k}: {omega:?} vs {:?}",
-                j.column(k)
-            );
+            assert!((omega - j.column(k)).amax() < 1e-8, "column {k}: {omega:?} vs {:?}", j.column(k));
         }
     }
 }
@@ -265,11 +229,7 @@ fn forward_refuses_poses_near_a_parallel_singularity() {
     }
     let e = refused.expect("a large joint excursion reaches a singularity");
     assert!(
-        matches!(
-            e,
-            spmcal::model::FdaError::NearSingular { .. }
-                | spmcal::model::FdaError::LeftWorkingMode { .. }
-        ),
+        matches!(e, spmcal::model::FdaError::NearSingular { .. } | spmcal::model::FdaError::LeftWorkingMode { .. }),
         "{e}"
     );
 }

@@ -10,18 +10,9 @@ use spmcal::so3;
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
 fn geometry(seed: u64) -> Spm {
-    let spread = GeometrySpread {
-        axis_tilt: 1.0 * DEG,
-        link_angle: 0.5 * DEG,
-        joint_offset: 5.0 * DEG,
-    };
+    let spread = GeometrySpread { axis_tilt: 1.0 * DEG, link_angle: 0.5 * DEG, joint_offset: 5.0 * DEG };
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    Spm::new(perturb(
-        Spm::agile_wrist_nominal().geometry(),
-        &spread,
-        &mut rng,
-    ))
-    .unwrap()
+    Spm::new(perturb(Spm::agile_wrist_nominal().geometry(), &spread, &mut rng)).unwrap()
 }
 
 proptest! {

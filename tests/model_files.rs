@@ -3,18 +3,14 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Rotation3, Vector3};
-use spmcal::model::{
-    Body, CameraRegistration, ModelError, ParameterSource, Parameters, RobotModel, Spm,
-};
+use spmcal::model::{Body, CameraRegistration, ModelError, ParameterSource, Parameters, RobotModel, Spm};
 
 const URDF: &str = "models/agile_wrist.urdf";
 
 fn assert_same_geometry(a: &Spm, b: &Spm, tol: f64) {
     for (ga, gb) in a.geometry().iter().zip(b.geometry()) {
         assert!(
-            (ga.u - gb.u).amax() < tol
-                && (ga.z - gb.z).amax() < tol
-                && (ga.v0 - gb.v0).amax() < tol,
+            (ga.u - gb.u).amax() < tol && (ga.z - gb.z).amax() < tol && (ga.v0 - gb.v0).amax() < tol,
             "{ga:?} vs {gb:?}"
         );
         assert!(
@@ -30,11 +26,7 @@ fn shipped_urdf_is_the_nominal_agile_wrist() {
     let model = RobotModel::load(Path::new(URDF)).unwrap();
     // The URDF prints axes with 12 decimals.
     assert_same_geometry(&model.spm, &Spm::agile_wrist_nominal(), 1e-11);
-    assert!(
-        model.spm.home_joints().amax() < 1e-12,
-        "home joints {:?}",
-        model.spm.home_joints()
-    );
+    assert!(model.spm.home_joints().amax() < 1e-12, "home joints {:?}", model.spm.home_joints());
     let names: Vec<_> = model.markers.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, ["m1", "m2", "m3", "m4"]);
     for m in &model.markers[..3] {
@@ -42,39 +34,20 @@ fn shipped_urdf_is_the_nominal_agile_wrist() {
         assert!((p.xy().norm() - 0.075).abs() < 1e-9 && (p.z - 0.06).abs() < 1e-12);
     }
     assert_eq!(model.markers[3].position, Vector3::new(0.0, 0.0, 0.22));
-    for body in [
-        Body::Base,
-        Body::Platform,
-        Body::Proximal(0),
-        Body::Proximal(2),
-        Body::Distal(1),
-    ] {
-        assert!(
-            model.shapes.iter().any(|s| s.body == body),
-            "{body:?} has no collision shape"
-        );
+    for body in [Body::Base, Body::Platform, Body::Proximal(0), Body::Proximal(2), Body::Distal(1)] {
+        assert!(model.shapes.iter().any(|s| s.body == body), "{body:?} has no collision shape");
     }
 }
 
 /// The shipped model copied to a temporary folder with one edit applied to the URDF or companion.
-fn edited_model(
-    urdf_edit: (&str, &str),
-    companion_edit: (&str, &str),
-) -> (tempfile::TempDir, PathBuf) {
+fn edited_model(urdf_edit: (&str, &str), companion_edit: (&str, &str)) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let urdf = std::fs::read_to_string(URDF).unwrap();
     let companion = std::fs::read_to_string("models/agile_wrist.yaml").unwrap();
-    assert!(
-        urdf.contains(urdf_edit.0) && companion.contains(companion_edit.0),
-        "edit does not apply"
-    );
+    assert!(urdf.contains(urdf_edit.0) && companion.contains(companion_edit.0), "edit does not apply");
     let path = dir.path().join("robot.urdf");
     std::fs::write(&path, urdf.replacen(urdf_edit.0, urdf_edit.1, 1)).unwrap();
-    std::fs::write(
-        dir.path().join("robot.yaml"),
-        companion.replacen(companion_edit.0, companion_edit.1, 1),
-    )
-    .unwrap();
+    std::fs::write(dir.path().join("robot.yaml"), companion.replacen(companion_edit.0, companion_edit.1, 1)).unwrap();
     (dir, path)
 }
 
@@ -82,10 +55,7 @@ fn load_error(urdf_edit: (&str, &str), companion_edit: (&str, &str)) -> (ModelEr
     let (_dir, path) = edited_model(urdf_edit, companion_edit);
     let err = RobotModel::load(&path).expect_err("the edited model must be rejected");
     let text = err.to_string();
-    assert!(
-        text.contains("robot."),
-        "error does not name the file: {text}"
-    );
+    assert!(text.contains("robot."), "error does not name the file: {text}");
     (err, text)
 }
 
@@ -96,14 +66,10 @@ fn axis_that_misses_the_centre_is_rejected_with_the_distance() {
     // Shift elbow2's origin 10 mm along x: its axis z2 = (cos 120°, sin 120°, 0) then misses O
     // by 10 mm · sin 120° = 8.6603 mm.
     let marker = "<parent link=\"proximal2\"/><child link=\"distal2\"/>\n    <origin xyz=\"0 0 0\"";
-    let shifted =
-        "<parent link=\"proximal2\"/><child link=\"distal2\"/>\n    <origin xyz=\"0.01 0 0\"";
+    let shifted = "<parent link=\"proximal2\"/><child link=\"distal2\"/>\n    <origin xyz=\"0.01 0 0\"";
     let (err, text) = load_error((marker, shifted), NO_EDIT);
     assert!(matches!(err, ModelError::AxisMissesCentre { .. }), "{text}");
-    assert!(
-        text.contains("elbow2") && text.contains("8.6603 mm"),
-        "{text}"
-    );
+    assert!(text.contains("elbow2") && text.contains("8.6603 mm"), "{text}");
 }
 
 #[test]
@@ -114,19 +80,13 @@ fn zero_length_axis_is_rejected() {
     let axis_end = axis_at + urdf[axis_at..].find('"').unwrap();
     let old = format!("<axis xyz=\"{}\"", &urdf[axis_at..axis_end]);
     let (_, text) = load_error((&old, "<axis xyz=\"0 0 0\""), NO_EDIT);
-    assert!(
-        text.contains("theta1") && text.contains("zero-length"),
-        "{text}"
-    );
+    assert!(text.contains("theta1") && text.contains("zero-length"), "{text}");
 }
 
 #[test]
 fn missing_joint_is_named() {
     let (_, text) = load_error(NO_EDIT, ("platform: wrist3", "platform: wrist9"));
-    assert!(
-        text.contains("wrist9") && text.contains("missing"),
-        "{text}"
-    );
+    assert!(text.contains("wrist9") && text.contains("missing"), "{text}");
 }
 
 #[test]
@@ -141,10 +101,7 @@ fn closure_link_off_the_platform_has_no_solution_at_home() {
 #[test]
 fn companion_typo_is_an_error_with_its_line() {
     let (_, text) = load_error(NO_EDIT, ("\nmarkers_m:", "\nmarker_m:"));
-    assert!(
-        text.contains("robot.yaml:") && text.contains("marker_m"),
-        "{text}"
-    );
+    assert!(text.contains("robot.yaml:") && text.contains("marker_m"), "{text}");
 }
 
 #[test]
@@ -154,27 +111,15 @@ fn urdf_passes_the_ros_checker_when_installed() {
         return;
     };
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success() && text.contains("Successfully Parsed"),
-        "{text}"
-    );
+    assert!(out.status.success() && text.contains("Successfully Parsed"), "{text}");
     assert!(text.contains("platform_closure3") && text.contains("root Link: base_link"));
 }
 
 #[test]
 fn parameters_file_round_trip() {
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(7);
-    let spread = spmcal::model::GeometrySpread {
-        axis_tilt: 0.02,
-        link_angle: 0.01,
-        joint_offset: 0.05,
-    };
-    let spm = Spm::new(spmcal::model::perturb(
-        Spm::agile_wrist_nominal().geometry(),
-        &spread,
-        &mut rng,
-    ))
-    .unwrap();
+    let spread = spmcal::model::GeometrySpread { axis_tilt: 0.02, link_angle: 0.01, joint_offset: 0.05 };
+    let spm = Spm::new(spmcal::model::perturb(Spm::agile_wrist_nominal().geometry(), &spread, &mut rng)).unwrap();
     let mut params = Parameters::nominal(&spm, Some(URDF.into()));
     params.source = ParameterSource::Calibrated;
     params.camera = Some(CameraRegistration {
@@ -191,8 +136,7 @@ fn parameters_file_round_trip() {
     assert_same_geometry(&back.spm().unwrap(), &spm, 1e-14);
     let (c, b) = (params.camera.unwrap(), back.camera.unwrap());
     assert!(
-        spmcal::so3::geodesic_angle(&c.rotation, &b.rotation) < 1e-14
-            && (c.translation - b.translation).amax() == 0.0
+        spmcal::so3::geodesic_angle(&c.rotation, &b.rotation) < 1e-14 && (c.translation - b.translation).amax() == 0.0
     );
 }
 
@@ -200,32 +144,19 @@ fn parameters_file_round_trip() {
 fn parameters_file_errors_name_file_line_and_reason() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("params.yaml");
-    Parameters::nominal(&Spm::agile_wrist_nominal(), None)
-        .write(&path)
-        .unwrap();
+    Parameters::nominal(&Spm::agile_wrist_nominal(), None).write(&path).unwrap();
     let good = std::fs::read_to_string(&path).unwrap();
     let cases = [
         ("alpha1_deg:", "alpha_1_deg:", "unknown field `alpha_1_deg`"),
-        (
-            "delta_deg: 0.0",
-            "delta_deg: .nan",
-            "leg 1: delta is not finite",
-        ),
+        ("delta_deg: 0.0", "delta_deg: .nan", "leg 1: delta is not finite"),
         ("- 1.0\n", "- 1.5\n", "has length"),
-        (
-            "source: nominal",
-            "source: guessed",
-            "unknown variant `guessed`",
-        ),
+        ("source: nominal", "source: guessed", "unknown variant `guessed`"),
     ];
     for (from, to, expected) in cases {
         assert!(good.contains(from), "{from} not in {good}");
         std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
         let text = Parameters::read(&path).unwrap_err().to_string();
-        assert!(
-            text.contains("params.yaml") && text.contains(expected),
-            "{from} → {to}: {text}"
-        );
+        assert!(text.contains("params.yaml") && text.contains(expected), "{from} → {to}: {text}");
     }
     std::fs::write(&path, good.replacen("alpha1_deg:", "alpha_1_deg:", 1)).unwrap();
     let err = Parameters::read(&path).unwrap_err();

@@ -1,4 +1,5 @@
-//! `joints.csv`: `pose,theta1_rad,theta2_rad,theta3_rad` (extra columns such as `time_s` allowed).
+//! `joints.csv`: `pose,theta1_rad,theta2_rad,theta3_rad`, optional `time_s`; other extra columns
+//! are allowed and ignored.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -16,47 +17,44 @@ pub struct JointReading {
     /// Line of the file it came from (0 when not read from a file).
     pub line: usize,
     pub joints: Vector3<f64>,
+    /// Capture time, when the file has a `time_s` column.
+    pub time_s: Option<f64>,
 }
 
 const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
 
 /// Read `joints.csv`; non-numbers, non-finite values and repeated poses are errors naming the line.
 pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
-    let mut table = Table::open(path, &COLUMNS)?;
+    let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s"])?;
     let mut seen = HashSet::new();
     let mut out = Vec::new();
-    let rows: Vec<_> = table.rows().collect::<Result<_, _>>()?;
-    for row in rows {
+    for row in table.all_rows()? {
         let pose = table.index(&row, 0)?;
         if !seen.insert(pose) {
             return Err(table.error(&row, 0, format!("pose {pose} appears twice")));
         }
-        let joints = Vector3::new(
-            table.number(&row, 1)?,
-            table.number(&row, 2)?,
-            table.number(&row, 3)?,
-        );
-        out.push(JointReading {
-            pose,
-            line: row.line,
-            joints,
-        });
+        let joints = Vector3::new(table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?);
+        let time_s = table.optional_number(&row, 4)?;
+        out.push(JointReading { pose, line: row.line, joints, time_s });
     }
     Ok(out)
 }
 
-/// Write `joints.csv` atomically, with full precision.
-pub fn write_joints(path: &Path, readings: &[JointReading]) -> Result<(), FileError> {
-    let mut text = COLUMNS.join(",") + "\n";
+/// `joints.csv` text, with full precision; `time_s` is written when every reading has a time.
+pub fn joints_csv(readings: &[JointReading]) -> String {
+    let timed = !readings.is_empty() && readings.iter().all(|r| r.time_s.is_some());
+    let mut text = COLUMNS.join(",") + if timed { ",time_s\n" } else { "\n" };
     for r in readings {
-        let _ = writeln!(
-            text,
-            "{},{},{},{}",
-            r.pose,
-            number(r.joints[0]),
-            number(r.joints[1]),
-            number(r.joints[2])
-        );
+        let _ = write!(text, "{},{},{},{}", r.pose, number(r.joints[0]), number(r.joints[1]), number(r.joints[2]));
+        if let (true, Some(t)) = (timed, r.time_s) {
+            let _ = write!(text, ",{}", number(t));
+        }
+        text.push('\n');
     }
-    write_atomic(path, text.as_bytes())
+    text
+}
+
+/// Write `joints.csv` atomically.
+pub fn write_joints(path: &Path, readings: &[JointReading]) -> Result<(), FileError> {
+    write_atomic(path, joints_csv(readings).as_bytes())
 }

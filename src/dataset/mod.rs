@@ -1,7 +1,11 @@
 //! Session files: loading, validation, writing (formats in DESIGN.md).
 
 mod joints;
+mod markers;
 mod orientations;
+mod session;
 
-pub use joints::{JointReading, read_joints, write_joints};
+pub use joints::{JointReading, joints_csv, read_joints, write_joints};
+pub use markers::{MarkerRow, markers_csv, read_markers, write_markers};
 pub use orientations::{OrientationRecord, read_orientations, write_orientations};
+pub use session::{MIN_MARKERS, Session, SessionPose, Truth, Warning};

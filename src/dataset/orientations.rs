@@ -30,22 +30,10 @@ pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileErro
     let mut out = Vec::with_capacity(rows.len());
     for row in rows {
         let pose = table.index(&row, 0)?;
-        let q = [
-            table.number(&row, 1)?,
-            table.number(&row, 2)?,
-            table.number(&row, 3)?,
-            table.number(&row, 4)?,
-        ];
-        let rotation = so3::from_wxyz(q).ok_or_else(|| {
-            table.error(&row, 1, format!("quaternion {q:?} does not have unit norm"))
-        })?;
-        out.push(OrientationRecord {
-            pose,
-            mode: None,
-            rotation,
-            extra: Vec::new(),
-            line: row.line,
-        });
+        let q = [table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?, table.number(&row, 4)?];
+        let rotation = so3::from_wxyz(q)
+            .ok_or_else(|| table.error(&row, 1, format!("quaternion {q:?} does not have unit norm")))?;
+        out.push(OrientationRecord { pose, mode: None, rotation, extra: Vec::new(), line: row.line });
     }
     Ok(out)
 }
@@ -54,11 +42,7 @@ pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileErro
 /// extra columns of the first record name the trailing columns.
 pub fn write_orientations(records: &[OrientationRecord]) -> String {
     let with_mode = records.iter().any(|r| r.mode.is_some());
-    let mut text = String::from(if with_mode {
-        "pose,mode,qw,qx,qy,qz"
-    } else {
-        "pose,qw,qx,qy,qz"
-    });
+    let mut text = String::from(if with_mode { "pose,mode,qw,qx,qy,qz" } else { "pose,qw,qx,qy,qz" });
     if let Some(first) = records.first() {
         for (name, _) in &first.extra {
             text.push(',');

@@ -55,9 +55,7 @@ const HALF_ANGLE: [[f64; 3]; 3] = [[1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 2.0,
 /// Bilinear form `Σ_jk K[j][k] f_j(ψ1) f_k(ψ2)` evaluated at two angles.
 fn eval_bilinear(k: &Matrix3<f64>, psi1: f64, psi2: f64) -> f64 {
     let (f1, f2) = (trig_basis(psi1), trig_basis(psi2));
-    (0..3)
-        .map(|j| (0..3).map(|l| k[(j, l)] * f1[j] * f2[l]).sum::<f64>())
-        .sum()
+    (0..3).map(|j| (0..3).map(|l| k[(j, l)] * f1[j] * f2[l]).sum::<f64>()).sum()
 }
 
 /// The bilinear form as a quadratic in `t2` whose coefficients are quadratics in `t1`:
@@ -75,10 +73,7 @@ fn to_half_angle(k: &Matrix3<f64>) -> [[f64; 3]; 3] {
     out
 }
 
-fn poly_mul<const A: usize, const B: usize, const C: usize>(
-    a: &[f64; A],
-    b: &[f64; B],
-) -> [f64; C] {
+fn poly_mul<const A: usize, const B: usize, const C: usize>(a: &[f64; A], b: &[f64; B]) -> [f64; C] {
     let mut c = [0.0; C];
     for (i, x) in a.iter().enumerate() {
         for (j, y) in b.iter().enumerate() {
@@ -95,9 +90,7 @@ fn poly_sub<const N: usize>(a: &[f64; N], b: &[f64; N]) -> [f64; N] {
 /// Resultant in `t2` of `a0 + a1 t2 + a2 t2²` and `b0 + b1 t2 + b2 t2²` (coefficients quadratic
 /// in `t1`): `(a2 b0 − a0 b2)² − (a2 b1 − a1 b2)(a1 b0 − a0 b1)`, of degree 8 in `t1`.
 fn resultant(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [f64; 9] {
-    let cross = |i: usize, j: usize| -> [f64; 5] {
-        poly_sub(&poly_mul(&a[i], &b[j]), &poly_mul(&a[j], &b[i]))
-    };
+    let cross = |i: usize, j: usize| -> [f64; 5] { poly_sub(&poly_mul(&a[i], &b[j]), &poly_mul(&a[j], &b[i])) };
     let (c20, c21, c10) = (cross(2, 0), cross(2, 1), cross(1, 0));
     poly_sub(&poly_mul(&c20, &c20), &poly_mul(&c21, &c10))
 }
@@ -116,16 +109,8 @@ pub(crate) fn real_roots(coefficients: &[f64]) -> Vec<f64> {
         return Vec::new();
     }
     let low = c.iter().position(|x| x.abs() > 1e-14 * scale).unwrap_or(0);
-    let rho = if low < n {
-        (c[low].abs() / c[n].abs()).powf(1.0 / (n - low) as f64)
-    } else {
-        1.0
-    };
-    let rho = if rho.is_finite() && rho > 0.0 {
-        rho
-    } else {
-        1.0
-    };
+    let rho = if low < n { (c[low].abs() / c[n].abs()).powf(1.0 / (n - low) as f64) } else { 1.0 };
+    let rho = if rho.is_finite() && rho > 0.0 { rho } else { 1.0 };
     let mut companion = DMatrix::<f64>::zeros(n, n);
     for k in 0..n {
         companion[(0, n - 1 - k)] = -c[k] * rho.powi(k as i32 - n as i32) / c[n];
@@ -187,10 +172,7 @@ impl Spm {
             x
         });
         let octic = resultant(&to_half_angle(&first), &to_half_angle(&second));
-        let mut psi1s: Vec<f64> = real_roots(&octic)
-            .into_iter()
-            .map(|t| 2.0 * t.atan())
-            .collect();
+        let mut psi1s: Vec<f64> = real_roots(&octic).into_iter().map(|t| 2.0 * t.atan()).collect();
         psi1s.push(std::f64::consts::PI);
 
         let mut modes: Vec<AssemblyMode> = Vec::with_capacity(8);
@@ -203,12 +185,7 @@ impl Spm {
             }
         }
         // Distance from home grows as the trace falls: sort on the trace, computed once per mode.
-        modes.sort_by(|a, b| {
-            b.rotation
-                .matrix()
-                .trace()
-                .total_cmp(&a.rotation.matrix().trace())
-        });
+        modes.sort_by(|a, b| b.rotation.matrix().trace().total_cmp(&a.rotation.matrix().trace()));
         modes
     }
 
@@ -224,10 +201,7 @@ impl Spm {
             return;
         };
         // Same solution: matrices equal to 1e-8 (converged copies agree to ~1e-15).
-        if modes
-            .iter()
-            .any(|m| (m.rotation.matrix() - rotation.matrix()).amax() < 1e-8)
-        {
+        if modes.iter().any(|m| (m.rotation.matrix() - rotation.matrix()).amax() < 1e-8) {
             return;
         }
         modes.push(AssemblyMode {
@@ -254,8 +228,7 @@ fn second_angles(first: &Matrix3<f64>, second: &Matrix3<f64>, psi1: f64) -> Vec<
         return Vec::new();
     }
     let (base, gamma) = (a2.atan2(a1), ratio.clamp(-1.0, 1.0).acos());
-    let mut options =
-        [base + gamma, base - gamma].map(|psi2| (eval_bilinear(second, psi1, psi2).abs(), psi2));
+    let mut options = [base + gamma, base - gamma].map(|psi2| (eval_bilinear(second, psi1, psi2).abs(), psi2));
     options.sort_by(|a, b| a.0.total_cmp(&b.0));
     // Loose filters: a root of the octic known to ~1e-8 leaves E2 ~1e-8; Newton does the rest.
     let mut out = Vec::with_capacity(2);

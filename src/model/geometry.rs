@@ -31,19 +31,11 @@ pub enum GeometryError {
     #[error("leg {leg}: {what} is not finite")]
     NotFinite { leg: usize, what: &'static str },
     #[error("leg {leg}: axis {what} has length {norm:.3e}; a joint axis must be a unit vector")]
-    NotUnit {
-        leg: usize,
-        what: &'static str,
-        norm: f64,
-    },
+    NotUnit { leg: usize, what: &'static str, norm: f64 },
     #[error("leg {leg}: zero direction z is not orthogonal to u (u·z = {dot:.3e})")]
     ZeroDirectionNotOrthogonal { leg: usize, dot: f64 },
     #[error("leg {leg}: {what} = {value_deg:.4}° is outside (0°, 180°)")]
-    LinkAngleOutOfRange {
-        leg: usize,
-        what: &'static str,
-        value_deg: f64,
-    },
+    LinkAngleOutOfRange { leg: usize, what: &'static str, value_deg: f64 },
 }
 
 /// Tolerance on unit length and orthogonality of axes read from files: loose enough for
@@ -56,19 +48,11 @@ impl LegGeometry {
         let eta = 2.0 * std::f64::consts::PI * i as f64 / 3.0;
         let (se, ce) = eta.sin_cos();
         LegGeometry {
-            u: Vector3::new(
-                -se * base_cone.sin(),
-                ce * base_cone.sin(),
-                -base_cone.cos(),
-            ),
+            u: Vector3::new(-se * base_cone.sin(), ce * base_cone.sin(), -base_cone.cos()),
             z: Vector3::new(ce, se, 0.0),
             alpha1,
             alpha2,
-            v0: Vector3::new(
-                -se * platform_cone.sin(),
-                ce * platform_cone.sin(),
-                platform_cone.cos(),
-            ),
+            v0: Vector3::new(-se * platform_cone.sin(), ce * platform_cone.sin(), platform_cone.cos()),
             delta: 0.0,
         }
     }
@@ -84,22 +68,14 @@ impl LegGeometry {
                 return Err(GeometryError::NotUnit { leg, what, norm });
             }
         }
-        for (what, value) in [
-            ("alpha1", self.alpha1),
-            ("alpha2", self.alpha2),
-            ("delta", self.delta),
-        ] {
+        for (what, value) in [("alpha1", self.alpha1), ("alpha2", self.alpha2), ("delta", self.delta)] {
             if !value.is_finite() {
                 return Err(GeometryError::NotFinite { leg, what });
             }
         }
         for (what, value) in [("alpha1", self.alpha1), ("alpha2", self.alpha2)] {
             if value <= 0.0 || value >= std::f64::consts::PI {
-                return Err(GeometryError::LinkAngleOutOfRange {
-                    leg,
-                    what,
-                    value_deg: value.to_degrees(),
-                });
+                return Err(GeometryError::LinkAngleOutOfRange { leg, what, value_deg: value.to_degrees() });
             }
         }
         self.u.normalize_mut();

@@ -95,13 +95,7 @@ struct ParametersRecord {
 impl Parameters {
     /// Nominal parameters of a manipulator, without camera registration.
     pub fn nominal(spm: &Spm, model: Option<String>) -> Self {
-        Parameters {
-            source: ParameterSource::Nominal,
-            model,
-            legs: *spm.geometry(),
-            camera: None,
-            fit: None,
-        }
+        Parameters { source: ParameterSource::Nominal, model, legs: *spm.geometry(), camera: None, fit: None }
     }
 
     /// The manipulator these parameters describe (validated).
@@ -112,21 +106,13 @@ impl Parameters {
     /// Read and validate a parameters file.
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let text = read_text(path)?;
-        let record: ParametersRecord =
-            serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
+        let record: ParametersRecord = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
         if record.format != PARAMETERS_FORMAT {
-            return Err(FileError::new(
-                path,
-                format!(
-                    "format is `{}`, expected `{PARAMETERS_FORMAT}`",
-                    record.format
-                ),
-            )
-            .in_column("format"));
+            return Err(FileError::new(path, format!("format is `{}`, expected `{PARAMETERS_FORMAT}`", record.format))
+                .in_column("format"));
         }
         let legs: [LegRecord; 3] = record.legs.try_into().map_err(|v: Vec<LegRecord>| {
-            FileError::new(path, format!("`legs` has {} entries, expected 3", v.len()))
-                .in_column("legs")
+            FileError::new(path, format!("`legs` has {} entries, expected 3", v.len())).in_column("legs")
         })?;
         let legs = legs.map(|l| LegGeometry {
             u: Vector3::from(l.u),
@@ -140,25 +126,15 @@ impl Parameters {
         let camera = match record.camera {
             None => None,
             Some(c) => {
-                let rotation = so3::from_wxyz(c.r_cb_wxyz).ok_or_else(|| {
-                    FileError::new(path, "`r_cb_wxyz` is not a unit quaternion").in_column("camera")
-                })?;
+                let rotation = so3::from_wxyz(c.r_cb_wxyz)
+                    .ok_or_else(|| FileError::new(path, "`r_cb_wxyz` is not a unit quaternion").in_column("camera"))?;
                 if !c.t_cb_m.iter().all(|x| x.is_finite()) {
                     return Err(FileError::new(path, "`t_cb_m` is not finite").in_column("camera"));
                 }
-                Some(CameraRegistration {
-                    rotation,
-                    translation: Vector3::from(c.t_cb_m),
-                })
+                Some(CameraRegistration { rotation, translation: Vector3::from(c.t_cb_m) })
             }
         };
-        Ok(Parameters {
-            source: record.source,
-            model: record.model,
-            legs,
-            camera,
-            fit: record.fit,
-        })
+        Ok(Parameters { source: record.source, model: record.model, legs, camera, fit: record.fit })
     }
 
     /// The file text, with a comment header.
@@ -179,10 +155,9 @@ impl Parameters {
                     delta_deg: g.delta.to_degrees(),
                 })
                 .collect(),
-            camera: self.camera.map(|c| CameraRecord {
-                r_cb_wxyz: so3::to_wxyz(&c.rotation),
-                t_cb_m: c.translation.into(),
-            }),
+            camera: self
+                .camera
+                .map(|c| CameraRecord { r_cb_wxyz: so3::to_wxyz(&c.rotation), t_cb_m: c.translation.into() }),
             fit: self.fit.clone(),
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");

@@ -21,13 +21,7 @@ pub struct GeometrySpread {
 /// Tilt the unit vector `a` by a random tangent vector with components of deviation `sigma`.
 pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vector3<f64> {
     let normal = Normal::new(0.0, sigma.max(0.0)).expect("finite, non-negative deviation");
-    let e1 = a
-        .cross(&if a.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        })
-        .normalize();
+    let e1 = a.cross(&if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
     let e2 = a.cross(&e1);
     let omega = e1 * normal.sample(rng) + e2 * normal.sample(rng);
     crate::so3::exp(&omega) * a
@@ -35,11 +29,7 @@ pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vecto
 
 /// A geometry drawn around `nominal`: axes tilted, link angles and offsets shifted. `z` is
 /// re-orthogonalised against the moved `u`, as the conventions require.
-pub fn perturb<R: Rng + ?Sized>(
-    nominal: &[LegGeometry; 3],
-    spread: &GeometrySpread,
-    rng: &mut R,
-) -> [LegGeometry; 3] {
+pub fn perturb<R: Rng + ?Sized>(nominal: &[LegGeometry; 3], spread: &GeometrySpread, rng: &mut R) -> [LegGeometry; 3] {
     let angle = Normal::new(0.0, spread.link_angle.max(0.0)).expect("finite deviation");
     let offset = Normal::new(0.0, spread.joint_offset.max(0.0)).expect("finite deviation");
     nominal.map(|g| {

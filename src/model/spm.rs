@@ -62,9 +62,7 @@ impl Default for FdaSettings {
 /// Why an orientation has no working-mode joint solution.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IkError {
-    #[error(
-        "orientation outside the workspace: leg {leg} cannot reach it (needs |cos| = {ratio:.6} > 1)"
-    )]
+    #[error("orientation outside the workspace: leg {leg} cannot reach it (needs |cos| = {ratio:.6} > 1)")]
     OutsideWorkspace { leg: usize, ratio: f64 },
     #[error("orientation is not finite")]
     NotFinite,
@@ -79,13 +77,9 @@ pub enum FdaError {
     NotConverged { iterations: u32, residual: f64 },
     #[error("pose at or near a parallel singularity (conditioning index {conditioning:.3e})")]
     NearSingular { conditioning: f64 },
-    #[error(
-        "leg {leg} is at or beyond its serial singularity (branch margin {margin:.3e}): not the working mode"
-    )]
+    #[error("leg {leg} is at or beyond its serial singularity (branch margin {margin:.3e}): not the working mode")]
     LeftWorkingMode { leg: usize, margin: f64 },
-    #[error(
-        "tracking jumped {jump_deg:.2}° from the previous orientation: start too far from the solution"
-    )]
+    #[error("tracking jumped {jump_deg:.2}° from the previous orientation: start too far from the solution")]
     JumpTooLarge { jump_deg: f64 },
 }
 
@@ -156,8 +150,7 @@ impl Spm {
         };
         let home = Rotation3::identity();
         spm.home_joints = spm.ik(&home).map_err(SpmError::NoHomeClosure)?;
-        spm.check_pose(&spm.home_joints.clone(), &home)
-            .map_err(SpmError::SingularHome)?;
+        spm.check_pose(&spm.home_joints.clone(), &home).map_err(SpmError::SingularHome)?;
         Ok(spm)
     }
 
@@ -229,10 +222,7 @@ impl Spm {
         let ratio = c / rho;
         // Beyond 1 by more than rounding: the cone of v around w does not meet the circle of w.
         if ratio.abs() > 1.0 + 1e-12 || rho == 0.0 {
-            return Err(IkError::OutsideWorkspace {
-                leg: i + 1,
-                ratio: ratio.abs(),
-            });
+            return Err(IkError::OutsideWorkspace { leg: i + 1, ratio: ratio.abs() });
         }
         let gamma = ratio.clamp(-1.0, 1.0).acos();
         let psi = b.atan2(a);
@@ -250,9 +240,7 @@ impl Spm {
         let w = self.intermediate_axes(joints);
         let v = self.platform_axes(r);
         let a = Matrix3::from_rows(&[0, 1, 2].map(|i| w[i].cross(&v[i]).transpose()));
-        let b = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| {
-            self.legs[i].u.cross(&w[i]).dot(&v[i])
-        }));
+        let b = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| self.legs[i].u.cross(&w[i]).dot(&v[i])));
         Jacobians { a, b }
     }
 
@@ -269,13 +257,7 @@ impl Spm {
     /// Branch of each leg at a pose.
     pub fn branches(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> [Branch; 3] {
         let m = self.branch_margins(joints, r);
-        [0, 1, 2].map(|i| {
-            if m[i] < 0.0 {
-                Branch::Working
-            } else {
-                Branch::Other
-            }
-        })
+        [0, 1, 2].map(|i| if m[i] < 0.0 { Branch::Working } else { Branch::Other })
     }
 
     /// Reject a pose that is near a parallel singularity or has a leg off the working branch.
@@ -287,10 +269,7 @@ impl Spm {
         let margins = self.branch_margins(joints, r);
         for i in 0..3 {
             if margins[i] > -self.settings.min_branch_margin {
-                return Err(FdaError::LeftWorkingMode {
-                    leg: i + 1,
-                    margin: margins[i],
-                });
+                return Err(FdaError::LeftWorkingMode { leg: i + 1, margin: margins[i] });
             }
         }
         Ok(())
@@ -325,19 +304,12 @@ impl Spm {
             };
             r = so3::exp(&step) * r;
         }
-        Err(FdaError::NotConverged {
-            iterations: max_iterations,
-            residual,
-        })
+        Err(FdaError::NotConverged { iterations: max_iterations, residual })
     }
 
     /// Tracking FDA, the haptic-loop path: Newton from the `previous` orientation, then checks
     /// that the result is near it, regular and in the working mode. No heap allocation.
-    pub fn track(
-        &self,
-        joints: &Vector3<f64>,
-        previous: &Rotation3<f64>,
-    ) -> Result<Rotation3<f64>, FdaError> {
+    pub fn track(&self, joints: &Vector3<f64>, previous: &Rotation3<f64>) -> Result<Rotation3<f64>, FdaError> {
         if !joints.iter().all(|j| j.is_finite()) {
             return Err(FdaError::NotFinite);
         }
@@ -345,9 +317,7 @@ impl Spm {
         let (r, _) = self.newton(&w, previous, self.settings.max_iterations)?;
         let jump = so3::geodesic_angle(previous, &r);
         if jump > self.settings.max_track_jump {
-            return Err(FdaError::JumpTooLarge {
-                jump_deg: jump.to_degrees(),
-            });
+            return Err(FdaError::JumpTooLarge { jump_deg: jump.to_degrees() });
         }
         self.check_pose(joints, &r)?;
         Ok(r)
@@ -363,10 +333,7 @@ impl Spm {
         let start = self.home_joints;
         let delta = Vector3::from_fn(|i, _| wrap_angle(joints[i] - start[i]));
         let mut r = Rotation3::identity();
-        let (mut s, mut ds) = (
-            0.0_f64,
-            (self.settings.continuation_step / delta.amax().max(1e-300)).min(1.0),
-        );
+        let (mut s, mut ds) = (0.0_f64, (self.settings.continuation_step / delta.amax().max(1e-300)).min(1.0));
         while s < 1.0 {
             let next = (s + ds).min(1.0);
             let (from, to) = (start + delta * s, start + delta * next);
@@ -395,19 +362,14 @@ impl Spm {
         if conditioning < self.settings.min_conditioning {
             return Err(FdaError::NearSingular { conditioning });
         }
-        let omega = jac
-            .forward()
-            .ok_or(FdaError::NearSingular { conditioning: 0.0 })?
-            * (to - from);
+        let omega = jac.forward().ok_or(FdaError::NearSingular { conditioning: 0.0 })? * (to - from);
         let predicted = so3::exp(&omega) * r;
         let w = self.intermediate_axes(to);
         // A corrector that needs many iterations left the predictor's basin: halve the step instead.
         let (corrected, _) = self.newton(&w, &predicted, 8)?;
         let expected = omega.norm();
         if so3::geodesic_angle(&predicted, &corrected) > 0.5 * expected.max(1e-3) {
-            return Err(FdaError::JumpTooLarge {
-                jump_deg: so3::geodesic_angle(r, &corrected).to_degrees(),
-            });
+            return Err(FdaError::JumpTooLarge { jump_deg: so3::geodesic_angle(r, &corrected).to_degrees() });
         }
         Ok(corrected)
     }
@@ -417,9 +379,5 @@ impl Spm {
 pub fn wrap_angle(a: f64) -> f64 {
     let two_pi = 2.0 * std::f64::consts::PI;
     let w = a - two_pi * (a / two_pi).round();
-    if w <= -std::f64::consts::PI {
-        w + two_pi
-    } else {
-        w
-    }
+    if w <= -std::f64::consts::PI { w + two_pi } else { w }
 }

@@ -84,38 +84,17 @@ pub enum ModelError {
     #[error("{path}: {reason}")]
     Unreadable { path: PathBuf, reason: String },
     #[error("{path}:{line}: {reason}")]
-    Companion {
-        path: PathBuf,
-        line: usize,
-        reason: String,
-    },
+    Companion { path: PathBuf, line: usize, reason: String },
     #[error("{path}: joint `{joint}` {reason}")]
-    Joint {
-        path: PathBuf,
-        joint: String,
-        reason: String,
-    },
+    Joint { path: PathBuf, joint: String, reason: String },
     #[error("{path}: link `{link}` {reason}")]
-    Link {
-        path: PathBuf,
-        link: String,
-        reason: String,
-    },
+    Link { path: PathBuf, link: String, reason: String },
     #[error(
         "{path}: axis of joint `{joint}` misses the centre of rotation O by {distance_mm:.4} mm (tolerance {tolerance_mm} mm)"
     )]
-    AxisMissesCentre {
-        path: PathBuf,
-        joint: String,
-        distance_mm: f64,
-        tolerance_mm: f64,
-    },
+    AxisMissesCentre { path: PathBuf, joint: String, distance_mm: f64, tolerance_mm: f64 },
     #[error("{path}: the loop closure of leg {leg} has no solution at home: {reason}")]
-    Closure {
-        path: PathBuf,
-        leg: usize,
-        reason: String,
-    },
+    Closure { path: PathBuf, leg: usize, reason: String },
     #[error("{path}: {source}")]
     Geometry { path: PathBuf, source: SpmError },
 }
@@ -157,26 +136,17 @@ impl PlacedJoint<'_> {
 
 fn origin_isometry(pose: &urdf_rs::Pose) -> Isometry3<f64> {
     let [r, p, y] = pose.rpy.0;
-    Isometry3::from_parts(
-        Translation3::from(Vector3::from(pose.xyz.0)),
-        UnitQuaternion::from_euler_angles(r, p, y),
-    )
+    Isometry3::from_parts(Translation3::from(Vector3::from(pose.xyz.0)), UnitQuaternion::from_euler_angles(r, p, y))
 }
 
 impl RobotModel {
     /// Load `urdf` and its companion, derive and validate the geometry.
     pub fn load(urdf: &Path) -> Result<Self, ModelError> {
-        let robot = urdf_rs::read_file(urdf).map_err(|e| ModelError::Unreadable {
-            path: urdf.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+        let robot = urdf_rs::read_file(urdf)
+            .map_err(|e| ModelError::Unreadable { path: urdf.to_path_buf(), reason: e.to_string() })?;
         let companion_file = companion_path(urdf);
         let companion = read_companion(&companion_file)?;
-        Loader {
-            path: urdf,
-            robot: &robot,
-        }
-        .build(companion, &companion_file)
+        Loader { path: urdf, robot: &robot }.build(companion, &companion_file)
     }
 }
 
@@ -194,10 +164,7 @@ fn read_companion(path: &Path) -> Result<Companion, ModelError> {
         return Err(ModelError::Companion {
             path: path.to_path_buf(),
             line: 0,
-            reason: format!(
-                "`legs` lists {} legs; an SPM of this kind has 3",
-                companion.legs.len()
-            ),
+            reason: format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len()),
         });
     }
     Ok(companion)
@@ -210,36 +177,19 @@ struct Loader<'a> {
 
 impl<'a> Loader<'a> {
     fn joint_error(&self, joint: &str, reason: impl Into<String>) -> ModelError {
-        ModelError::Joint {
-            path: self.path.to_path_buf(),
-            joint: joint.to_string(),
-            reason: reason.into(),
-        }
+        ModelError::Joint { path: self.path.to_path_buf(), joint: joint.to_string(), reason: reason.into() }
     }
 
     fn link_error(&self, link: &str, reason: impl Into<String>) -> ModelError {
-        ModelError::Link {
-            path: self.path.to_path_buf(),
-            link: link.to_string(),
-            reason: reason.into(),
-        }
+        ModelError::Link { path: self.path.to_path_buf(), link: link.to_string(), reason: reason.into() }
     }
 
     /// Pose in B of every link at the zero configuration, from the tree's root.
     fn link_frames(&self) -> Result<HashMap<&'a str, Isometry3<f64>>, ModelError> {
-        let children: std::collections::HashSet<&str> = self
-            .robot
-            .joints
-            .iter()
-            .map(|j| j.child.link.as_str())
-            .collect();
-        let roots: Vec<&str> = self
-            .robot
-            .links
-            .iter()
-            .map(|l| l.name.as_str())
-            .filter(|n| !children.contains(n))
-            .collect();
+        let children: std::collections::HashSet<&str> =
+            self.robot.joints.iter().map(|j| j.child.link.as_str()).collect();
+        let roots: Vec<&str> =
+            self.robot.links.iter().map(|l| l.name.as_str()).filter(|n| !children.contains(n)).collect();
         let [root] = roots[..] else {
             return Err(ModelError::Unreadable {
                 path: self.path.to_path_buf(),
@@ -262,38 +212,18 @@ impl<'a> Loader<'a> {
             if pending.len() == before {
                 return Err(self.joint_error(
                     &pending[0].name,
-                    format!(
-                        "has parent link `{}`, which is not in the tree",
-                        pending[0].parent.link
-                    ),
+                    format!("has parent link `{}`, which is not in the tree", pending[0].parent.link),
                 ));
             }
         }
         Ok(frames)
     }
 
-    fn placed(
-        &self,
-        frames: &HashMap<&str, Isometry3<f64>>,
-        name: &str,
-    ) -> Result<PlacedJoint<'a>, ModelError> {
-        let joint = self
-            .robot
-            .joints
-            .iter()
-            .find(|j| j.name == name)
-            .ok_or_else(|| self.joint_error(name, "is missing"))?;
-        if !matches!(
-            joint.joint_type,
-            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous
-        ) {
-            return Err(self.joint_error(
-                name,
-                format!(
-                    "is {:?}; the legs' joints must be revolute",
-                    joint.joint_type
-                ),
-            ));
+    fn placed(&self, frames: &HashMap<&str, Isometry3<f64>>, name: &str) -> Result<PlacedJoint<'a>, ModelError> {
+        let joint =
+            self.robot.joints.iter().find(|j| j.name == name).ok_or_else(|| self.joint_error(name, "is missing"))?;
+        if !matches!(joint.joint_type, urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous) {
+            return Err(self.joint_error(name, format!("is {:?}; the legs' joints must be revolute", joint.joint_type)));
         }
         let frame = frames[joint.parent.link.as_str()] * origin_isometry(&joint.origin);
         let placed = PlacedJoint { joint, frame };
@@ -318,17 +248,15 @@ impl<'a> Loader<'a> {
         let platform = frames
             .get(companion.platform_link.as_str())
             .copied()
-            .ok_or_else(|| {
-                self.link_error(
-                    &companion.platform_link,
-                    "(the MP, per the companion) is missing",
-                )
-            })?;
+            .ok_or_else(|| self.link_error(&companion.platform_link, "(the MP, per the companion) is missing"))?;
         let tilt = platform.rotation.angle();
         if tilt > CLOSURE_TOLERANCE_RAD {
             return Err(self.link_error(
                 &companion.platform_link,
-                format!("is rotated {:.4}° from B at the zero configuration; the home pose must be R = I", tilt.to_degrees()),
+                format!(
+                    "is rotated {:.4}° from B at the zero configuration; the home pose must be R = I",
+                    tilt.to_degrees()
+                ),
             ));
         }
         let mut legs = [LegGeometry::nominal(0, 1.0, 1.0, 1.0, 1.0); 3];
@@ -337,12 +265,7 @@ impl<'a> Loader<'a> {
             let actuated = self.placed(&frames, &leg.actuated)?;
             let intermediate = self.placed(&frames, &leg.intermediate)?;
             let wrist = self.placed(&frames, &leg.platform)?;
-            self.check_chain(
-                i,
-                [&actuated, &intermediate, &wrist],
-                leg,
-                &companion.platform_link,
-            )?;
+            self.check_chain(i, [&actuated, &intermediate, &wrist], leg, &companion.platform_link)?;
             self.check_closure(i, &frames, leg, &platform)?;
             let u = actuated.axis().normalize();
             let w0 = intermediate.axis().normalize();
@@ -356,24 +279,15 @@ impl<'a> Loader<'a> {
                 v0,
                 delta: 0.0,
             };
-            leg_links.push([
-                actuated.joint.child.link.clone(),
-                intermediate.joint.child.link.clone(),
-            ]);
+            leg_links.push([actuated.joint.child.link.clone(), intermediate.joint.child.link.clone()]);
         }
-        let spm = Spm::new(legs).map_err(|source| ModelError::Geometry {
-            path: self.path.to_path_buf(),
-            source,
-        })?;
+        let spm = Spm::new(legs).map_err(|source| ModelError::Geometry { path: self.path.to_path_buf(), source })?;
         let markers = companion
             .markers_m
             .into_iter()
             .map(|(name, p)| {
                 if p.iter().all(|c| c.is_finite()) {
-                    Ok(Marker {
-                        name,
-                        position: Vector3::from(p),
-                    })
+                    Ok(Marker { name, position: Vector3::from(p) })
                 } else {
                     Err(ModelError::Companion {
                         path: companion_file.to_path_buf(),
@@ -384,13 +298,7 @@ impl<'a> Loader<'a> {
             })
             .collect::<Result<Vec<_>, _>>()?;
         let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;
-        Ok(RobotModel {
-            name: self.robot.name.clone(),
-            urdf_path: self.path.to_path_buf(),
-            spm,
-            markers,
-            shapes,
-        })
+        Ok(RobotModel { name: self.robot.name.clone(), urdf_path: self.path.to_path_buf(), spm, markers, shapes })
     }
 
     /// The three joints of a leg must form a chain from the base to the MP (leg 1) or to its closure link.
@@ -402,31 +310,17 @@ impl<'a> Loader<'a> {
         platform: &str,
     ) -> Result<(), ModelError> {
         let [a, b, c] = joints.map(|j| j.joint);
-        let end = if leg == 0 {
-            platform
-        } else {
-            names.closes_on.as_deref().unwrap_or(platform)
-        };
+        let end = if leg == 0 { platform } else { names.closes_on.as_deref().unwrap_or(platform) };
         if b.parent.link != a.child.link || c.parent.link != b.child.link {
             return Err(self.joint_error(
                 &b.name,
-                format!(
-                    "is not in a chain `{}` → `{}` → `{}` (leg {})",
-                    a.name,
-                    b.name,
-                    c.name,
-                    leg + 1
-                ),
+                format!("is not in a chain `{}` → `{}` → `{}` (leg {})", a.name, b.name, c.name, leg + 1),
             ));
         }
         if c.child.link != end {
             return Err(self.joint_error(
                 &c.name,
-                format!(
-                    "ends at link `{}`, but leg {} should end at `{end}`",
-                    c.child.link,
-                    leg + 1
-                ),
+                format!("ends at link `{}`, but leg {} should end at `{end}`", c.child.link, leg + 1),
             ));
         }
         Ok(())
@@ -451,9 +345,8 @@ impl<'a> Loader<'a> {
                 })
             };
         };
-        let frame = frames.get(link).ok_or_else(|| {
-            self.link_error(link, "(a closure link, per the companion) is missing")
-        })?;
+        let frame =
+            frames.get(link).ok_or_else(|| self.link_error(link, "(a closure link, per the companion) is missing"))?;
         let angle = frame.rotation.angle_to(&platform.rotation);
         let offset = (frame.translation.vector - platform.translation.vector).norm();
         if angle > CLOSURE_TOLERANCE_RAD || offset > CONCURRENCY_TOLERANCE_M {
@@ -484,9 +377,7 @@ impl<'a> Loader<'a> {
                 Body::Proximal(i)
             } else if let Some(i) = leg_links.iter().position(|l| l[1] == link.name) {
                 Body::Distal(i)
-            } else if frames
-                .get(link.name.as_str())
-                .is_some_and(|f| *f == Isometry3::identity())
+            } else if frames.get(link.name.as_str()).is_some_and(|f| *f == Isometry3::identity())
                 && !link.collision.is_empty()
             {
                 Body::Base
@@ -495,17 +386,13 @@ impl<'a> Loader<'a> {
             };
             for c in &link.collision {
                 let shape = match &c.geometry {
-                    urdf_rs::Geometry::Cylinder { radius, length } => Shape::Cylinder {
-                        radius: *radius,
-                        length: *length,
-                    },
-                    urdf_rs::Geometry::Capsule { radius, length } => Shape::Capsule {
-                        radius: *radius,
-                        length: *length,
-                    },
-                    urdf_rs::Geometry::Box { size } => Shape::Cuboid {
-                        half_extents: Vector3::from(size.0) / 2.0,
-                    },
+                    urdf_rs::Geometry::Cylinder { radius, length } => {
+                        Shape::Cylinder { radius: *radius, length: *length }
+                    }
+                    urdf_rs::Geometry::Capsule { radius, length } => {
+                        Shape::Capsule { radius: *radius, length: *length }
+                    }
+                    urdf_rs::Geometry::Box { size } => Shape::Cuboid { half_extents: Vector3::from(size.0) / 2.0 },
                     urdf_rs::Geometry::Sphere { radius } => Shape::Sphere { radius: *radius },
                     urdf_rs::Geometry::Mesh { filename, .. } => {
                         return Err(self.link_error(&link.name, format!("has mesh collision geometry `{filename}`; spmcal needs primitives (cylinder, capsule, box, sphere)")));

@@ -1,0 +1,272 @@
+//! A session folder: `session.yaml`, `joints.csv`, `markers.csv`, and for simulated sessions
+//! `truth.yaml` (the true parameters) and `truth_orientations.csv` (the true MP orientations).
+//!
+//! What is an error (loading stops, naming file, line and column): malformed YAML or CSV, an
+//! unknown key in `session.yaml`, fewer than 3 or repeated marker names, no model, non-numbers
+//! and NaN/inf, a repeated pose or (pose, marker) pair, an unknown marker name, marker rows for a
+//! pose that `joints.csv` does not have, an empty session, a missing reference pose, or a
+//! reference pose with fewer than 3 markers seen.
+//!
+//! What is a warning (the pose is kept for kinematics and skipped by the vision estimator): a pose
+//! with joint readings but fewer than 3 markers seen (none at all included).
+
+use std::collections::{BTreeMap, HashMap};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::joints::{JointReading, read_joints, write_joints};
+use super::markers::{MarkerRow, read_markers, write_markers};
+use super::orientations::{OrientationRecord, read_orientations, write_orientations};
+use crate::files::{FileError, read_text, relative_path, write_atomic, yaml_key_line};
+use crate::model::Parameters;
+
+/// Fewest markers that determine an orientation (the non-redundant minimum).
+pub const MIN_MARKERS: usize = 3;
+
+/// One pose of a session.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionPose {
+    pub id: u64,
+    pub joints: Vector3<f64>,
+    pub time_s: Option<f64>,
+    /// Marker centres in the camera frame, indexed like `Session::markers`; `None` = not seen.
+    pub markers: Vec<Option<Vector3<f64>>>,
+    /// Line of `joints.csv` (0 when not read from a file).
+    pub line: usize,
+}
+
+impl SessionPose {
+    /// How many markers the camera saw.
+    pub fn seen(&self) -> usize {
+        self.markers.iter().filter(|m| m.is_some()).count()
+    }
+}
+
+/// The ground truth of a simulated session.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Truth {
+    pub parameters: Parameters,
+    /// True MP orientation of each pose (P → B).
+    pub orientations: BTreeMap<u64, Rotation3<f64>>,
+}
+
+/// A joint-plus-vision session.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Session {
+    pub name: String,
+    pub description: Option<String>,
+    /// The model (URDF), resolved against the session folder or taken from `--model`.
+    pub model: PathBuf,
+    pub markers: Vec<String>,
+    pub reference_pose: u64,
+    pub poses: Vec<SessionPose>,
+    pub truth: Option<Truth>,
+}
+
+/// A pose kept in the session but skipped by the vision estimator, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Warning {
+    pub path: PathBuf,
+    pub line: usize,
+    pub pose: u64,
+    pub message: String,
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}: pose {}: {}", self.path.display(), self.line, self.pose, self.message)
+    }
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SessionFile {
+    name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    model: Option<PathBuf>,
+    markers: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    reference_pose: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    description: Option<String>,
+}
+
+impl Session {
+    /// The reference pose.
+    pub fn reference(&self) -> &SessionPose {
+        self.poses.iter().find(|p| p.id == self.reference_pose).expect("validated on load")
+    }
+
+    /// Load and validate the session in `dir`; `model` overrides the one named in `session.yaml`.
+    pub fn load(dir: &Path, model: Option<&Path>) -> Result<(Session, Vec<Warning>), FileError> {
+        let yaml_path = dir.join("session.yaml");
+        let text = read_text(&yaml_path)?;
+        let file: SessionFile = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(&yaml_path, &e))?;
+        let at = |key: &str, reason: String| {
+            let err = FileError::new(&yaml_path, reason).in_column(key);
+            match yaml_key_line(&text, key) {
+                Some(line) => err.at_line(line),
+                None => err,
+            }
+        };
+        check_marker_names(&file.markers).map_err(|reason| at("markers", reason))?;
+        let model = match (model, &file.model) {
+            (Some(m), _) => m.to_path_buf(),
+            (None, Some(m)) => dir.join(m),
+            (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
+        };
+        let joints_path = dir.join("joints.csv");
+        let readings = read_joints(&joints_path)?;
+        if readings.is_empty() {
+            return Err(FileError::new(&joints_path, "empty session: no poses"));
+        }
+        let markers_path = dir.join("markers.csv");
+        let rows = read_markers(&markers_path, &file.markers)?;
+        let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
+        let reference_pose = file.reference_pose.unwrap_or(poses[0].id);
+        let reference = poses
+            .iter()
+            .find(|p| p.id == reference_pose)
+            .ok_or_else(|| at("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")))?;
+        if reference.seen() < MIN_MARKERS {
+            return Err(at(
+                "reference_pose",
+                format!(
+                    "reference pose {reference_pose} has {} markers seen; at least {MIN_MARKERS} needed",
+                    reference.seen()
+                ),
+            ));
+        }
+        let warnings = poses
+            .iter()
+            .filter(|p| p.seen() < MIN_MARKERS)
+            .map(|p| Warning {
+                path: joints_path.clone(),
+                line: p.line,
+                pose: p.id,
+                message: format!(
+                    "{} of {} markers seen (fewer than {MIN_MARKERS}): skipped by the vision estimator",
+                    p.seen(),
+                    file.markers.len()
+                ),
+            })
+            .collect();
+        let truth = read_truth(dir)?;
+        let session = Session {
+            name: file.name,
+            description: file.description,
+            model,
+            markers: file.markers,
+            reference_pose,
+            poses,
+            truth,
+        };
+        Ok((session, warnings))
+    }
+
+    /// Write the session into `dir` (created if needed). Every file is written atomically and
+    /// `session.yaml` last, so a folder without it is an interrupted write, never a session.
+    pub fn write(&self, dir: &Path) -> Result<(), FileError> {
+        let occupied = std::fs::read_dir(dir).is_ok_and(|mut entries| entries.next().is_some());
+        if occupied && !dir.join("session.yaml").exists() {
+            return Err(FileError::new(dir, "the folder is not empty and holds no session: refusing to write into it"));
+        }
+        std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;
+        let readings: Vec<_> = self
+            .poses
+            .iter()
+            .map(|p| JointReading { pose: p.id, line: 0, joints: p.joints, time_s: p.time_s })
+            .collect();
+        write_joints(&dir.join("joints.csv"), &readings)?;
+        let rows: Vec<_> =
+            self.poses
+                .iter()
+                .flat_map(|p| {
+                    p.markers.iter().enumerate().filter_map(move |(k, m)| {
+                        m.map(|position| MarkerRow { pose: p.id, marker: k, position, line: 0 })
+                    })
+                })
+                .collect();
+        write_markers(&dir.join("markers.csv"), &rows, &self.markers)?;
+        if let Some(truth) = &self.truth {
+            truth.parameters.write(&dir.join("truth.yaml"))?;
+            let records: Vec<_> = truth
+                .orientations
+                .iter()
+                .map(|(&pose, &rotation)| OrientationRecord { pose, mode: None, rotation, extra: vec![], line: 0 })
+                .collect();
+            write_atomic(&dir.join("truth_orientations.csv"), write_orientations(&records).as_bytes())?;
+        }
+        let file = SessionFile {
+            name: self.name.clone(),
+            model: Some(relative_path(dir, &self.model)?),
+            markers: self.markers.clone(),
+            reference_pose: Some(self.reference_pose),
+            description: self.description.clone(),
+        };
+        let yaml = serde_yaml::to_string(&file).expect("session serialises");
+        write_atomic(&dir.join("session.yaml"), yaml.as_bytes())
+    }
+}
+
+fn check_marker_names(names: &[String]) -> Result<(), String> {
+    if names.len() < MIN_MARKERS {
+        return Err(format!(
+            "{} markers listed; at least {MIN_MARKERS} are needed to determine an orientation",
+            names.len()
+        ));
+    }
+    for (i, name) in names.iter().enumerate() {
+        if name.is_empty() || names[..i].contains(name) {
+            return Err(format!("marker name `{name}` is empty or repeated"));
+        }
+    }
+    Ok(())
+}
+
+/// Join joint readings and marker rows by pose; marker rows of an unknown pose are an error.
+fn assemble_poses(
+    readings: &[JointReading],
+    rows: &[MarkerRow],
+    markers: usize,
+    markers_path: &Path,
+) -> Result<Vec<SessionPose>, FileError> {
+    let mut poses: Vec<SessionPose> = readings
+        .iter()
+        .map(|r| SessionPose {
+            id: r.pose,
+            joints: r.joints,
+            time_s: r.time_s,
+            markers: vec![None; markers],
+            line: r.line,
+        })
+        .collect();
+    let index: HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
+    for row in rows {
+        let k = index.get(&row.pose).ok_or_else(|| {
+            FileError::new(markers_path, format!("markers for pose {}, which joints.csv does not have", row.pose))
+                .at_line(row.line)
+                .in_column("pose")
+        })?;
+        poses[*k].markers[row.marker] = Some(row.position);
+    }
+    Ok(poses)
+}
+
+fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
+    let path = dir.join("truth.yaml");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let parameters = Parameters::read(&path)?;
+    let orientations_path = dir.join("truth_orientations.csv");
+    let orientations = if orientations_path.exists() {
+        read_orientations(&orientations_path)?.into_iter().map(|r| (r.pose, r.rotation)).collect()
+    } else {
+        BTreeMap::new()
+    };
+    Ok(Some(Truth { parameters, orientations }))
+}

@@ -1,0 +1,63 @@
+//! A stereo camera: its registration to the base, its two lenses, and its noise model.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+
+use super::config::Camera;
+use crate::model::CameraRegistration;
+
+/// The nominal registration: camera centre `height` above O, optical axis (camera z) pointing
+/// down, camera x along base x (so camera y is base −y).
+pub fn looking_down(height: f64) -> CameraRegistration {
+    let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0)));
+    CameraRegistration { rotation, translation: -(rotation * Vector3::new(0.0, 0.0, height)) }
+}
+
+/// Camera centre in B.
+pub fn centre(registration: &CameraRegistration) -> Vector3<f64> {
+    -(registration.rotation.inverse() * registration.translation)
+}
+
+/// The two lens centres in B, half a baseline either side of the centre along camera x.
+pub fn lenses(registration: &CameraRegistration, baseline: f64) -> [Vector3<f64>; 2] {
+    let c = centre(registration);
+    let x = registration.rotation.inverse() * Vector3::x();
+    [c - x * (baseline / 2.0), c + x * (baseline / 2.0)]
+}
+
+/// What one measurement did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measurement {
+    /// Marker centre in the camera frame, with noise.
+    pub position: Vector3<f64>,
+    pub outlier: bool,
+}
+
+/// Measure a point given in B: transform to the camera frame, then add stereo noise — lateral
+/// noise across the line of sight, depth noise along it growing with the squared distance
+/// (triangulation error ∝ z² / (f · baseline)) — and, rarely, an outlier.
+pub fn measure<R: Rng + ?Sized>(
+    point_b: &Vector3<f64>,
+    registration: &CameraRegistration,
+    camera: &Camera,
+    rng: &mut R,
+) -> Measurement {
+    let exact = registration.rotation * point_b + registration.translation;
+    let distance = exact.norm();
+    let along = exact / distance;
+    let across1 =
+        along.cross(&Vector3::x()).try_normalize(1e-9).unwrap_or_else(|| along.cross(&Vector3::y()).normalize());
+    let across2 = along.cross(&across1);
+    let gauss = |sigma: f64, rng: &mut R| Normal::new(0.0, sigma).expect("validated deviation").sample(rng);
+    let depth_sigma = camera.depth_sigma_m * (distance / camera.reference_distance_m).powi(2);
+    let mut position = exact
+        + along * gauss(depth_sigma, rng)
+        + across1 * gauss(camera.lateral_sigma_m, rng)
+        + across2 * gauss(camera.lateral_sigma_m, rng);
+    let outlier = rng.random_bool(camera.outlier_probability);
+    if outlier {
+        position += Vector3::from_fn(|_, _| gauss(camera.outlier_sigma_m, rng));
+    }
+    Measurement { position, outlier }
+}

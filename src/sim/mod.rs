@@ -1,0 +1,12 @@
+//! Synthetic sessions with ground truth: a true geometry around the nominal model, a stereo
+//! camera with realistic noise, occlusion and collision checks (parry), encoder quantisation.
+
+mod camera;
+mod config;
+mod scene;
+mod simulator;
+
+pub use camera::{Measurement, centre, lenses, looking_down, measure};
+pub use config::{Camera, Capture, Encoders, SimConfig, Trajectory, TruthSpread, Workspace};
+pub use scene::{BodyRotations, Scene};
+pub use simulator::{SimError, SimSummary, simulate};

@@ -1,0 +1,158 @@
+//! The mechanism's collision geometry posed at a configuration (parry): link–link collisions
+//! and occlusion of a marker's line of sight.
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, UnitQuaternion, Vector3};
+use parry3d_f64::math::{Pose, Vector};
+use parry3d_f64::query::{Ray, intersection_test};
+use parry3d_f64::shape::SharedShape;
+
+use crate::model::{Body, RobotModel, Shape, Spm};
+
+/// The bodies in a fixed order: base, proximal 1–3, distal 1–3, platform.
+const BODIES: [Body; 8] = [
+    Body::Base,
+    Body::Proximal(0),
+    Body::Proximal(1),
+    Body::Proximal(2),
+    Body::Distal(0),
+    Body::Distal(1),
+    Body::Distal(2),
+    Body::Platform,
+];
+
+fn body_index(body: Body) -> usize {
+    BODIES.iter().position(|b| *b == body).expect("every body is listed")
+}
+
+/// Bodies joined by a joint touch by design; their contact is not a collision.
+fn adjacent(a: Body, b: Body) -> bool {
+    use Body::*;
+    matches!((a, b), (Base, Proximal(_)) | (Proximal(_), Base) | (Distal(_), Platform) | (Platform, Distal(_)))
+        || matches!((a, b), (Proximal(i), Distal(j)) | (Distal(j), Proximal(i)) if i == j)
+}
+
+/// Rotation of each body about O (all bodies of an SPM only rotate).
+pub type BodyRotations = [Rotation3<f64>; 8];
+
+struct PlacedShape {
+    body: usize,
+    shape: SharedShape,
+    /// Pose of the parry shape in B at the home pose (URDF z-axis conventions already applied).
+    at_home: Isometry3<f64>,
+}
+
+/// Collision geometry of a model, ready to be posed.
+pub struct Scene {
+    shapes: Vec<PlacedShape>,
+    /// Per leg, the home directions the links carry: `(u, w(0))` for the proximal and
+    /// `(w(0), v0)` for the distal link.
+    home_axes: [[Vector3<f64>; 3]; 3],
+}
+
+fn to_pose(iso: &Isometry3<f64>) -> Pose {
+    Pose::from(*iso)
+}
+
+fn to_vector(v: &Vector3<f64>) -> Vector {
+    Vector::new(v.x, v.y, v.z)
+}
+
+/// The rotation that carries the pair `(a0, b0)` onto `(a, b)` (same angle between them).
+fn carry(a0: &Vector3<f64>, b0: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> Rotation3<f64> {
+    let frame = |x: &Vector3<f64>, y: &Vector3<f64>| {
+        let e1 = x.normalize();
+        let e2 = (y - e1 * e1.dot(y)).normalize();
+        Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
+    };
+    Rotation3::from_matrix_unchecked(frame(a, b) * frame(a0, b0).transpose())
+}
+
+impl Scene {
+    /// The model's collision primitives. URDF cylinders and capsules run along z, parry's
+    /// cylinders along y: a quarter turn about x maps one onto the other.
+    pub fn new(model: &RobotModel) -> Self {
+        let y_to_z = Isometry3::from_parts(
+            Default::default(),
+            UnitQuaternion::from_euler_angles(std::f64::consts::FRAC_PI_2, 0.0, 0.0),
+        );
+        let shapes = model
+            .shapes
+            .iter()
+            .map(|s| {
+                let (shape, local) = match s.shape {
+                    Shape::Cylinder { radius, length } => (SharedShape::cylinder(length / 2.0, radius), y_to_z),
+                    Shape::Capsule { radius, length } => {
+                        (SharedShape::capsule_z(length / 2.0, radius), Isometry3::identity())
+                    }
+                    Shape::Cuboid { half_extents: h } => (SharedShape::cuboid(h.x, h.y, h.z), Isometry3::identity()),
+                    Shape::Sphere { radius } => (SharedShape::ball(radius), Isometry3::identity()),
+                };
+                PlacedShape { body: body_index(s.body), shape, at_home: s.pose_at_home * local }
+            })
+            .collect();
+        let home = model.spm.geometry();
+        let home_axes = [0, 1, 2].map(|i| {
+            let g = &home[i];
+            [g.u, g.u * g.alpha1.cos() + g.z * g.alpha1.sin(), g.v0]
+        });
+        Scene { shapes, home_axes }
+    }
+
+    /// Rotation of every body for joint readings `joints` and MP orientation `r` of manipulator
+    /// `spm` (the true geometry in a simulation): each link carries its two axes.
+    pub fn body_rotations(&self, spm: &Spm, joints: &Vector3<f64>, r: &Rotation3<f64>) -> BodyRotations {
+        let w = spm.intermediate_axes(joints);
+        let v = spm.platform_axes(r);
+        let g = spm.geometry();
+        let mut out = [Rotation3::identity(); 8];
+        for i in 0..3 {
+            let [u0, w0, v0] = &self.home_axes[i];
+            out[1 + i] = carry(u0, w0, &g[i].u, &w[i]);
+            out[4 + i] = carry(w0, v0, &w[i], &v[i]);
+        }
+        out[7] = *r;
+        out
+    }
+
+    fn posed(&self, rotations: &BodyRotations, s: &PlacedShape) -> Pose {
+        to_pose(&(Isometry3::from_parts(Default::default(), rotations[s.body].into()) * s.at_home))
+    }
+
+    /// The first pair of non-adjacent bodies whose shapes intersect, if any.
+    pub fn collision(&self, rotations: &BodyRotations) -> Option<(Body, Body)> {
+        let posed: Vec<Pose> = self.shapes.iter().map(|s| self.posed(rotations, s)).collect();
+        for (i, a) in self.shapes.iter().enumerate() {
+            for (j, b) in self.shapes.iter().enumerate().skip(i + 1) {
+                let (ba, bb) = (BODIES[a.body], BODIES[b.body]);
+                if a.body == b.body || adjacent(ba, bb) {
+                    continue;
+                }
+                let hit = intersection_test(&posed[i], a.shape.as_ref(), &posed[j], b.shape.as_ref());
+                if hit.is_ok_and(|h| h.intersecting) {
+                    return Some((ba, bb));
+                }
+            }
+        }
+        None
+    }
+
+    /// The body that hides the segment from a marker centre to a lens, if any. The segment starts
+    /// `marker_radius` out of the marker, so that the surface it sits on does not hide it.
+    pub fn occluder(
+        &self,
+        rotations: &BodyRotations,
+        marker: &Vector3<f64>,
+        lens: &Vector3<f64>,
+        marker_radius: f64,
+    ) -> Option<Body> {
+        let to_lens = lens - marker;
+        let length = to_lens.norm();
+        let dir = to_lens / length;
+        let ray = Ray::new(to_vector(&(marker + dir * marker_radius)), to_vector(&dir));
+        let reach = length - marker_radius;
+        self.shapes
+            .iter()
+            .find(|s| s.shape.as_ref().cast_ray(&self.posed(rotations, s), &ray, reach, true).is_some())
+            .map(|s| BODIES[s.body])
+    }
+}

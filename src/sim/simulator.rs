@@ -1,0 +1,233 @@
+//! The simulator: draws a true geometry and camera, walks the workspace, rejects poses that are
+//! unreachable, near a singularity or colliding, and records what encoders and camera would see.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Rotation3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::Serialize;
+
+use super::camera::{lenses, looking_down, measure};
+use super::config::{SimConfig, Trajectory};
+use super::scene::Scene;
+use crate::dataset::{MIN_MARKERS, Session, SessionPose, Truth};
+use crate::model::{
+    CameraRegistration, GeometrySpread, ParameterSource, Parameters, RobotModel, Spm, SpmError, conditioning_index,
+    perturb,
+};
+use crate::so3;
+
+/// What a simulation did, for reports and `--json`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct SimSummary {
+    pub name: String,
+    pub seed: u64,
+    pub poses: usize,
+    pub attempts: usize,
+    pub rejected_unreachable: usize,
+    pub rejected_singular: usize,
+    pub rejected_collision: usize,
+    pub markers_seen: usize,
+    pub markers_occluded: usize,
+    pub outliers: usize,
+    pub poses_with_too_few_markers: usize,
+}
+
+/// Why a simulation could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("the true geometry drawn is not a valid manipulator (spreads too large?): {0}")]
+    Geometry(#[from] SpmError),
+    #[error(
+        "only {found} of {wanted} poses survived {attempts} attempts: the workspace settings reject almost every orientation"
+    )]
+    TooFewPoses { found: usize, wanted: usize, attempts: usize },
+}
+
+/// Why a candidate orientation was rejected.
+enum Rejection {
+    Unreachable,
+    Singular,
+    Collision,
+}
+
+struct Simulator<'a> {
+    config: &'a SimConfig,
+    model: &'a RobotModel,
+    spm: Spm,
+    camera: CameraRegistration,
+    scene: Scene,
+    rng: ChaCha8Rng,
+    summary: SimSummary,
+}
+
+/// Simulate a session with `config` on `model`, with the counts of what was rejected, occluded
+/// and perturbed; `progress` is told the number of poses made so far. Deterministic for a seed.
+pub fn simulate(
+    config: &SimConfig,
+    model: &RobotModel,
+    progress: &mut dyn FnMut(usize),
+) -> Result<(Session, SimSummary), SimError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
+    let t = &config.truth;
+    let spread = GeometrySpread {
+        axis_tilt: t.axis_tilt_deg.to_radians(),
+        link_angle: t.link_angle_deg.to_radians(),
+        joint_offset: t.joint_offset_deg.to_radians(),
+    };
+    let spm = Spm::new(perturb(model.spm.geometry(), &spread, &mut rng))?;
+    let nominal = looking_down(config.camera.height_m);
+    let position = Normal::new(0.0, t.camera_position_m).expect("validated deviation");
+    let camera_centre =
+        Vector3::new(0.0, 0.0, config.camera.height_m) + Vector3::from_fn(|_, _| position.sample(&mut rng));
+    let rotation = so3::exp(&random_rotation_vector(t.camera_rotation_deg.to_radians(), &mut rng)) * nominal.rotation;
+    let camera = CameraRegistration { rotation, translation: -(rotation * camera_centre) };
+    let summary = SimSummary { name: config.name.clone(), seed: config.seed, ..Default::default() };
+    let mut sim = Simulator { config, model, spm, camera, scene: Scene::new(model), rng, summary };
+    let session = sim.run(progress)?;
+    Ok((session, sim.summary))
+}
+
+fn random_rotation_vector<R: Rng + ?Sized>(sigma: f64, rng: &mut R) -> Vector3<f64> {
+    let normal = Normal::new(0.0, sigma).expect("validated deviation");
+    Vector3::from_fn(|_, _| normal.sample(rng))
+}
+
+/// `exp(tilt about a horizontal axis) · exp(yaw about z)`.
+fn tilt_yaw(azimuth: f64, tilt: f64, yaw: f64) -> Rotation3<f64> {
+    so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt)) * so3::exp(&(Vector3::z() * yaw))
+}
+
+impl Simulator<'_> {
+    fn run(&mut self, progress: &mut dyn FnMut(usize)) -> Result<Session, SimError> {
+        let wanted = self.config.poses;
+        let max_attempts = match self.config.workspace.trajectory {
+            Trajectory::Random => 50 * wanted + 100,
+            Trajectory::Spiral => wanted,
+        };
+        let mut poses = Vec::with_capacity(wanted);
+        let mut truth = BTreeMap::new();
+        while poses.len() < wanted && self.summary.attempts < max_attempts {
+            // The first candidate is home: a level MP makes the natural reference pose.
+            let r = if self.summary.attempts == 0 {
+                Rotation3::identity()
+            } else {
+                self.candidate(self.summary.attempts, max_attempts)
+            };
+            self.summary.attempts += 1;
+            match self.accept(&r) {
+                Ok(joints) => {
+                    let pose = self.record(poses.len() as u64, &r, &joints);
+                    truth.insert(pose.id, r);
+                    poses.push(pose);
+                    progress(poses.len());
+                }
+                Err(Rejection::Unreachable) => self.summary.rejected_unreachable += 1,
+                Err(Rejection::Singular) => self.summary.rejected_singular += 1,
+                Err(Rejection::Collision) => self.summary.rejected_collision += 1,
+            }
+        }
+        let enough = match self.config.workspace.trajectory {
+            Trajectory::Random => poses.len() == wanted,
+            Trajectory::Spiral => poses.len() >= wanted.min(MIN_MARKERS),
+        };
+        if !enough || poses.is_empty() || poses[0].seen() < MIN_MARKERS {
+            return Err(SimError::TooFewPoses { found: poses.len(), wanted, attempts: self.summary.attempts });
+        }
+        self.summary.poses = poses.len();
+        self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();
+        let parameters = Parameters {
+            source: ParameterSource::Truth,
+            model: Some(self.model.urdf_path.display().to_string()),
+            legs: *self.spm.geometry(),
+            camera: Some(self.camera),
+            fit: None,
+        };
+        let description = self.config.description.clone().unwrap_or_else(|| {
+            format!(
+                "simulated by spmcal simulate (seed {}, {} poses, {} trajectory)",
+                self.config.seed,
+                poses.len(),
+                self.config.workspace.trajectory.name()
+            )
+        });
+        Ok(Session {
+            name: self.config.name.clone(),
+            description: Some(description),
+            model: self.model.urdf_path.clone(),
+            markers: self.model.markers.iter().map(|m| m.name.clone()).collect(),
+            reference_pose: 0,
+            poses,
+            truth: Some(Truth { parameters, orientations: truth }),
+        })
+    }
+
+    /// The `k`-th candidate orientation of `n`.
+    fn candidate(&mut self, k: usize, n: usize) -> Rotation3<f64> {
+        let w = &self.config.workspace;
+        let (max_tilt, max_yaw) = (w.max_tilt_deg.to_radians(), w.max_yaw_deg.to_radians());
+        match w.trajectory {
+            Trajectory::Random => {
+                // sqrt makes the tilt vectors uniform over the disc of radius max_tilt.
+                let tilt = max_tilt * self.rng.random::<f64>().sqrt();
+                let azimuth = self.rng.random_range(0.0..std::f64::consts::TAU);
+                let yaw = if max_yaw > 0.0 { self.rng.random_range(-max_yaw..=max_yaw) } else { 0.0 };
+                tilt_yaw(azimuth, tilt, yaw)
+            }
+            Trajectory::Spiral => {
+                let s = k as f64 / (n.max(2) - 1) as f64;
+                tilt_yaw(
+                    3.0 * std::f64::consts::TAU * s,
+                    max_tilt * s.sqrt(),
+                    max_yaw * (5.0 * std::f64::consts::TAU * s).sin(),
+                )
+            }
+        }
+    }
+
+    /// The true joint readings of a pose the workspace settings accept.
+    fn accept(&self, r: &Rotation3<f64>) -> Result<Vector3<f64>, Rejection> {
+        let joints = self.spm.ik(r).map_err(|_| Rejection::Unreachable)?;
+        let w = &self.config.workspace;
+        let conditioning = conditioning_index(&self.spm.jacobians(&joints, r).a);
+        let margins = self.spm.branch_margins(&joints, r);
+        if conditioning < w.min_conditioning || margins.max() > -w.min_branch_margin {
+            return Err(Rejection::Singular);
+        }
+        if self.scene.collision(&self.scene.body_rotations(&self.spm, &joints, r)).is_some() {
+            return Err(Rejection::Collision);
+        }
+        Ok(joints)
+    }
+
+    /// Encoder readings and camera measurements of an accepted pose.
+    fn record(&mut self, id: u64, r: &Rotation3<f64>, joints: &Vector3<f64>) -> SessionPose {
+        let step = std::f64::consts::TAU / self.config.encoders.counts_per_revolution as f64;
+        let noise = Normal::new(0.0, self.config.encoders.noise_deg.to_radians()).expect("validated deviation");
+        let readings = joints.map(|theta| ((theta + noise.sample(&mut self.rng)) / step).round() * step);
+        let rotations = self.scene.body_rotations(&self.spm, joints, r);
+        let cam = &self.config.camera;
+        let lens = lenses(&self.camera, cam.baseline_m);
+        let mut markers = Vec::with_capacity(self.model.markers.len());
+        for marker in &self.model.markers {
+            let at = if self.config.capture.sequential {
+                so3::exp(&random_rotation_vector(self.config.capture.motion_deg.to_radians(), &mut self.rng)) * r
+            } else {
+                *r
+            };
+            let point = at * marker.position;
+            if lens.iter().any(|l| self.scene.occluder(&rotations, &point, l, cam.marker_radius_m).is_some()) {
+                self.summary.markers_occluded += 1;
+                markers.push(None);
+                continue;
+            }
+            let m = measure(&point, &self.camera, cam, &mut self.rng);
+            self.summary.markers_seen += 1;
+            self.summary.outliers += usize::from(m.outlier);
+            markers.push(Some(m.position));
+        }
+        SessionPose { id, joints: readings, time_s: Some(id as f64 * self.config.capture.interval_s), markers, line: 0 }
+    }
+}
