@@ -100,3 +100,38 @@ pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
 pub fn yaml_key_line(text: &str, key: &str) -> Option<usize> {
     text.lines().position(|l| l.trim_start().trim_start_matches("- ").starts_with(&format!("{key}:"))).map(|i| i + 1)
 }
+
+/// `a/b/../c` → `a/c`, without touching the file system (for paths recorded in files).
+pub fn tidy_path(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.components().next_back(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tidy_path_removes_dot_segments_only_where_it_can() {
+        assert_eq!(tidy_path(Path::new("configs/../models/a.urdf")), Path::new("models/a.urdf"));
+        assert_eq!(tidy_path(Path::new("../../models/./a.urdf")), Path::new("../../models/a.urdf"));
+        assert_eq!(tidy_path(Path::new("/x/y/../../z")), Path::new("/z"));
+    }
+
+    #[test]
+    fn numbers_read_back_exactly() {
+        for x in [0.0, 1.0, -0.5, 1e-17, 123456789.123, 6.02e23, -2.5e-5, std::f64::consts::PI] {
+            assert_eq!(number(x).parse::<f64>().unwrap(), x, "{}", number(x));
+        }
+    }
+}

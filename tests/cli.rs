@@ -71,3 +71,35 @@ fn unreachable_orientation_names_the_pose() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("/nonexistent/params.yaml"), "{err}");
 }
+
+#[test]
+fn simulate_writes_a_loadable_session_and_a_json_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sim");
+    let args =
+        ["simulate", "--config", "configs/simulate_agile_wrist.yaml", "--poses", "25", "--seed", "3", "--name", "t"];
+    let run = spmcal(&[&args[..], &["--out", out.to_str().unwrap(), "--json"]].concat());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(summary["poses"], 25);
+    assert_eq!(summary["seed"], 3);
+    let attempts = summary["attempts"].as_u64().unwrap();
+    let rejected: u64 = ["rejected_unreachable", "rejected_singular", "rejected_collision"]
+        .iter()
+        .map(|k| summary[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(attempts, 25 + rejected);
+    let (session, _) = spmcal::dataset::Session::load(&out, None).unwrap();
+    assert_eq!((session.name.as_str(), session.poses.len()), ("t", 25));
+}
+
+#[test]
+fn shipped_datasets_load_with_their_truth() {
+    for (dir, poses) in [("datasets/agile_wrist_sim_20", 20), ("datasets/agile_wrist_sim_400", 400)] {
+        let (session, _) = spmcal::dataset::Session::load(std::path::Path::new(dir), None).unwrap();
+        assert_eq!(session.poses.len(), poses);
+        let truth = session.truth.expect("simulated sessions carry their truth");
+        assert_eq!(truth.orientations.len(), poses);
+        assert!(truth.parameters.camera.is_some());
+    }
+}

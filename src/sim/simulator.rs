@@ -140,7 +140,7 @@ impl Simulator<'_> {
         self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();
         let parameters = Parameters {
             source: ParameterSource::Truth,
-            model: Some(self.model.urdf_path.display().to_string()),
+            model: Some(crate::files::tidy_path(&self.model.urdf_path).display().to_string()),
             legs: *self.spm.geometry(),
             camera: Some(self.camera),
             fit: None,

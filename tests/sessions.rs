@@ -1,0 +1,84 @@
+//! Session folders: the corpus of bad sessions (each rejected with its expected message),
+//! warnings for poses the vision estimator must skip, and the write → read round trip.
+
+use std::path::Path;
+
+use spmcal::dataset::Session;
+use spmcal::model::RobotModel;
+use spmcal::sim::{SimConfig, simulate};
+
+#[test]
+fn every_bad_session_is_rejected_with_its_message() {
+    let corpus = Path::new("tests/data/bad_sessions");
+    let mut cases = 0;
+    for entry in std::fs::read_dir(corpus).unwrap() {
+        let dir = entry.unwrap().path();
+        let expected = std::fs::read_to_string(dir.join("expected.txt")).unwrap();
+        let expected = expected.trim();
+        let err = Session::load(&dir, None).expect_err(&format!("{} must be rejected", dir.display()));
+        let text = err.to_string();
+        assert!(text.contains(expected), "{}:\n  got      {text}\n  expected {expected}", dir.display());
+        assert!(text.contains(&dir.display().to_string()), "{text} does not name the session folder");
+        cases += 1;
+    }
+    assert!(cases >= 19, "only {cases} cases in the corpus");
+}
+
+#[test]
+fn poses_with_too_few_markers_are_kept_with_a_warning() {
+    let (session, warnings) = Session::load(Path::new("tests/data/session_with_blind_pose"), None).unwrap();
+    assert_eq!(session.poses.len(), 3);
+    let text: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(text.len(), 2, "{text:?}");
+    assert!(
+        text[0].ends_with("joints.csv:3: pose 1: 0 of 4 markers seen (fewer than 3): skipped by the vision estimator"),
+        "{}",
+        text[0]
+    );
+    assert!(text[1].contains("joints.csv:4: pose 2: 2 of 4 markers seen"), "{}", text[1]);
+    assert_eq!(session.poses[2].time_s, Some(1.0));
+}
+
+#[test]
+fn model_override_replaces_the_session_model() {
+    let dir = Path::new("tests/data/bad_sessions/no_model");
+    let (session, _) = Session::load(dir, Some(Path::new("models/agile_wrist.urdf"))).unwrap();
+    assert_eq!(session.model, Path::new("models/agile_wrist.urdf"));
+}
+
+#[test]
+fn write_then_read_gives_the_same_session() {
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    config.poses = 30;
+    config.capture.sequential = true;
+    config.camera.outlier_probability = 0.1;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("session");
+    session.write(&out).unwrap();
+    let (back, warnings) = Session::load(&out, None).unwrap();
+    assert!(warnings.is_empty() || warnings.iter().all(|w| w.message.contains("markers seen")));
+    assert_eq!(back.name, session.name);
+    assert_eq!(back.markers, session.markers);
+    assert_eq!(back.reference_pose, 0);
+    assert_eq!(back.model.canonicalize().unwrap(), session.model.canonicalize().unwrap());
+    // Numbers are written in their shortest round-trip form: equality is exact (the line each
+    // pose was read from is bookkeeping, not data).
+    let unlined: Vec<_> = back.poses.iter().cloned().map(|p| spmcal::dataset::SessionPose { line: 0, ..p }).collect();
+    assert!(unlined == session.poses, "the poses read back differ from those written");
+    assert_eq!(back.poses[3].line, 5);
+    let (t, tb) = (session.truth.as_ref().unwrap(), back.truth.as_ref().unwrap());
+    assert_eq!(t.orientations.len(), tb.orientations.len());
+    for (k, r) in &t.orientations {
+        assert!(spmcal::so3::geodesic_angle(r, &tb.orientations[k]) < 1e-15);
+    }
+    // The parameters file stores degrees: an ulp or two.
+    for (a, b) in t.parameters.legs.iter().zip(&tb.parameters.legs) {
+        assert!((a.alpha1 - b.alpha1).abs() < 1e-15 && (a.delta - b.delta).abs() < 1e-15 && (a.u - b.u).amax() == 0.0);
+    }
+    // Writing into a folder that holds something other than a session is refused.
+    std::fs::write(dir.path().join("notes.txt"), "mine").unwrap();
+    let err = back.write(dir.path()).unwrap_err().to_string();
+    assert!(err.contains("refusing to write"), "{err}");
+}

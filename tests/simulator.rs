@@ -1,0 +1,140 @@
+//! The simulator against the model: noise-free markers reproduce the joint readings, occlusion
+//! and collisions are detected, and a seed fixes every byte.
+
+use std::path::Path;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use spmcal::dataset::Session;
+use spmcal::model::{Body, RobotModel};
+use spmcal::sim::{Scene, SimConfig, simulate};
+use spmcal::so3;
+
+fn config() -> SimConfig {
+    SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap()
+}
+
+#[test]
+fn noise_free_markers_reproduce_the_joint_readings_to_quantisation() {
+    let mut config = config();
+    config.poses = 200;
+    config.camera.lateral_sigma_m = 0.0;
+    config.camera.depth_sigma_m = 0.0;
+    config.encoders.noise_deg = 0.0;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let truth = session.truth.as_ref().unwrap();
+    let spm = truth.parameters.spm().unwrap();
+    let camera = truth.parameters.camera.unwrap();
+    let step = std::f64::consts::TAU / config.encoders.counts_per_revolution as f64;
+    for pose in &session.poses {
+        // Markers back into B through the true registration, then the rotation that best maps
+        // the model's marker positions onto them (Kabsch, via the nearest rotation).
+        let mut cross = Matrix3::zeros();
+        for (m, seen) in model.markers.iter().zip(&pose.markers) {
+            if let Some(c) = seen {
+                let b = camera.rotation.inverse() * (c - camera.translation);
+                cross += b * m.position.transpose();
+            }
+        }
+        let r = so3::nearest_rotation(&cross).unwrap();
+        assert!(so3::geodesic_angle(&r, &truth.orientations[&pose.id]) < 1e-12);
+        let joints = spm.ik(&r).unwrap();
+        let worst = (joints - pose.joints).amax();
+        // Rounding to the nearest count moves a reading by at most half a count.
+        assert!(worst <= step / 2.0 + 1e-12, "pose {}: {worst:e} rad off, half a count is {:e}", pose.id, step / 2.0);
+    }
+}
+
+#[test]
+fn a_marker_behind_a_link_is_occluded() {
+    let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
+    let scene = Scene::new(&model);
+    let home = scene.body_rotations(&model.spm, &model.spm.home_joints(), &Rotation3::identity());
+    // The middle of leg 1's distal arc (radius 0.16 m from z1 to v0_1): a point inside the
+    // sphere seen from a point outside it along the same direction is hidden by that link.
+    let g = model.spm.geometry()[0];
+    let mid = (g.z + g.v0).normalize();
+    let occluder = scene.occluder(&home, &(mid * 0.10), &(mid * 1.0), 0.006);
+    assert_eq!(occluder, Some(Body::Distal(0)));
+    // The MP markers seen from below the base are hidden; from the camera above they are not.
+    for m in &model.markers[..3] {
+        assert!(scene.occluder(&home, &m.position, &Vector3::new(0.0, 0.0, -1.0), 0.006).is_some());
+        assert_eq!(scene.occluder(&home, &m.position, &Vector3::new(0.06, 0.0, 0.8), 0.006), None);
+    }
+}
+
+#[test]
+fn colliding_poses_are_detected_and_never_written() {
+    let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
+    let scene = Scene::new(&model);
+    let spm = &model.spm;
+    let rotations = |r: &Rotation3<f64>| scene.body_rotations(spm, &spm.ik(r).unwrap(), r);
+    assert_eq!(scene.collision(&rotations(&Rotation3::identity())), None, "home must be collision-free");
+    // 30° of tilt with 30° of yaw: neighbouring links meet (a corner of the workspace).
+    let corner = so3::exp(&(Vector3::x() * 30f64.to_radians())) * so3::exp(&(Vector3::z() * 30f64.to_radians()));
+    assert!(scene.collision(&rotations(&corner)).is_some());
+
+    let mut config = config();
+    config.poses = 150;
+    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    assert!(summary.rejected_collision > 0, "the ±30°/±30° workspace has colliding corners");
+    let truth = session.truth.unwrap();
+    let true_spm = truth.parameters.spm().unwrap();
+    for (id, r) in &truth.orientations {
+        let joints = true_spm.ik(r).unwrap();
+        assert_eq!(scene.collision(&scene.body_rotations(&true_spm, &joints, r)), None, "pose {id} collides");
+    }
+}
+
+#[test]
+fn the_same_seed_gives_identical_files_and_another_seed_does_not() {
+    let mut config = config();
+    config.poses = 40;
+    config.capture.sequential = true;
+    config.camera.outlier_probability = 0.05;
+    let model = RobotModel::load(&config.model).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |seed: u64, name: &str| {
+        let mut c = config.clone();
+        c.seed = seed;
+        let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+        session.write(&dir.path().join(name)).unwrap();
+    };
+    write(7, "a");
+    write(7, "b");
+    write(8, "c");
+    for file in ["session.yaml", "joints.csv", "markers.csv", "truth.yaml", "truth_orientations.csv"] {
+        let read = |d: &str| std::fs::read(dir.path().join(d).join(file)).unwrap();
+        assert_eq!(read("a"), read("b"), "{file} differs for the same seed");
+        if file != "session.yaml" {
+            assert_ne!(read("a"), read("c"), "{file} is the same for another seed");
+        }
+    }
+    let (session, _) = Session::load(&dir.path().join("a"), None).unwrap();
+    assert_eq!(session.poses.len(), 40);
+}
+
+#[test]
+fn stereo_noise_grows_with_the_square_of_the_distance() {
+    use rand::SeedableRng;
+    let config = config();
+    let registration = spmcal::sim::looking_down(0.8);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let spread_at = |height: f64, rng: &mut rand_chacha::ChaCha8Rng| {
+        // A point `height` below the camera: depth error is along camera z.
+        let point = Vector3::new(0.0, 0.0, 0.8 - height);
+        let n = 20_000;
+        let var: f64 = (0..n)
+            .map(|_| {
+                let m = spmcal::sim::measure(&point, &registration, &config.camera, rng);
+                (m.position.z - height).powi(2)
+            })
+            .sum::<f64>()
+            / n as f64;
+        var.sqrt()
+    };
+    let (near, far) = (spread_at(0.8, &mut rng), spread_at(1.6, &mut rng));
+    // σ(1.6 m) / σ(0.8 m) = 4; with 20,000 samples each estimate is within ~1.5% (3σ).
+    assert!((far / near - 4.0).abs() < 0.15, "ratio {}", far / near);
+    assert!((near - config.camera.depth_sigma_m).abs() < 0.03 * config.camera.depth_sigma_m);
+}
