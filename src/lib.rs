@@ -6,6 +6,8 @@
 pub mod dataset;
 pub mod files;
 pub mod model;
+pub mod polar;
 pub mod sim;
 pub mod so3;
 pub mod table;
+pub mod vision;

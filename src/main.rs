@@ -6,11 +6,13 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use serde_json::json;
+use spmcal::dataset::Session;
 use spmcal::dataset::{JointReading, OrientationRecord, read_joints, read_orientations, write_orientations};
 use spmcal::files::{number, write_atomic};
 use spmcal::model::{Parameters, RobotModel, Spm};
 use spmcal::sim::SimConfig;
 use spmcal::so3;
+use spmcal::vision::{Method, SessionEstimate, Stats, estimate_session};
 
 /// Calibration of spherical parallel manipulators (the Agile Wrist) from joints and camera markers.
 #[derive(Parser)]
@@ -28,6 +30,8 @@ enum Command {
     Fda(FdaArgs),
     /// Simulate a session with ground truth (true geometry, stereo camera, occlusion, collisions).
     Simulate(SimulateArgs),
+    /// Estimate the MP orientation of every pose of a session from its markers.
+    Estimate(EstimateArgs),
 }
 
 /// Which manipulator geometry to use.
@@ -114,6 +118,31 @@ struct SimulateArgs {
     json: bool,
 }
 
+#[derive(Args)]
+struct EstimateArgs {
+    /// The session folder.
+    #[arg(long)]
+    dataset: PathBuf,
+    /// `paper` (least squares + polar decomposition) or `kabsch` (optimal rotation).
+    #[arg(long, value_enum, default_value = "paper")]
+    method: MethodArg,
+    /// Write `pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m` here (atomically) instead of standard output.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// The URDF model (overrides the session's).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum MethodArg {
+    Paper,
+    Kabsch,
+}
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
@@ -129,6 +158,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Ik(args) => ik(args),
         Command::Fda(args) => fda(args),
         Command::Simulate(args) => simulate(args),
+        Command::Estimate(args) => estimate(args),
     }
 }
 
@@ -274,4 +304,100 @@ fn simulate(args: SimulateArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Load a session, printing its warnings on standard error.
+fn load_session(dataset: &Path, model: Option<&Path>) -> Result<Session> {
+    let (session, warnings) = Session::load(dataset, model)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(session)
+}
+
+fn estimate(args: EstimateArgs) -> Result<()> {
+    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let method = match args.method {
+        MethodArg::Paper => Method::Paper,
+        MethodArg::Kabsch => Method::Kabsch,
+    };
+    let result = estimate_session(&session, method)?;
+    let mut table = String::from("pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m\n");
+    for (pose, e) in &result.poses {
+        let q = so3::to_wxyz(&e.rotation);
+        let t = e.translation;
+        let angle = so3::log(&e.rotation).norm().to_degrees();
+        let fields = [q[0], q[1], q[2], q[3], angle, e.error, t.x, t.y, t.z].map(number);
+        table.push_str(&format!("{pose},{}\n", fields.join(",")));
+    }
+    let errors: Vec<f64> =
+        result.poses.iter().filter(|(p, _)| *p != result.reference_pose).map(|(_, e)| e.error).collect();
+    let iterations: Vec<f64> = result.poses.iter().map(|(_, e)| e.polar_iterations as f64).collect();
+    let difference_deg: Vec<f64> = result.method_difference.iter().map(|a| a.to_degrees()).collect();
+    let redundant = result.poses.iter().filter(|(_, e)| e.redundant).count();
+    let summary = json!({
+        "command": "estimate",
+        "dataset": args.dataset.display().to_string(),
+        "method": format!("{method:?}").to_lowercase(),
+        "reference_pose": result.reference_pose,
+        "poses_estimated": result.poses.len(),
+        "poses_without_redundancy": result.poses.len() - redundant,
+        "skipped": result.skipped.iter().map(|s| json!({"pose": s.pose, "reason": s.reason.to_string()})).collect::<Vec<_>>(),
+        "e": Stats::of(&errors),
+        "polar_iterations": Stats::of(&iterations),
+        "paper_vs_kabsch_deg": Stats::of(&difference_deg),
+        "centre_of_rotation": result.centre,
+    });
+    match (&args.out, args.json) {
+        (Some(out), _) => write_atomic(out, table.as_bytes())?,
+        (None, false) => print!("{table}"),
+        (None, true) => {}
+    }
+    if args.json {
+        println!("{summary}");
+        return Ok(());
+    }
+    // The table may be on standard output: the human summary goes to standard error then.
+    let report = estimate_report(&result, &errors, &difference_deg, redundant);
+    if args.out.is_some() {
+        print!("{report}")
+    } else {
+        eprint!("{report}")
+    }
+    Ok(())
+}
+
+fn estimate_report(result: &SessionEstimate, errors: &[f64], difference_deg: &[f64], redundant: usize) -> String {
+    let mut r = format!(
+        "{} poses estimated against pose {} ({} without redundancy), {} skipped\n",
+        result.poses.len(),
+        result.reference_pose,
+        result.poses.len() - redundant,
+        result.skipped.len()
+    );
+    const LISTED: usize = 10;
+    for s in result.skipped.iter().take(LISTED) {
+        r.push_str(&format!("  skipped {s}\n"));
+    }
+    if result.skipped.len() > LISTED {
+        r.push_str(&format!("  … and {} more (all are listed by --json)\n", result.skipped.len() - LISTED));
+    }
+    if let Some(e) = Stats::of(errors) {
+        r.push_str(&format!("e_j: mean {:.4}, median {:.4}, max {:.4}\n", e.mean, e.median, e.max));
+    }
+    if let Some(d) = Stats::of(difference_deg) {
+        r.push_str(&format!("paper vs kabsch: mean {:.4}°, max {:.4}°\n", d.mean, d.max));
+    }
+    match &result.centre {
+        Some(c) => r.push_str(&format!(
+            "centre of rotation (camera frame): [{:.4}, {:.4}, {:.4}] m, residual RMS {:.2} mm, max {:.2} mm\n",
+            c.position_m[0],
+            c.position_m[1],
+            c.position_m[2],
+            c.rms_residual_m * 1e3,
+            c.max_residual_m * 1e3
+        )),
+        None => r.push_str("centre of rotation: undetermined (rotations too few or all about one axis)\n"),
+    }
+    r
 }

@@ -1,0 +1,210 @@
+//! Orientation of the MP in one pose relative to the reference pose, from marker positions
+//! (He, Angeles & Kövecses 2015, §IV), and the optimal alternative (Kabsch).
+//!
+//! With `P_j` the matrix of marker positions about their centroid (eqs. 1–3), the putative
+//! rotation solves `P_0ᵀ Q̃ᵀ = P_jᵀ` in least squares (eqs. 5–7). It is computed from a QR
+//! factorisation of `P_0ᵀ`, made once per reference and set of markers and reused for every pose
+//! that sees the same markers, never by forming `(P_0 P_0ᵀ)⁻¹`. Its polar decomposition
+//! `Q̃ = Q T` (eq. 8) gives the rotation `Q`; `T = Qᵀ Q̃` (eq. 9) holds the measurement error,
+//! summarised as `e = ‖T − 1‖_F / 3` (eqs. 11–12, see [`orthogonality_error`]).
+//!
+//! Markers on a plane (three markers, or four in a plane) leave `P_0` of rank 2 and the least
+//! squares undetermined; a virtual marker along the plane's normal (Newell's method, scaled to the
+//! markers' RMS radius) is then added to both poses, which determines `Q̃` without redundancy.
+
+use nalgebra::{DMatrix, Matrix3, Rotation3, SymmetricEigen, Vector3};
+
+use crate::polar::polar;
+use crate::so3;
+
+/// Which rotation estimate to return.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Least-squares putative rotation, then its polar decomposition (the paper).
+    #[default]
+    Paper,
+    /// The rotation minimising the squared marker residuals (orthogonal Procrustes, via the SVD).
+    Kabsch,
+}
+
+/// Smallest ratio of the second to the largest singular value of the centred markers: below it
+/// they lie on a line (less than 1 µm of width per millimetre of length) and the rotation about
+/// that line cannot be measured.
+pub const COLLINEAR_RATIO: f64 = 1e-3;
+/// Below this ratio of the third to the largest singular value the markers count as planar and
+/// get the virtual normal marker (a 4th marker 5% of the triangle's size off the plane adds
+/// little but noise in the normal direction).
+pub const PLANAR_RATIO: f64 = 0.05;
+/// RMS distance (m) of the markers from their centroid below which they coincide.
+pub const COINCIDENT_M: f64 = 1e-6;
+
+/// Why markers cannot give an orientation (the pose is named by the caller).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MarkerError {
+    #[error("{seen} markers seen in both this pose and the reference; at least 3 are needed")]
+    TooFew { seen: usize },
+    #[error("the markers coincide (RMS radius {radius_m:.2e} m)")]
+    Coincident { radius_m: f64 },
+    #[error(
+        "the markers are collinear (singular value ratio {ratio:.2e}): the rotation about their line is unobservable"
+    )]
+    Collinear { ratio: f64 },
+    #[error(
+        "the putative rotation has determinant {det:.4} ≤ 0: the markers are mirrored (swapped labels?), not rotated"
+    )]
+    Reflection { det: f64 },
+    #[error("the putative rotation is singular: {0}")]
+    Singular(crate::polar::PolarError),
+}
+
+/// The estimate for one pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseEstimate {
+    /// `Q_j`: rotation from the reference pose to this one, in the camera frame.
+    pub rotation: Rotation3<f64>,
+    /// `Q̃_j`, the least-squares putative rotation (eq. 7).
+    pub putative: Matrix3<f64>,
+    /// `T_j = Q_jᵀ Q̃_j` (eq. 9), symmetric positive definite.
+    pub stretch: Matrix3<f64>,
+    /// `e_j` (eq. 12).
+    pub error: f64,
+    /// `t_j = c_j − c_0` (eq. 10), metres, camera frame.
+    pub translation: Vector3<f64>,
+    /// Centroid `c_j` of the markers used, camera frame.
+    pub centroid: Vector3<f64>,
+    /// Centroid `c_0` of the same markers in the reference pose.
+    pub reference_centroid: Vector3<f64>,
+    /// Markers used (seen in both poses).
+    pub markers_used: usize,
+    /// False for planar marker sets (three markers): no redundancy filters the noise.
+    pub redundant: bool,
+    /// Iterations of Higham's polar decomposition.
+    pub polar_iterations: u32,
+}
+
+/// `e = ‖T − 1‖_F / 3`. The paper's footnote defines the normalised Frobenius norm as
+/// `(1/n) tr(A Aᵀ)` and calls `1` the 4×4 identity, but `T` is 3×3 and its printed numbers follow
+/// `(1/n) √tr(E Eᵀ)` with n = 3: eq. (13) gives ‖E‖_F = 0.0831 and Table I prints e₁₄ = 0.0277 =
+/// 0.0831 / 3 (the footnote's formula would give 0.0023). We follow the numbers.
+pub fn orthogonality_error(t: &Matrix3<f64>) -> f64 {
+    (t - Matrix3::identity()).norm() / 3.0
+}
+
+/// Centroid and positions about it.
+fn centred(points: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
+    let c = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    (c, points.iter().map(|p| p - c).collect())
+}
+
+/// The reference configuration of a set of markers, factorised for the least squares.
+#[derive(Debug, Clone)]
+pub struct Reference {
+    centroid: Vector3<f64>,
+    /// Centred reference markers (with the virtual normal last when planar).
+    columns: Vec<Vector3<f64>>,
+    /// Rows of the thin Q factor of `P_0ᵀ`.
+    q_rows: Vec<Vector3<f64>>,
+    /// The R factor of `P_0ᵀ`.
+    r: Matrix3<f64>,
+    planar: bool,
+    scale: f64,
+}
+
+impl Reference {
+    /// Factorise the reference positions of the markers to be used (in a fixed order).
+    pub fn new(points: &[Vector3<f64>]) -> Result<Self, MarkerError> {
+        if points.len() < 3 {
+            return Err(MarkerError::TooFew { seen: points.len() });
+        }
+        let (centroid, mut columns) = centred(points);
+        let scatter: Matrix3<f64> = columns.iter().map(|p| p * p.transpose()).sum();
+        let mut sigma = SymmetricEigen::new(scatter).eigenvalues.map(|l| l.max(0.0).sqrt());
+        sigma.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
+        let scale = (sigma.norm_squared() / points.len() as f64).sqrt();
+        if scale < COINCIDENT_M {
+            return Err(MarkerError::Coincident { radius_m: scale });
+        }
+        if sigma[1] < COLLINEAR_RATIO * sigma[0] {
+            return Err(MarkerError::Collinear { ratio: sigma[1] / sigma[0] });
+        }
+        let planar = sigma[2] < PLANAR_RATIO * sigma[0];
+        if planar {
+            columns.push(newell(&columns, &Vector3::zeros()) * scale);
+        }
+        let p0t = DMatrix::from_fn(columns.len(), 3, |i, k| columns[i][k]);
+        let qr = p0t.qr();
+        let q = qr.q();
+        let r = qr.r();
+        Ok(Reference {
+            centroid,
+            q_rows: (0..columns.len()).map(|i| Vector3::new(q[(i, 0)], q[(i, 1)], q[(i, 2)])).collect(),
+            r: Matrix3::from_fn(|i, k| r[(i, k)]),
+            columns,
+            planar,
+            scale,
+        })
+    }
+
+    /// Number of real markers.
+    pub fn markers(&self) -> usize {
+        self.columns.len() - usize::from(self.planar)
+    }
+
+    /// Estimate the rotation from this reference to `points` (the same markers, same order).
+    /// No heap allocation: the per-pose work is a few 3×3 products.
+    pub fn estimate(&self, points: &[Vector3<f64>], method: Method) -> Result<PoseEstimate, MarkerError> {
+        debug_assert_eq!(points.len(), self.markers());
+        let n = points.len() as f64;
+        let centroid = points.iter().sum::<Vector3<f64>>() / n;
+        // Qtᵀ P_jᵀ = Σ_i q_i (p_i − c)ᵀ; with the virtual normal of this pose when planar.
+        let mut m: Matrix3<f64> = points.iter().zip(&self.q_rows).map(|(p, q)| q * (p - centroid).transpose()).sum();
+        if self.planar {
+            let normal = newell(points, &centroid) * self.scale;
+            m += self.q_rows[self.q_rows.len() - 1] * normal.transpose();
+        }
+        let x = self.r.solve_upper_triangular(&m).ok_or(MarkerError::Collinear { ratio: 0.0 })?;
+        let putative = x.transpose();
+        let det = putative.determinant();
+        if det <= 0.0 {
+            return Err(MarkerError::Reflection { det });
+        }
+        let decomposition = polar(&putative).map_err(MarkerError::Singular)?;
+        let rotation = match method {
+            Method::Paper => Rotation3::from_matrix_unchecked(decomposition.q),
+            Method::Kabsch => self.kabsch(points, &centroid)?,
+        };
+        Ok(PoseEstimate {
+            rotation,
+            putative,
+            stretch: decomposition.t,
+            error: orthogonality_error(&decomposition.t),
+            translation: centroid - self.centroid,
+            centroid,
+            reference_centroid: self.centroid,
+            markers_used: points.len(),
+            redundant: !self.planar,
+            polar_iterations: decomposition.iterations,
+        })
+    }
+
+    /// The rotation minimising `Σ |p_i − c − Q (p0_i − c0)|²`: the nearest rotation to
+    /// `Σ (p_i − c)(p0_i − c0)ᵀ` (Kabsch; the SVD's sign correction keeps it proper). Planar sets
+    /// include the virtual normal pair, without which the sum has rank 2.
+    fn kabsch(&self, points: &[Vector3<f64>], centroid: &Vector3<f64>) -> Result<Rotation3<f64>, MarkerError> {
+        let mut h: Matrix3<f64> = points.iter().zip(&self.columns).map(|(p, p0)| (p - centroid) * p0.transpose()).sum();
+        if self.planar {
+            h += newell(points, centroid) * self.scale * self.columns[self.columns.len() - 1].transpose();
+        }
+        so3::nearest_rotation(&h).ok_or(MarkerError::Collinear { ratio: 0.0 })
+    }
+}
+
+/// Unit Newell normal of the points about `centroid`, in order.
+fn newell(points: &[Vector3<f64>], centroid: &Vector3<f64>) -> Vector3<f64> {
+    let mut n = Vector3::zeros();
+    for i in 0..points.len() {
+        n += (points[i] - centroid).cross(&(points[(i + 1) % points.len()] - centroid));
+    }
+    n.normalize()
+}

@@ -1,0 +1,104 @@
+//! The vision estimate of a whole session: every pose against the reference pose, markers
+//! matched by name, poses that cannot be estimated listed with their reason.
+
+use std::collections::HashMap;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use super::centre::{CentreOfRotation, centre_of_rotation};
+use super::pose::{MarkerError, Method, PoseEstimate, Reference};
+use crate::dataset::Session;
+use crate::so3;
+
+/// A pose the estimator could not use, and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("pose {pose}: {reason}")]
+pub struct VisionError {
+    pub pose: u64,
+    pub reason: MarkerError,
+}
+
+/// Statistics of a column of numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Stats {
+    pub mean: f64,
+    pub median: f64,
+    pub max: f64,
+}
+
+impl Stats {
+    pub fn of(values: &[f64]) -> Option<Stats> {
+        if values.is_empty() {
+            return None;
+        }
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let mid = sorted.len() / 2;
+        let median = if sorted.len().is_multiple_of(2) { (sorted[mid - 1] + sorted[mid]) / 2.0 } else { sorted[mid] };
+        Some(Stats { mean: values.iter().sum::<f64>() / values.len() as f64, median, max: sorted[sorted.len() - 1] })
+    }
+}
+
+/// The estimates of a session.
+#[derive(Debug, Clone)]
+pub struct SessionEstimate {
+    pub method: Method,
+    pub reference_pose: u64,
+    /// `(pose, estimate)` in session order; the reference pose is included (Q = I).
+    pub poses: Vec<(u64, PoseEstimate)>,
+    /// Angle (rad) between the paper's and Kabsch's rotation, per estimated pose.
+    pub method_difference: Vec<f64>,
+    pub skipped: Vec<VisionError>,
+    pub centre: Option<CentreOfRotation>,
+}
+
+/// Estimate every pose of `session` against its reference pose. A reference pose whose markers
+/// are degenerate is an error; any other pose that fails is listed in `skipped`.
+pub fn estimate_session(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
+    let reference = session.reference();
+    let mut factors: HashMap<Vec<usize>, Reference> = HashMap::new();
+    let mut poses = Vec::with_capacity(session.poses.len());
+    let mut method_difference = Vec::with_capacity(session.poses.len());
+    let mut skipped = Vec::new();
+    let mut points: Vec<Vector3<f64>> = Vec::with_capacity(session.markers.len());
+    for pose in &session.poses {
+        let used: Vec<usize> = (0..session.markers.len())
+            .filter(|&k| pose.markers[k].is_some() && reference.markers[k].is_some())
+            .collect();
+        let fail = |reason| VisionError { pose: pose.id, reason };
+        let factor = match factors.get(&used) {
+            Some(f) => f,
+            None => {
+                let reference_points: Vec<_> = used.iter().map(|&k| reference.markers[k].expect("seen")).collect();
+                match Reference::new(&reference_points) {
+                    Ok(f) => factors.entry(used.clone()).or_insert(f),
+                    Err(reason) if pose.id == reference.id => return Err(fail(reason)),
+                    Err(reason) => {
+                        skipped.push(fail(reason));
+                        continue;
+                    }
+                }
+            }
+        };
+        points.clear();
+        points.extend(used.iter().map(|&k| pose.markers[k].expect("seen")));
+        match (factor.estimate(&points, Method::Paper), factor.estimate(&points, Method::Kabsch)) {
+            (Ok(paper), Ok(kabsch)) => {
+                method_difference.push(so3::geodesic_angle(&paper.rotation, &kabsch.rotation));
+                poses.push((pose.id, if method == Method::Paper { paper } else { kabsch }));
+            }
+            (Err(reason), _) | (_, Err(reason)) if pose.id == reference.id => return Err(fail(reason)),
+            (Err(reason), _) | (_, Err(reason)) => skipped.push(fail(reason)),
+        }
+    }
+    let estimates: Vec<PoseEstimate> = poses.iter().map(|(_, e)| *e).collect();
+    Ok(SessionEstimate {
+        method,
+        reference_pose: reference.id,
+        centre: centre_of_rotation(&estimates),
+        poses,
+        method_difference,
+        skipped,
+    })
+}
