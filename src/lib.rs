@@ -3,6 +3,8 @@
 //!
 //! Data flows one way: dataset → vision → calib (uses model) → compare / record.
 
+pub mod calib;
+pub mod compare;
 pub mod dataset;
 pub mod files;
 pub mod model;

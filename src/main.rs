@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use serde_json::json;
+use spmcal::calib::{CalibConfig, CalibrationReport, ErrorSummary};
 use spmcal::dataset::Session;
 use spmcal::dataset::{JointReading, OrientationRecord, read_joints, read_orientations, write_orientations};
 use spmcal::files::{number, write_atomic};
@@ -32,6 +33,10 @@ enum Command {
     Simulate(SimulateArgs),
     /// Estimate the MP orientation of every pose of a session from its markers.
     Estimate(EstimateArgs),
+    /// Identify the link and misalignment parameters from a session; write a parameters file.
+    Calibrate(CalibrateArgs),
+    /// Compare FDA-predicted with vision-measured orientations, nominal and calibrated.
+    Compare(CompareArgs),
 }
 
 /// Which manipulator geometry to use.
@@ -137,6 +142,44 @@ struct EstimateArgs {
     json: bool,
 }
 
+#[derive(Args)]
+struct CalibrateArgs {
+    /// The session folder.
+    #[arg(long)]
+    dataset: PathBuf,
+    /// The URDF model (overrides the session's).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Calibration settings (default: the built-in values, as in configs/calibrate.yaml).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// The calibrated parameters file to write (atomically).
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// The session folder.
+    #[arg(long)]
+    dataset: PathBuf,
+    /// A parameters file (e.g. calibrated) to compare beside the nominal model.
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// The URDF model (overrides the session's).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Vision estimator.
+    #[arg(long, value_enum, default_value = "kabsch")]
+    method: MethodArg,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    json: bool,
+}
+
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum MethodArg {
     Paper,
@@ -159,6 +202,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Fda(args) => fda(args),
         Command::Simulate(args) => simulate(args),
         Command::Estimate(args) => estimate(args),
+        Command::Calibrate(args) => calibrate(args),
+        Command::Compare(args) => compare(args),
     }
 }
 
@@ -317,10 +362,7 @@ fn load_session(dataset: &Path, model: Option<&Path>) -> Result<Session> {
 
 fn estimate(args: EstimateArgs) -> Result<()> {
     let session = load_session(&args.dataset, args.model.as_deref())?;
-    let method = match args.method {
-        MethodArg::Paper => Method::Paper,
-        MethodArg::Kabsch => Method::Kabsch,
-    };
+    let method: Method = args.method.into();
     let result = estimate_session(&session, method)?;
     let mut table = String::from("pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m\n");
     for (pose, e) in &result.poses {
@@ -400,4 +442,155 @@ fn estimate_report(result: &SessionEstimate, errors: &[f64], difference_deg: &[f
         None => r.push_str("centre of rotation: undetermined (rotations too few or all about one axis)\n"),
     }
     r
+}
+
+impl From<MethodArg> for Method {
+    fn from(m: MethodArg) -> Method {
+        match m {
+            MethodArg::Paper => Method::Paper,
+            MethodArg::Kabsch => Method::Kabsch,
+        }
+    }
+}
+
+fn calibrate(args: CalibrateArgs) -> Result<()> {
+    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let model = RobotModel::load(&session.model)?;
+    let config = match &args.config {
+        Some(path) => CalibConfig::read(path)?,
+        None => CalibConfig::default(),
+    };
+    let spinner = indicatif::ProgressBar::new_spinner();
+    let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |it| {
+        spinner.set_message(format!("iteration {}: RMS {:.4}°, step {:.2e} rad", it.iteration, it.rms_deg, it.step));
+        spinner.tick();
+    })?;
+    spinner.finish_and_clear();
+    calibration.parameters.write(&args.out)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&calibration.report)?);
+    } else {
+        print!("{}", calibration_report(&calibration.report, &args.out));
+    }
+    Ok(())
+}
+
+fn calibration_report(r: &CalibrationReport, out: &Path) -> String {
+    let mut s = format!(
+        "{}: {} poses, {} fitted, {} held out, {} excluded; vision {:?}, loss {:?}\n",
+        r.session,
+        r.poses,
+        r.fit_poses,
+        r.held_out_poses,
+        r.excluded.len(),
+        r.vision_method,
+        r.loss
+    );
+    for e in r.excluded.iter().take(10) {
+        s.push_str(&format!("  excluded {e}\n"));
+    }
+    s.push_str("FDA vs vision (deg)          RMS      median   max\n");
+    let line = |label: &str, e: &ErrorSummary| {
+        format!("  {label:<26} {:8.4} {:8.4} {:8.4}\n", e.rms_deg, e.median_deg, e.max_deg)
+    };
+    s.push_str(&line("nominal, fitted poses", &r.before.fit));
+    s.push_str(&line("calibrated, fitted poses", &r.after.fit));
+    if let (Some(b), Some(a)) = (&r.before.held_out, &r.after.held_out) {
+        s.push_str(&line("nominal, held out", b));
+        s.push_str(&line("calibrated, held out", a));
+    }
+    let converged = r.iterations.last().map_or(0, |l| l.iteration);
+    s.push_str(&format!("converged in {converged} iterations\n"));
+    s.push_str(&format!(
+        "identifiability: {} of {} directions, condition number {:.3e}\n",
+        r.identifiability.rank, r.identifiability.parameters, r.identifiability.condition
+    ));
+    for d in &r.identifiability.weakest {
+        s.push_str(&format!("  weak: {}\n", d.describe()));
+    }
+    for d in &r.regularised {
+        s.push_str(&format!("  REGULARISED (not identifiable, held at its start): {d}\n"));
+    }
+    s.push_str("parameter                    change (deg)   std error (deg)\n");
+    for p in &r.parameters {
+        match p.std_error_deg {
+            Some(se) => s.push_str(&format!("  {:<26} {:+12.5} {:14.5}\n", p.name, p.change_deg, se)),
+            None => s.push_str(&format!("  {:<26} {:+12.5}         frozen\n", p.name, p.change_deg)),
+        }
+    }
+    for c in r.high_correlations.iter().take(5) {
+        s.push_str(&format!("  correlated: {} ~ {} (rho {:+.3})\n", c.a, c.b, c.rho));
+    }
+    if let Some(u) = &r.orientation_uncertainty_deg {
+        s.push_str(&format!(
+            "predicted orientation uncertainty (1 sigma): mean {:.4} deg, max {:.4} deg\n",
+            u.mean, u.max
+        ));
+    }
+    let t = r.camera_translation_m;
+    let se = r.camera_translation_std_error_m;
+    s.push_str(&format!(
+        "camera translation t_CB: [{:.4}, {:.4}, {:.4}] m (± [{:.4}, {:.4}, {:.4}] mm)\n",
+        t[0],
+        t[1],
+        t[2],
+        se[0] * 1e3,
+        se[1] * 1e3,
+        se[2] * 1e3
+    ));
+    s.push_str(&format!(
+        "outlier poses: {}\n",
+        r.outliers.iter().map(|o| format!("{} ({:.3} deg)", o.pose, o.residual_deg)).collect::<Vec<_>>().join(", ")
+    ));
+    s.push_str(&format!("wrote {}\n", out.display()));
+    s
+}
+
+fn compare(args: CompareArgs) -> Result<()> {
+    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let model = RobotModel::load(&session.model)?;
+    let mut sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None))];
+    if let Some(path) = &args.params {
+        let params = Parameters::read(path)?;
+        let label = format!("{:?}", params.source).to_lowercase();
+        sets.push((label, params));
+    }
+    let result = spmcal::compare::compare(&session, &sets, args.method.into())?;
+    if args.json {
+        let sets: Vec<_> = result
+            .iter()
+            .map(|c| json!({"label": c.label, "registration": c.registration, "rms_deg": c.rms_deg, "median_deg": c.median_deg,
+                "max_deg": c.max_deg, "poses": c.per_pose.len(), "excluded": c.excluded,
+                "per_pose_deg": c.per_pose.iter().map(|(p, a)| json!({"pose": p, "angle_deg": a})).collect::<Vec<_>>()}))
+            .collect();
+        println!("{}", json!({"command": "compare", "dataset": args.dataset.display().to_string(), "sets": sets}));
+        return Ok(());
+    }
+    let mut table = String::from("pose");
+    for c in &result {
+        table.push_str(&format!(",{}_deg", c.label));
+    }
+    table.push('\n');
+    for (k, (pose, _)) in result[0].per_pose.iter().enumerate() {
+        table.push_str(&pose.to_string());
+        for c in &result {
+            let value = c.per_pose.iter().find(|(p, _)| p == pose).map_or(String::new(), |(_, a)| format!("{a:.5}"));
+            let _ = k;
+            table.push_str(&format!(",{value}"));
+        }
+        table.push('\n');
+    }
+    print!("{table}");
+    for c in &result {
+        eprintln!(
+            "{:<11} RMS {:.4}°, median {:.4}°, max {:.4}° over {} poses (registration: {})",
+            c.label,
+            c.rms_deg,
+            c.median_deg,
+            c.max_deg,
+            c.per_pose.len(),
+            c.registration
+        );
+    }
+    Ok(())
 }

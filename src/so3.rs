@@ -32,6 +32,31 @@ pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
     v * (angle / s)
 }
 
+/// Left Jacobian of SO(3): `exp(φ + dφ) = exp(J_l(φ) dφ) exp(φ)` to first order.
+pub fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let theta = phi.norm();
+    let k = skew(phi);
+    // Series below 1e-4 rad: the closed forms lose precision to cancellation there.
+    let (a, b) = if theta < 1e-4 {
+        (0.5 - theta * theta / 24.0, 1.0 / 6.0 - theta * theta / 120.0)
+    } else {
+        ((1.0 - theta.cos()) / (theta * theta), (theta - theta.sin()) / (theta * theta * theta))
+    };
+    Matrix3::identity() + k * a + k * k * b
+}
+
+/// Inverse of the left Jacobian: `log(exp(ε) exp(φ)) = φ + J_l⁻¹(φ) ε` to first order.
+pub fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
+    let theta = phi.norm();
+    let k = skew(phi);
+    let c = if theta < 1e-4 {
+        1.0 / 12.0 + theta * theta / 720.0
+    } else {
+        1.0 / (theta * theta) - (1.0 + theta.cos()) / (2.0 * theta * theta.sin())
+    };
+    Matrix3::identity() - k * 0.5 + k * k * c
+}
+
 /// Geodesic angle between two rotations (radians, in `[0, π]`), accurate for tiny angles.
 pub fn geodesic_angle(a: &Rotation3<f64>, b: &Rotation3<f64>) -> f64 {
     let d = a.matrix().transpose() * b.matrix();
@@ -100,6 +125,21 @@ mod tests {
         assert!(q[0] >= 0.0);
         assert!(geodesic_angle(&r, &from_wxyz(q).unwrap()) < 1e-14);
         assert!(from_wxyz([1.0, 0.1, 0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn left_jacobians_match_finite_differences_and_invert() {
+        for phi in [Vector3::new(0.3, -0.2, 0.5), Vector3::new(1e-6, 2e-6, -1e-6), Vector3::new(2.0, 0.5, -1.0)] {
+            let jl = left_jacobian(&phi);
+            assert!((jl * left_jacobian_inverse(&phi) - Matrix3::identity()).amax() < 1e-12);
+            let h = 1e-6;
+            for k in 0..3 {
+                let mut d = Vector3::zeros();
+                d[k] = h;
+                let numeric = log(&(exp(&(phi + d)) * exp(&(phi - d)).inverse())) / (2.0 * h);
+                assert!((numeric - jl.column(k)).amax() < 1e-8, "{phi:?} column {k}");
+            }
+        }
     }
 
     #[test]

@@ -15,6 +15,8 @@ pub struct CentreOfRotation {
     pub rms_residual_m: f64,
     /// Largest such residual, metres.
     pub max_residual_m: f64,
+    /// Standard errors of `o` from the least squares (residual variance × `(AᵀA)⁻¹`), metres.
+    pub std_error_m: [f64; 3],
     /// Smallest singular value of the stacked `I − Q_j`, over its largest: near 0 when every
     /// rotation shares one axis and `o` slides along it.
     pub conditioning: f64,
@@ -38,10 +40,17 @@ pub fn centre_of_rotation(estimates: &[PoseEstimate]) -> Option<CentreOfRotation
         return None;
     }
     let o = svd.solve(&b, 0.0).ok()?;
+    // (AᵀA)⁻¹ = V Σ⁻² Vᵀ.
+    let v_t = svd.v_t.as_ref()?;
+    let inv_normal = Matrix3::<f64>::from_fn(|i, k| {
+        (0..3).map(|m| v_t[(m, i)] * v_t[(m, k)] / svd.singular_values[m].powi(2)).sum::<f64>()
+    });
     let o = Vector3::new(o[0], o[1], o[2]);
     let residuals: Vec<f64> =
         estimates.iter().map(|e| (e.centroid - o - e.rotation * (e.reference_centroid - o)).norm()).collect();
+    let variance = residuals.iter().map(|r| r * r).sum::<f64>() / (3 * n - 3).max(1) as f64;
     Some(CentreOfRotation {
+        std_error_m: [0, 1, 2].map(|i| (variance * inv_normal[(i, i)]).sqrt()),
         position_m: o.into(),
         rms_residual_m: (residuals.iter().map(|r| r * r).sum::<f64>() / n as f64).sqrt(),
         max_residual_m: residuals.iter().fold(0.0, |m, r| m.max(*r)),

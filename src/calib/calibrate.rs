@@ -1,0 +1,413 @@
+//! The whole calibration of a session: vision, starting point, nominal baseline, identifiability,
+//! the fit, uncertainty, outliers and held-out validation.
+
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use serde::Serialize;
+
+use super::config::{CalibConfig, Group, Loss, Unidentifiable};
+use super::identify::{Identifiability, analyse};
+use super::params::Parameterisation;
+use super::registration::initial_registration;
+use super::residual::{EvalError, Observation, evaluate};
+use super::solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit};
+use crate::dataset::Session;
+use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
+use crate::vision::{Method, SessionEstimate, Stats, VisionError, estimate_session};
+
+/// Why a calibration could not be done.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibError {
+    #[error("vision: {0}")]
+    Vision(#[from] VisionError),
+    #[error("only {usable} usable poses; at least {needed} are needed for {parameters} parameters")]
+    TooFewPoses { usable: usize, needed: usize, parameters: usize },
+    #[error("the camera registration cannot be started: every pose rotates about one axis")]
+    Registration,
+    #[error("the data cannot identify {} direction(s) of parameter space: {}; freeze parameters or set `unidentifiable: regularise`", .0.len(), .0.join("; "))]
+    Unidentifiable(Vec<String>),
+    #[error("{stage}: {error}")]
+    Fit { stage: &'static str, error: FitError },
+    #[error("held-out poses: {0}")]
+    HeldOut(EvalError),
+}
+
+/// RMS, median and maximum of per-pose angles.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ErrorSummary {
+    pub poses: usize,
+    pub rms_deg: f64,
+    pub median_deg: f64,
+    pub max_deg: f64,
+}
+
+impl ErrorSummary {
+    pub fn of(residuals: &[Vector3<f64>]) -> ErrorSummary {
+        let deg: Vec<f64> = residuals.iter().map(|r| r.norm().to_degrees()).collect();
+        let stats = Stats::of(&deg).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
+        let rms = (deg.iter().map(|d| d * d).sum::<f64>() / deg.len().max(1) as f64).sqrt();
+        ErrorSummary { poses: deg.len(), rms_deg: rms, median_deg: stats.median, max_deg: stats.max }
+    }
+}
+
+/// FDA-vs-vision errors of one parameter set, on the fitted and on the held-out poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Errors {
+    pub fit: ErrorSummary,
+    pub held_out: Option<ErrorSummary>,
+}
+
+/// One parameter of the report (angles in degrees; `change` is the departure from nominal).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ParameterReport {
+    pub name: String,
+    pub change_deg: f64,
+    pub std_error_deg: Option<f64>,
+    pub frozen: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Correlation {
+    pub a: String,
+    pub b: String,
+    pub rho: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Outlier {
+    pub pose: u64,
+    pub residual_deg: f64,
+    pub weight: f64,
+}
+
+/// Everything a user needs to judge a calibration.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationReport {
+    pub session: String,
+    pub vision_method: Method,
+    pub loss: Loss,
+    pub poses: usize,
+    pub fit_poses: usize,
+    pub held_out_poses: usize,
+    /// Poses left out, and why (vision or forward kinematics of the nominal model).
+    pub excluded: Vec<String>,
+    /// Nominal mechanism with its best-fit camera registration.
+    pub before: Errors,
+    pub after: Errors,
+    pub iterations: Vec<IterationLog>,
+    pub parameters: Vec<ParameterReport>,
+    pub identifiability: Identifiability,
+    /// Unidentifiable directions held by a weak prior.
+    pub regularised: Vec<String>,
+    pub high_correlations: Vec<Correlation>,
+    /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance.
+    pub orientation_uncertainty_deg: Option<Stats>,
+    /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
+    /// `(markers, poses, [σx, σy, σz])`.
+    pub residual_sigma_deg: Vec<(usize, usize, [f64; 3])>,
+    pub outliers: Vec<Outlier>,
+    pub camera_translation_m: [f64; 3],
+    pub camera_translation_std_error_m: [f64; 3],
+}
+
+/// A calibration: the parameters file and the report, plus what a recording needs.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    pub parameters: Parameters,
+    pub report: CalibrationReport,
+    pub parameterisation: Parameterisation,
+    /// Fitted poses, then held-out poses.
+    pub observations: Vec<Observation>,
+    pub held_out: Vec<Observation>,
+    pub nominal: FitOutcome,
+    pub calibrated: FitOutcome,
+    /// Parameter covariance over the full vector (zero rows for frozen parameters).
+    pub covariance: DMatrix<f64>,
+    pub vision: SessionEstimate,
+}
+
+/// Calibrate `session` on `model`; `on_iteration` sees every iteration of the main fit.
+pub fn calibrate(
+    session: &Session,
+    model: &RobotModel,
+    config: &CalibConfig,
+    on_iteration: &mut dyn FnMut(&IterationLog),
+) -> Result<Calibration, CalibError> {
+    let vision = estimate_session(session, config.vision_method)?;
+    let mut excluded: Vec<String> = vision.skipped.iter().map(|s| s.to_string()).collect();
+    let nominal_spm = &model.spm;
+    // Observations whose nominal FDA exists, reference pose first in its place.
+    let mut all: Vec<(Observation, Rotation3<f64>)> = Vec::new();
+    for (pose, estimate) in &vision.poses {
+        let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses exist").joints;
+        match nominal_spm.forward(&joints) {
+            Ok(r) => all.push((
+                Observation { pose: *pose, joints, measured: estimate.rotation, markers: estimate.markers_used },
+                r,
+            )),
+            Err(e) => excluded.push(format!("pose {pose}: nominal forward kinematics: {e}")),
+        }
+    }
+    let (fit_set, held_set): (Vec<_>, Vec<_>) = all.iter().enumerate().partition(|(k, (o, _))| {
+        config.holdout_every == 0 || o.pose == vision.reference_pose || (k + 1) % config.holdout_every != 0
+    });
+    let observations: Vec<Observation> = fit_set.iter().map(|(_, (o, _))| *o).collect();
+    let held_out: Vec<Observation> = held_set.iter().map(|(_, (o, _))| *o).collect();
+    let reference = fit_set.iter().position(|(_, (o, _))| o.pose == vision.reference_pose).unwrap_or(0);
+    let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
+    let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
+    let (camera0, reference0) =
+        initial_registration(&predicted, &measured, reference).ok_or(CalibError::Registration)?;
+    let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
+    let free: Vec<bool> = p.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
+    let n_free = free.iter().filter(|f| **f).count();
+    if 3 * observations.len() < n_free + 3 {
+        return Err(CalibError::TooFewPoses {
+            usable: observations.len(),
+            needed: n_free.div_ceil(3) + 1,
+            parameters: n_free,
+        });
+    }
+    let settings = |free: Vec<bool>, prior| FitSettings {
+        max_iterations: config.max_iterations,
+        initial_radius: config.initial_radius_deg.to_radians(),
+        step_tolerance: config.step_tolerance_deg.to_radians(),
+        loss: config.loss,
+        huber_threshold: config.huber_threshold,
+        free,
+        prior,
+    };
+    // The baseline: nominal mechanism, best-fit registration alone.
+    let registration_only: Vec<bool> =
+        p.entries.iter().map(|e| matches!(e.kind.group(), Group::CameraRotation | Group::ReferenceRotation)).collect();
+    let x0 = DVector::zeros(p.len());
+    let nominal = fit(&p, &x0, &observations, &settings(registration_only, None), &mut |_| {})
+        .map_err(|error| CalibError::Fit { stage: "nominal registration", error })?;
+    // Identifiability at the start of the full fit.
+    let identifiability = identifiability_at(&p, &nominal, &free, config);
+    let regularised: Vec<String> = identifiability.unidentifiable.iter().map(|d| d.describe()).collect();
+    if !regularised.is_empty() && config.unidentifiable == Unidentifiable::Refuse {
+        return Err(CalibError::Unidentifiable(regularised));
+    }
+    let prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+    let calibrated = fit(&p, &nominal.x, &observations, &settings(free.clone(), prior.clone()), on_iteration)
+        .map_err(|error| CalibError::Fit { stage: "calibration", error })?;
+    let covariance = covariance(&calibrated, &free, prior.as_ref().map(|(l, _)| l));
+    let held = |x: &DVector<f64>| -> Result<Option<ErrorSummary>, CalibError> {
+        if held_out.is_empty() {
+            return Ok(None);
+        }
+        let eval = evaluate(&p, x, &held_out, None, false).map_err(CalibError::HeldOut)?;
+        Ok(Some(ErrorSummary::of(&eval.residuals)))
+    };
+    let before = Errors { fit: ErrorSummary::of(&nominal.evaluation.residuals), held_out: held(&nominal.x)? };
+    let after = Errors { fit: ErrorSummary::of(&calibrated.evaluation.residuals), held_out: held(&calibrated.x)? };
+    let centre = vision.centre;
+    let translation = centre.map_or([0.0; 3], |c| c.position_m);
+    let parameters = Parameters {
+        source: ParameterSource::Calibrated,
+        model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
+        legs: p.legs(&calibrated.x),
+        camera: Some(CameraRegistration { rotation: p.camera(&calibrated.x), translation: Vector3::from(translation) }),
+        fit: None,
+    };
+    let report = CalibrationReport {
+        session: session.name.clone(),
+        vision_method: config.vision_method,
+        loss: config.loss,
+        poses: session.poses.len(),
+        fit_poses: observations.len(),
+        held_out_poses: held_out.len(),
+        excluded,
+        before,
+        after,
+        iterations: calibrated.log.clone(),
+        parameters: parameter_reports(&p, &calibrated.x, &covariance, &free),
+        identifiability,
+        regularised,
+        high_correlations: correlations(&p, &covariance, 0.9),
+        orientation_uncertainty_deg: orientation_uncertainty(&calibrated, &covariance),
+        residual_sigma_deg: residual_sigmas(&calibrated.weighting),
+        outliers: outliers(&observations, &calibrated, config.outlier_threshold),
+        camera_translation_m: translation,
+        camera_translation_std_error_m: centre.map_or([f64::NAN; 3], |c| c.std_error_m),
+    };
+    let mut parameters = parameters;
+    parameters.fit = Some(fit_header(&report));
+    Ok(Calibration {
+        parameters,
+        report,
+        parameterisation: p,
+        observations,
+        held_out,
+        nominal,
+        calibrated,
+        covariance,
+        vision,
+    })
+}
+
+/// The whitened, weighted Jacobian of an outcome.
+fn weighted_jacobian(outcome: &FitOutcome) -> DMatrix<f64> {
+    let mut jac = outcome.evaluation.jacobian.clone().expect("fits keep their Jacobian");
+    let w = &outcome.weighting;
+    for j in 0..outcome.evaluation.residuals.len() {
+        let block = w.whitening[j] * w.weights[j].sqrt() * jac.rows(3 * j, 3);
+        jac.rows_mut(3 * j, 3).copy_from(&block);
+    }
+    jac
+}
+
+fn identifiability_at(
+    p: &Parameterisation,
+    start: &FitOutcome,
+    free: &[bool],
+    config: &CalibConfig,
+) -> Identifiability {
+    let free_idx: Vec<usize> = (0..p.len()).filter(|&i| free[i]).collect();
+    let names: Vec<String> = p.entries.iter().map(|e| e.name.clone()).collect();
+    analyse(&weighted_jacobian(start), &free_idx, &names, config.min_singular_ratio)
+}
+
+/// `σ̂² (J̃ᵀ W J̃ + Λ)⁻¹` over the free parameters, embedded in the full vector; `σ̂²` is the weighted
+/// whitened residual variance per degree of freedom (≈ 1 when the whitening fits the noise).
+fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMatrix<f64>>) -> DMatrix<f64> {
+    let n = free.len();
+    let idx: Vec<usize> = (0..n).filter(|&i| free[i]).collect();
+    let jac = weighted_jacobian(outcome);
+    let mut h = DMatrix::zeros(idx.len(), idx.len());
+    for (a, &i) in idx.iter().enumerate() {
+        for (b, &k) in idx.iter().enumerate() {
+            h[(a, b)] = jac.column(i).dot(&jac.column(k)) + prior.map_or(0.0, |l| l[(i, k)]);
+        }
+    }
+    let w = &outcome.weighting;
+    let m = outcome.evaluation.residuals.len();
+    let chi2: f64 = outcome
+        .evaluation
+        .residuals
+        .iter()
+        .enumerate()
+        .map(|(j, r)| w.weights[j] * w.whiten(j, r).norm_squared())
+        .sum();
+    let dof = (3 * m).saturating_sub(idx.len()).max(1) as f64;
+    let inv = h.clone().pseudo_inverse(1e-14 * h.amax()).unwrap_or_else(|_| DMatrix::zeros(idx.len(), idx.len()));
+    let mut full = DMatrix::zeros(n, n);
+    for (a, &i) in idx.iter().enumerate() {
+        for (b, &k) in idx.iter().enumerate() {
+            full[(i, k)] = inv[(a, b)] * chi2 / dof;
+        }
+    }
+    full
+}
+
+fn parameter_reports(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    cov: &DMatrix<f64>,
+    free: &[bool],
+) -> Vec<ParameterReport> {
+    p.entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| ParameterReport {
+            name: e.name.clone(),
+            change_deg: x[i].to_degrees(),
+            std_error_deg: free[i].then(|| cov[(i, i)].max(0.0).sqrt().to_degrees()),
+            frozen: !free[i],
+        })
+        .collect()
+}
+
+fn correlations(p: &Parameterisation, cov: &DMatrix<f64>, threshold: f64) -> Vec<Correlation> {
+    let mut out = Vec::new();
+    for i in 0..p.len() {
+        for k in (i + 1)..p.len() {
+            let d = (cov[(i, i)] * cov[(k, k)]).sqrt();
+            if d > 0.0 && (cov[(i, k)] / d).abs() >= threshold {
+                out.push(Correlation {
+                    a: p.entries[i].name.clone(),
+                    b: p.entries[k].name.clone(),
+                    rho: cov[(i, k)] / d,
+                });
+            }
+        }
+    }
+    out.sort_by(|a, b| b.rho.abs().total_cmp(&a.rho.abs()));
+    out
+}
+
+/// Uncertainty (1σ, RMS over the three axes) of each pose's predicted orientation as the camera sees
+/// it, `R_CB R_j Aᵀ`: the propagation `J_j Cov J_jᵀ` of the parameter covariance through the residual
+/// Jacobian. The camera frame is where the prediction is checked, and it carries the strong
+/// correlations between axis tilts and the camera rotation that a base-frame figure would ignore.
+fn orientation_uncertainty(outcome: &FitOutcome, cov: &DMatrix<f64>) -> Option<Stats> {
+    let jac = outcome.evaluation.jacobian.as_ref()?;
+    let values: Vec<f64> = (0..outcome.evaluation.residuals.len())
+        .map(|j| {
+            let block = jac.rows(3 * j, 3);
+            ((&block * cov * block.transpose()).trace() / 3.0).max(0.0).sqrt().to_degrees()
+        })
+        .collect();
+    Stats::of(&values)
+}
+
+fn residual_sigmas(w: &Weighting) -> Vec<(usize, usize, [f64; 3])> {
+    w.classes.iter().map(|(m, n, c)| (*m, *n, [0, 1, 2].map(|i| c[(i, i)].max(0.0).sqrt().to_degrees()))).collect()
+}
+
+fn outliers(observations: &[Observation], outcome: &FitOutcome, threshold: f64) -> Vec<Outlier> {
+    let w = &outcome.weighting;
+    observations
+        .iter()
+        .zip(&outcome.evaluation.residuals)
+        .zip(&w.weights)
+        .enumerate()
+        .filter(|(j, ((_, r), _))| w.whiten(*j, r).norm() > threshold * w.sigma)
+        .map(|(_, x)| x)
+        .map(|((o, r), weight)| Outlier { pose: o.pose, residual_deg: r.norm().to_degrees(), weight: *weight })
+        .collect()
+}
+
+/// The `fit:` header of the parameters file.
+fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
+    #[derive(Serialize)]
+    struct Header<'a> {
+        session: &'a str,
+        vision_method: Method,
+        loss: Loss,
+        fit_poses: usize,
+        held_out_poses: usize,
+        iterations: usize,
+        rms_before_deg: f64,
+        rms_after_deg: f64,
+        held_out_rms_before_deg: Option<f64>,
+        held_out_rms_after_deg: Option<f64>,
+        identifiable_directions: usize,
+        free_parameters: usize,
+        condition_number: f64,
+        std_errors_deg: Vec<(&'a str, f64)>,
+        camera_translation_std_error_m: [f64; 3],
+    }
+    let header = Header {
+        session: &report.session,
+        vision_method: report.vision_method,
+        loss: report.loss,
+        fit_poses: report.fit_poses,
+        held_out_poses: report.held_out_poses,
+        iterations: report.iterations.len(),
+        rms_before_deg: report.before.fit.rms_deg,
+        rms_after_deg: report.after.fit.rms_deg,
+        held_out_rms_before_deg: report.before.held_out.map(|e| e.rms_deg),
+        held_out_rms_after_deg: report.after.held_out.map(|e| e.rms_deg),
+        identifiable_directions: report.identifiability.rank,
+        free_parameters: report.identifiability.parameters,
+        condition_number: report.identifiability.condition,
+        std_errors_deg: report
+            .parameters
+            .iter()
+            .filter_map(|p| p.std_error_deg.map(|s| (p.name.as_str(), s)))
+            .collect(),
+        camera_translation_std_error_m: report.camera_translation_std_error_m,
+    };
+    serde_yaml::to_value(header).expect("the header serialises")
+}

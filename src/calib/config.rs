@@ -1,0 +1,143 @@
+//! Calibration settings (`configs/calibrate.yaml`). Angles in degrees; unknown keys are errors.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::files::{FileError, read_text, yaml_key_line};
+use crate::vision::Method;
+
+/// A group of parameters that can be frozen at its nominal (or initial) value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Group {
+    /// Tilts of the actuated axes `u_i`.
+    ActuatedAxes,
+    /// Tilts of the platform axes `v0_i`.
+    PlatformAxes,
+    /// Proximal link angles `α1_i`.
+    ProximalAngles,
+    /// Distal link angles `α2_i`.
+    DistalAngles,
+    /// Encoder zero offsets `δ_i`.
+    JointOffsets,
+    /// Camera rotation `R_CB`.
+    CameraRotation,
+    /// Orientation of the reference pose's markers in the camera (a property of the session).
+    ReferenceRotation,
+}
+
+/// The loss applied to each pose's residual norm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Loss {
+    LeastSquares,
+    /// Quadratic up to `huber_threshold` robust standard deviations, linear beyond.
+    Huber,
+}
+
+/// What to do with directions the data cannot identify.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Unidentifiable {
+    /// Stop with an error naming the directions.
+    Refuse,
+    /// Hold them at their initial values with a weak prior, and say so.
+    Regularise,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibConfig {
+    /// Vision estimator for the measured orientations.
+    pub vision_method: Method,
+    pub loss: Loss,
+    /// Huber threshold, in robust standard deviations of the residuals.
+    pub huber_threshold: f64,
+    /// Poses whose residual exceeds this many robust standard deviations are flagged as outliers.
+    pub outlier_threshold: f64,
+    /// Parameter groups held fixed.
+    #[serde(default)]
+    pub freeze: Vec<Group>,
+    /// Every `holdout_every`-th pose is held out of the fit for validation (0: none).
+    pub holdout_every: usize,
+    pub max_iterations: u32,
+    /// Initial trust-region radius (the parameters are all angles).
+    pub initial_radius_deg: f64,
+    /// Converged when a step changes no parameter by more than this.
+    pub step_tolerance_deg: f64,
+    /// Physical bounds on the departures from nominal.
+    pub bounds: Bounds,
+    pub unidentifiable: Unidentifiable,
+    /// A direction whose scaled singular value is below this fraction of the largest is unidentifiable.
+    pub min_singular_ratio: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bounds {
+    pub axis_tilt_deg: f64,
+    pub link_angle_deg: f64,
+    pub joint_offset_deg: f64,
+}
+
+impl Default for CalibConfig {
+    fn default() -> Self {
+        CalibConfig {
+            vision_method: Method::Kabsch,
+            loss: Loss::Huber,
+            huber_threshold: 3.0,
+            outlier_threshold: 4.0,
+            freeze: Vec::new(),
+            holdout_every: 4,
+            max_iterations: 200,
+            initial_radius_deg: 3.0,
+            step_tolerance_deg: 1e-7,
+            bounds: Bounds { axis_tilt_deg: 10.0, link_angle_deg: 5.0, joint_offset_deg: 30.0 },
+            unidentifiable: Unidentifiable::Regularise,
+            min_singular_ratio: 1e-6,
+        }
+    }
+}
+
+impl CalibConfig {
+    /// Read and check a config file.
+    pub fn read(path: &Path) -> Result<Self, FileError> {
+        let text = read_text(path)?;
+        let config: CalibConfig = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
+        config.check().map_err(|(key, reason)| {
+            let err = FileError::new(path, reason).in_column(key);
+            match yaml_key_line(&text, key) {
+                Some(line) => err.at_line(line),
+                None => err,
+            }
+        })?;
+        Ok(config)
+    }
+
+    /// Values serde accepted but that make no sense, as `(key, reason)`.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        let positive = [
+            ("huber_threshold", self.huber_threshold),
+            ("outlier_threshold", self.outlier_threshold),
+            ("initial_radius_deg", self.initial_radius_deg),
+            ("step_tolerance_deg", self.step_tolerance_deg),
+            ("axis_tilt_deg", self.bounds.axis_tilt_deg),
+            ("link_angle_deg", self.bounds.link_angle_deg),
+            ("joint_offset_deg", self.bounds.joint_offset_deg),
+            ("min_singular_ratio", self.min_singular_ratio),
+        ];
+        for (key, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err((key, format!("`{key}` must be a positive number (got {value})")));
+            }
+        }
+        if self.max_iterations == 0 {
+            return Err(("max_iterations", "`max_iterations` must be at least 1".into()));
+        }
+        if self.holdout_every == 1 {
+            return Err(("holdout_every", "`holdout_every: 1` would hold out every pose".into()));
+        }
+        Ok(())
+    }
+}

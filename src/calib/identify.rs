@@ -1,0 +1,107 @@
+//! Identifiability: the SVD of the column-scaled identification Jacobian `W^½ J D⁻¹`
+//! (`D` = column norms, so that units and leverage do not hide or fake a weak direction).
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// A direction of parameter space, named by its largest components.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Direction {
+    /// Its scaled singular value over the largest one.
+    pub singular_ratio: f64,
+    /// `(parameter, component)` of the unit direction (unscaled), largest first, at most 4.
+    pub components: Vec<(String, f64)>,
+}
+
+impl Direction {
+    pub fn describe(&self) -> String {
+        let parts: Vec<String> = self.components.iter().map(|(n, c)| format!("{c:+.2}·{n}")).collect();
+        format!("{} (σ/σmax = {:.1e})", parts.join(" "), self.singular_ratio)
+    }
+}
+
+/// The analysis of one Jacobian.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identifiability {
+    /// Free parameters.
+    pub parameters: usize,
+    /// Directions above the threshold.
+    pub rank: usize,
+    /// Largest over smallest scaled singular value.
+    pub condition: f64,
+    /// The three weakest directions.
+    pub weakest: Vec<Direction>,
+    /// Directions below the threshold.
+    pub unidentifiable: Vec<Direction>,
+    /// Those directions as unit vectors in the full parameter space (unscaled), for regularising.
+    #[serde(skip)]
+    pub null_vectors: Vec<DVector<f64>>,
+    /// Largest scaled singular value squared (the scale for a prior).
+    #[serde(skip)]
+    pub scale: f64,
+    /// Column norms `D` of the free parameters, in the full space (1 for frozen ones).
+    #[serde(skip)]
+    pub column_norms: DVector<f64>,
+}
+
+/// Analyse `W^½ J` (3n × N) over the `free` parameters.
+pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String], min_ratio: f64) -> Identifiability {
+    let n_all = weighted_jacobian.ncols();
+    let mut column_norms = DVector::from_element(n_all, 1.0);
+    let mut scaled = DMatrix::zeros(weighted_jacobian.nrows(), free.len());
+    for (k, &i) in free.iter().enumerate() {
+        let col = weighted_jacobian.column(i);
+        let norm = col.norm();
+        column_norms[i] = if norm > 0.0 { norm } else { 1.0 };
+        scaled.set_column(k, &(col / column_norms[i]));
+    }
+    let svd = scaled.svd(false, true);
+    let v_t = svd.v_t.expect("asked for V");
+    let s = &svd.singular_values;
+    let s_max = s.max().max(f64::MIN_POSITIVE);
+    let mut order: Vec<usize> = (0..s.len()).collect();
+    order.sort_by(|&a, &b| s[a].total_cmp(&s[b]));
+    let direction = |idx: usize| -> (Direction, DVector<f64>) {
+        let mut full = DVector::zeros(n_all);
+        for (k, &i) in free.iter().enumerate() {
+            full[i] = v_t[(idx, k)] / column_norms[i];
+        }
+        let full = full.normalize();
+        let mut comps: Vec<(String, f64)> = free.iter().map(|&i| (names[i].clone(), full[i])).collect();
+        comps.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+        comps.truncate(4);
+        comps.retain(|(_, c)| c.abs() > 0.05);
+        (Direction { singular_ratio: s[idx] / s_max, components: comps }, full)
+    };
+    let weak: Vec<usize> = order.iter().copied().filter(|&i| s[i] < min_ratio * s_max).collect();
+    let (unidentifiable, null_vectors) = weak.iter().map(|&i| direction(i)).unzip();
+    Identifiability {
+        parameters: free.len(),
+        rank: free.len() - weak.len(),
+        condition: s_max / s.min().max(f64::MIN_POSITIVE),
+        weakest: order.iter().take(3).map(|&i| direction(i).0).collect(),
+        unidentifiable,
+        null_vectors,
+        scale: s_max * s_max,
+        column_norms,
+    }
+}
+
+impl Identifiability {
+    /// A weak prior `Λ` that pins the unidentifiable directions: strong against their (near-zero)
+    /// information, negligible against any identified direction's.
+    pub fn prior(&self, n: usize) -> Option<DMatrix<f64>> {
+        if self.null_vectors.is_empty() {
+            return None;
+        }
+        let mut lambda = DMatrix::zeros(n, n);
+        for v in &self.null_vectors {
+            // In scaled coordinates x̃ = D x the prior is 1e-4 σ_max² (ṽᵀ x̃)²; ṽ = D v / |D v|.
+            let dv = v.component_mul(&self.column_norms);
+            let dv = &dv / dv.norm();
+            let row = dv.component_mul(&self.column_norms);
+            lambda += &row * row.transpose() * (1e-4 * self.scale);
+        }
+        Some(lambda)
+    }
+}

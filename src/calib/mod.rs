@@ -1,0 +1,20 @@
+//! Calibration: the parameter vector and its gauge, residuals with analytic Jacobians, the
+//! clarabel trust-region fit, identifiability, uncertainty and validation.
+
+mod calibrate;
+mod config;
+mod identify;
+mod params;
+mod registration;
+mod residual;
+mod solver;
+
+pub use calibrate::{
+    CalibError, Calibration, CalibrationReport, Correlation, ErrorSummary, Errors, Outlier, ParameterReport, calibrate,
+};
+pub use config::{Bounds, CalibConfig, Group, Loss, Unidentifiable};
+pub use identify::{Direction, Identifiability, analyse};
+pub use params::{Entry, Kind, Parameterisation, TruthInGauge, gauge_rotation};
+pub use registration::initial_registration;
+pub use residual::{EvalError, Evaluation, Observation, evaluate};
+pub use solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit, rms, robust_weights};

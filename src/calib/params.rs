@@ -1,0 +1,309 @@
+//! The parameter vector of the fit and its gauge.
+//!
+//! Orientation data cannot tell a rotation of the base frame B (carried by `R_CB`) nor a rotation
+//! of the platform frame P (carried by every `v0_i`, and by the reference rotation `A`) from the
+//! mechanism: 6 directions that any parameterisation must fix. spmcal fixes them by defining B and
+//! P through the first two legs: `u_1` and `v0_1` are held at their nominal values, and `u_2`,
+//! `v0_2` may only turn within the plane they span with `u_1`, `v0_1` (one tilt each). `u_3` and
+//! `v0_3` tilt freely (two each). The identifiability analysis confirms that no null direction is
+//! left (tests/calibration.rs).
+//!
+//! All parameters are angles (radians), measured from the initial values so that bounds are
+//! boxes: per leg the axis tilts (tangent coordinates of the rotation vector that carries the
+//! nominal axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and the reference
+//! rotation `A = exp(a) A⁰` (see `residual.rs`).
+
+use nalgebra::{DVector, Matrix3, Rotation3, Vector3};
+
+use super::config::{Bounds, Group};
+use crate::model::LegGeometry;
+use crate::so3;
+
+/// What one entry of the parameter vector is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// Tilt `k` of the actuated axis of a leg (0-based legs).
+    ActuatedTilt {
+        leg: usize,
+        k: usize,
+    },
+    Alpha1 {
+        leg: usize,
+    },
+    Alpha2 {
+        leg: usize,
+    },
+    Offset {
+        leg: usize,
+    },
+    PlatformTilt {
+        leg: usize,
+        k: usize,
+    },
+    Camera {
+        k: usize,
+    },
+    Reference {
+        k: usize,
+    },
+}
+
+impl Kind {
+    pub fn group(self) -> Group {
+        match self {
+            Kind::ActuatedTilt { .. } => Group::ActuatedAxes,
+            Kind::Alpha1 { .. } => Group::ProximalAngles,
+            Kind::Alpha2 { .. } => Group::DistalAngles,
+            Kind::Offset { .. } => Group::JointOffsets,
+            Kind::PlatformTilt { .. } => Group::PlatformAxes,
+            Kind::Camera { .. } => Group::CameraRotation,
+            Kind::Reference { .. } => Group::ReferenceRotation,
+        }
+    }
+
+    /// The leg a mechanism parameter belongs to.
+    pub fn leg(self) -> Option<usize> {
+        match self {
+            Kind::ActuatedTilt { leg, .. }
+            | Kind::Alpha1 { leg }
+            | Kind::Alpha2 { leg }
+            | Kind::Offset { leg }
+            | Kind::PlatformTilt { leg, .. } => Some(leg),
+            Kind::Camera { .. } | Kind::Reference { .. } => None,
+        }
+    }
+}
+
+/// One parameter: what it is, its name, and its physical bound (|value| ≤ bound, radians).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    pub kind: Kind,
+    pub name: String,
+    pub bound: Option<f64>,
+}
+
+/// The parameterisation around an initial geometry and registration.
+#[derive(Debug, Clone)]
+pub struct Parameterisation {
+    pub initial: [LegGeometry; 3],
+    pub camera0: Rotation3<f64>,
+    pub reference0: Rotation3<f64>,
+    /// Rotation directions that tilt `u_i` (0, 1 and 2 of them) and `v0_i`.
+    pub actuated_dirs: [Vec<Vector3<f64>>; 3],
+    pub platform_dirs: [Vec<Vector3<f64>>; 3],
+    pub entries: Vec<Entry>,
+}
+
+/// Two unit vectors orthogonal to `a` and to each other.
+fn tangent_basis(a: &Vector3<f64>, hint: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let e1 = (hint - a * a.dot(hint)).normalize();
+    [e1, a.cross(&e1)]
+}
+
+impl Parameterisation {
+    pub fn new(
+        initial: [LegGeometry; 3],
+        camera0: Rotation3<f64>,
+        reference0: Rotation3<f64>,
+        bounds: &Bounds,
+    ) -> Self {
+        let g = &initial;
+        let in_plane = |a: &Vector3<f64>, b: &Vector3<f64>| vec![a.cross(b).normalize()];
+        let actuated_dirs = [Vec::new(), in_plane(&g[0].u, &g[1].u), tangent_basis(&g[2].u, &g[2].z).to_vec()];
+        let platform_dirs = [Vec::new(), in_plane(&g[0].v0, &g[1].v0), tangent_basis(&g[2].v0, &g[0].v0).to_vec()];
+        let (tilt, angle, offset) = (
+            bounds.axis_tilt_deg.to_radians(),
+            bounds.link_angle_deg.to_radians(),
+            bounds.joint_offset_deg.to_radians(),
+        );
+        let mut entries = Vec::new();
+        let mut push = |kind, name: String, bound| entries.push(Entry { kind, name, bound });
+        for leg in 0..3 {
+            let n = leg + 1;
+            let tilt_names = |axis: &str, count: usize| -> Vec<String> {
+                match count {
+                    1 => vec![format!("leg{n}.{axis}_tilt")],
+                    _ => (1..=count).map(|k| format!("leg{n}.{axis}_tilt{k}")).collect(),
+                }
+            };
+            for (k, name) in tilt_names("u", actuated_dirs[leg].len()).into_iter().enumerate() {
+                push(Kind::ActuatedTilt { leg, k }, name, Some(tilt));
+            }
+            push(Kind::Alpha1 { leg }, format!("leg{n}.alpha1"), Some(angle));
+            push(Kind::Alpha2 { leg }, format!("leg{n}.alpha2"), Some(angle));
+            push(Kind::Offset { leg }, format!("leg{n}.delta"), Some(offset));
+            for (k, name) in tilt_names("v0", platform_dirs[leg].len()).into_iter().enumerate() {
+                push(Kind::PlatformTilt { leg, k }, name, Some(tilt));
+            }
+        }
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            push(Kind::Camera { k }, format!("camera.rotation_{axis}"), None);
+        }
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            push(Kind::Reference { k }, format!("reference.rotation_{axis}"), None);
+        }
+        Parameterisation { initial, camera0, reference0, actuated_dirs, platform_dirs, entries }
+    }
+
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Rotation vector of the tilt of an axis from its parameters.
+    fn tilt_vector(
+        &self,
+        x: &DVector<f64>,
+        dirs: &[Vector3<f64>],
+        matches: impl Fn(Kind) -> Option<usize>,
+    ) -> Vector3<f64> {
+        self.entries.iter().enumerate().filter_map(|(i, e)| matches(e.kind).map(|k| dirs[k] * x[i])).sum()
+    }
+
+    /// Rotation vectors `(φ_u, φ_v0)` of leg `leg`'s axis tilts.
+    pub fn tilts(&self, x: &DVector<f64>, leg: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let u = self.tilt_vector(x, &self.actuated_dirs[leg], |kind| match kind {
+            Kind::ActuatedTilt { leg: l, k } if l == leg => Some(k),
+            _ => None,
+        });
+        let v = self.tilt_vector(x, &self.platform_dirs[leg], |kind| match kind {
+            Kind::PlatformTilt { leg: l, k } if l == leg => Some(k),
+            _ => None,
+        });
+        (u, v)
+    }
+
+    fn value(&self, x: &DVector<f64>, kind: Kind) -> f64 {
+        self.entries.iter().position(|e| e.kind == kind).map_or(0.0, |i| x[i])
+    }
+
+    /// The leg geometry at `x`: tilted axes, `z` re-orthogonalised against the moved `u`.
+    pub fn legs(&self, x: &DVector<f64>) -> [LegGeometry; 3] {
+        std::array::from_fn(|leg| {
+            let g = &self.initial[leg];
+            let (phi_u, phi_v) = self.tilts(x, leg);
+            let u = so3::exp(&phi_u) * g.u;
+            LegGeometry {
+                u,
+                z: (g.z - u * g.z.dot(&u)).normalize(),
+                alpha1: g.alpha1 + self.value(x, Kind::Alpha1 { leg }),
+                alpha2: g.alpha2 + self.value(x, Kind::Alpha2 { leg }),
+                v0: so3::exp(&phi_v) * g.v0,
+                delta: g.delta + self.value(x, Kind::Offset { leg }),
+            }
+        })
+    }
+
+    /// Rotation vectors of the camera and reference rotations.
+    pub fn registration_vectors(&self, x: &DVector<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let c = Vector3::from_fn(|k, _| self.value(x, Kind::Camera { k }));
+        let a = Vector3::from_fn(|k, _| self.value(x, Kind::Reference { k }));
+        (c, a)
+    }
+
+    /// `R_CB` at `x`.
+    pub fn camera(&self, x: &DVector<f64>) -> Rotation3<f64> {
+        so3::exp(&self.registration_vectors(x).0) * self.camera0
+    }
+
+    /// `A` at `x`.
+    pub fn reference(&self, x: &DVector<f64>) -> Rotation3<f64> {
+        so3::exp(&self.registration_vectors(x).1) * self.reference0
+    }
+
+    /// The parameter vector that reproduces `legs` (already in this gauge) and the rotations:
+    /// used to express a known truth in the fit's coordinates.
+    pub fn coordinates(
+        &self,
+        legs: &[LegGeometry; 3],
+        camera: &Rotation3<f64>,
+        reference: &Rotation3<f64>,
+    ) -> DVector<f64> {
+        let mut x = DVector::zeros(self.len());
+        let (c, a) = (so3::log(&(camera * self.camera0.inverse())), so3::log(&(reference * self.reference0.inverse())));
+        for (i, e) in self.entries.iter().enumerate() {
+            x[i] = match e.kind {
+                Kind::ActuatedTilt { leg, k } => {
+                    tilt_between(&self.initial[leg].u, &legs[leg].u).dot(&self.actuated_dirs[leg][k])
+                }
+                Kind::PlatformTilt { leg, k } => {
+                    tilt_between(&self.initial[leg].v0, &legs[leg].v0).dot(&self.platform_dirs[leg][k])
+                }
+                Kind::Alpha1 { leg } => legs[leg].alpha1 - self.initial[leg].alpha1,
+                Kind::Alpha2 { leg } => legs[leg].alpha2 - self.initial[leg].alpha2,
+                Kind::Offset { leg } => {
+                    // The offset is measured from this parameterisation's own z (re-orthogonalised
+                    // nominal z), so compare the zero directions `cos δ z + sin δ (u × z)` themselves.
+                    let g = &legs[leg];
+                    let zero = g.z * g.delta.cos() + g.u.cross(&g.z) * g.delta.sin();
+                    let z = (self.initial[leg].z - g.u * self.initial[leg].z.dot(&g.u)).normalize();
+                    let y = g.u.cross(&z);
+                    zero.dot(&y).atan2(zero.dot(&z)) - self.initial[leg].delta
+                }
+                Kind::Camera { k } => c[k],
+                Kind::Reference { k } => a[k],
+            };
+        }
+        x
+    }
+}
+
+/// The rotation vector of the shortest rotation carrying unit vector `a` onto `b`.
+fn tilt_between(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
+    let axis = a.cross(b);
+    let s = axis.norm();
+    if s < 1e-300 {
+        return Vector3::zeros();
+    }
+    axis * (s.atan2(a.dot(b)) / s)
+}
+
+/// The rotation `F(a₂, b₂) F(a₁, b₁)ᵀ` that carries the frame of the pair `(a₁, b₁)` onto that of
+/// `(a₂, b₂)`: `a₁ ↦ a₂`, and `b₁` into the plane of `a₂`, `b₂`. Used to move a geometry into
+/// this parameterisation's gauge.
+pub fn gauge_rotation(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vector3<f64>) -> Rotation3<f64> {
+    let frame = |a: &Vector3<f64>, b: &Vector3<f64>| {
+        let e1 = a.normalize();
+        let e2 = (b - e1 * e1.dot(b)).normalize();
+        Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
+    };
+    Rotation3::from_matrix_unchecked(frame(a2, b2) * frame(a1, b1).transpose())
+}
+
+/// A true parameter set moved into the gauge of `p`: the base frame rotated by `G` so that `u_1`
+/// and the plane of `u_1, u_2` are nominal, the platform frame by `H` likewise for `v0_1, v0_2`.
+#[derive(Debug, Clone)]
+pub struct TruthInGauge {
+    /// The true parameters in the fit's coordinates (camera rotation included).
+    pub x: DVector<f64>,
+    /// Base-frame change `G` (true B → fit's B) and platform-frame change `H` (true P → fit's P).
+    pub base: Rotation3<f64>,
+    pub platform: Rotation3<f64>,
+}
+
+impl TruthInGauge {
+    /// `legs`, `camera` (`R_CB`) and the true orientation of the reference pose, expressed in `p`'s gauge.
+    pub fn new(
+        p: &Parameterisation,
+        legs: &[LegGeometry; 3],
+        camera: &Rotation3<f64>,
+        reference_pose: &Rotation3<f64>,
+    ) -> Self {
+        let n = &p.initial;
+        let base = gauge_rotation(&legs[0].u, &legs[1].u, &n[0].u, &n[1].u);
+        let platform = gauge_rotation(&legs[0].v0, &legs[1].v0, &n[0].v0, &n[1].v0);
+        let moved = legs.map(|g| LegGeometry { u: base * g.u, z: base * g.z, v0: platform * g.v0, ..g });
+        let camera = camera * base.inverse();
+        // A = R_CB R_0 (P → C at the reference pose); in the new frames R_0' = G R_0 Hᵀ.
+        let reference = camera * (base * reference_pose * platform.inverse());
+        TruthInGauge { x: p.coordinates(&moved, &camera, &reference), base, platform }
+    }
+
+    /// A true orientation `R` (true P → true B) in the fit's frames: `G R Hᵀ`.
+    pub fn orientation(&self, r: &Rotation3<f64>) -> Rotation3<f64> {
+        self.base * r * self.platform.inverse()
+    }
+}

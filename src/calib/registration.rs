@@ -1,0 +1,37 @@
+//! A starting point for the camera and reference rotations.
+//!
+//! The measured rotations are the model's seen from the camera: `Q_j ≈ X B_j Xᵀ` with
+//! `B_j = R_j R_refᵀ` and `X = R_CB`. Conjugation maps rotation axes, so `log Q_j ≈ X log B_j`, and
+//! `X` is the rotation that best aligns the two sets of rotation vectors (Kabsch); then
+//! `A = X R_ref`.
+
+use nalgebra::{Matrix3, Rotation3};
+
+use crate::so3;
+
+/// `(R_CB, A)` from the model's orientations and the measured rotations, `None` when the rotation
+/// vectors do not span two directions (every pose rotates about one axis).
+pub fn initial_registration(
+    predicted: &[Rotation3<f64>],
+    measured: &[Rotation3<f64>],
+    reference: usize,
+) -> Option<(Rotation3<f64>, Rotation3<f64>)> {
+    let r_ref = predicted[reference];
+    let h: Matrix3<f64> =
+        predicted.iter().zip(measured).map(|(r, q)| so3::log(q) * so3::log(&(r * r_ref.inverse())).transpose()).sum();
+    let svd = h.svd(false, false);
+    let mut s = svd.singular_values.as_slice().to_vec();
+    s.sort_by(|a, b| b.total_cmp(a));
+    if s[1] < 1e-6 * s[0].max(f64::MIN_POSITIVE) {
+        return None;
+    }
+    let x = so3::nearest_rotation(&h).or_else(|| {
+        // Rank 2 (rotations in one plane of axes): the SVD route still has a unique proper answer.
+        let svd = h.svd(true, true);
+        let (u, vt) = (svd.u?, svd.v_t?);
+        let mut d = Matrix3::identity();
+        d[(2, 2)] = (u * vt).determinant().signum();
+        Some(Rotation3::from_matrix_unchecked(u * d * vt))
+    })?;
+    Some((x, x * r_ref))
+}

@@ -1,0 +1,446 @@
+//! The fit: a trust-region sequence of convex subproblems solved by clarabel.
+//!
+//! Each iteration linearises the residuals, `r(x + Δ) ≈ r + J Δ`, weights each pose by its robust
+//! (Huber) weight — iteratively reweighted least squares, whose fixed point is the Huber estimate —
+//! and solves the quadratic program
+//!
+//! ```text
+//! minimise ½ Δᵀ (Jᵀ W J + Λ) Δ + (Jᵀ W r + Λ (x − x_prior))ᵀ Δ
+//! subject to |x_k + Δ_k| ≤ bound_k   (physical bounds, a nonnegative cone)
+//!            ‖Δ‖ ≤ ρ                 (trust region, a second-order cone)
+//! ```
+//!
+//! (`Λ` is the weak prior on unidentifiable directions, if any). A step is accepted when the
+//! actual reduction of the weighted cost is at least a quarter of the predicted one; the radius
+//! shrinks fourfold after a poor step and doubles after a good step that reached it.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SecondOrderConeT, SolverStatus, SupportedConeT,
+};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+use super::config::Loss;
+use super::params::Parameterisation;
+use super::residual::{EvalError, Evaluation, Observation, evaluate};
+
+/// Median of the norm of a 3-D isotropic Gaussian with unit deviation per axis (Maxwell
+/// distribution): the robust scale of the residual norms is `median / 1.5382`.
+const MAXWELL_MEDIAN: f64 = 1.5382;
+
+/// Numerical settings of one fit.
+#[derive(Debug, Clone)]
+pub struct FitSettings {
+    pub max_iterations: u32,
+    /// Initial trust-region radius, radians.
+    pub initial_radius: f64,
+    /// Converged when an accepted step moves no parameter by more than this (radians).
+    pub step_tolerance: f64,
+    pub loss: Loss,
+    /// Huber threshold in robust standard deviations.
+    pub huber_threshold: f64,
+    /// Which parameters move.
+    pub free: Vec<bool>,
+    /// Weak prior `½ (x − x_prior)ᵀ Λ (x − x_prior)` on unidentifiable directions.
+    pub prior: Option<(DMatrix<f64>, DVector<f64>)>,
+}
+
+/// One iteration, for the log and the recording.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct IterationLog {
+    pub iteration: u32,
+    /// Weighted cost `½ Σ w_j |r_j|²` before the step (rad²).
+    pub cost: f64,
+    /// RMS residual angle before the step, degrees.
+    pub rms_deg: f64,
+    /// Length of the proposed step (rad).
+    pub step: f64,
+    pub radius: f64,
+    /// Actual over predicted reduction.
+    pub ratio: f64,
+    pub accepted: bool,
+    /// Interior-point iterations clarabel needed.
+    pub solver_iterations: u32,
+}
+
+/// A converged fit.
+#[derive(Debug, Clone)]
+pub struct FitOutcome {
+    pub x: DVector<f64>,
+    pub evaluation: Evaluation,
+    /// The weighting at the solution.
+    pub weighting: Weighting,
+    pub log: Vec<IterationLog>,
+}
+
+/// Why a fit failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FitError {
+    #[error("cannot evaluate the model at the start point: {0}")]
+    Start(EvalError),
+    #[error("clarabel failed on the subproblem of iteration {iteration}: status {status}")]
+    Solver { iteration: u32, status: String },
+    #[error("the fit did not converge in {iterations} iterations (last step {step:.3e} rad, radius {radius:.3e} rad)")]
+    NotConverged { iterations: u32, step: f64, radius: f64 },
+}
+
+/// How the residuals are weighted: each pose whitened by `S = Σ_r^{-1/2}`, the inverse root of the
+/// 3×3 residual covariance of its class — a stereo camera measures depth several times worse than
+/// across, and a pose seen with three markers has no redundancy to filter its noise, so poses are
+/// classed by how many markers the estimate used — then weighted by its Huber weight on the
+/// whitened norm, at a robust scale `σ` fixed for the stage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Weighting {
+    /// Per pose.
+    pub whitening: Vec<Matrix3<f64>>,
+    pub weights: Vec<f64>,
+    /// Robust scale of the whitened norms.
+    pub sigma: f64,
+    /// `(markers used, poses, Σ_r)` per class (rad²); empty while unwhitened.
+    pub classes: Vec<(usize, usize, Matrix3<f64>)>,
+}
+
+/// Classes with fewer poses than this share the pooled covariance.
+const MIN_CLASS: usize = 12;
+
+fn weighted_covariance(residuals: &[Vector3<f64>], members: &[usize], weights: &[f64]) -> Matrix3<f64> {
+    let total: f64 = members.iter().map(|&j| weights[j]).sum::<f64>().max(f64::MIN_POSITIVE);
+    members.iter().map(|&j| residuals[j] * residuals[j].transpose() * weights[j]).sum::<Matrix3<f64>>() / total
+}
+
+/// `Σ^{-1/2}`, with the spectrum floored so that noise-free data (zero residuals) stays defined.
+fn inverse_root(covariance: &Matrix3<f64>) -> Matrix3<f64> {
+    let eig = covariance.symmetric_eigen();
+    let floor = (eig.eigenvalues.max() * 1e-8).max(1e-30);
+    let inv_root = Matrix3::from_diagonal(&eig.eigenvalues.map(|l| 1.0 / l.max(floor).sqrt()));
+    eig.eigenvectors * inv_root * eig.eigenvectors.transpose()
+}
+
+impl Weighting {
+    /// No whitening, unit weights.
+    pub fn isotropic(poses: usize) -> Weighting {
+        Weighting {
+            whitening: vec![Matrix3::identity(); poses],
+            weights: vec![1.0; poses],
+            sigma: 1.0,
+            classes: Vec::new(),
+        }
+    }
+
+    /// Whiten each class of poses (by markers used) by its weighted residual covariance.
+    pub fn whiten_by_class(&mut self, residuals: &[Vector3<f64>], markers: &[usize]) {
+        let everyone: Vec<usize> = (0..residuals.len()).collect();
+        let pooled = weighted_covariance(residuals, &everyone, &self.weights);
+        let mut counts: Vec<usize> = markers.to_vec();
+        counts.sort_unstable();
+        counts.dedup();
+        self.classes = counts
+            .iter()
+            .map(|&m| {
+                let members: Vec<usize> = everyone.iter().copied().filter(|&j| markers[j] == m).collect();
+                let cov = if members.len() >= MIN_CLASS {
+                    weighted_covariance(residuals, &members, &self.weights)
+                } else {
+                    pooled
+                };
+                (m, members.len(), cov)
+            })
+            .collect();
+        let roots: Vec<(usize, Matrix3<f64>)> = self.classes.iter().map(|(m, _, c)| (*m, inverse_root(c))).collect();
+        self.whitening =
+            markers.iter().map(|m| roots.iter().find(|(k, _)| k == m).expect("a class per count").1).collect();
+    }
+
+    /// Robust scale of the whitened norms (Maxwell median).
+    pub fn rescale(&mut self, residuals: &[Vector3<f64>]) {
+        let whitened: Vec<Vector3<f64>> = (0..residuals.len()).map(|j| self.whiten(j, &residuals[j])).collect();
+        self.sigma = robust_weights(&whitened, Loss::LeastSquares, 1.0).0;
+    }
+
+    /// Huber weights of the whitened norms at the current scale.
+    pub fn reweight(&mut self, residuals: &[Vector3<f64>], loss: Loss, threshold: f64) {
+        for (j, w) in self.weights.iter_mut().enumerate() {
+            let norm = (self.whitening[j] * residuals[j]).norm();
+            *w = match loss {
+                Loss::Huber if norm > threshold * self.sigma => threshold * self.sigma / norm,
+                _ => 1.0,
+            };
+        }
+    }
+
+    /// The whitened residual of pose `j`.
+    pub fn whiten(&self, j: usize, r: &Vector3<f64>) -> Vector3<f64> {
+        self.whitening[j] * r
+    }
+
+    fn cost(&self, residuals: &[Vector3<f64>]) -> f64 {
+        0.5 * residuals.iter().enumerate().map(|(j, r)| self.weights[j] * self.whiten(j, r).norm_squared()).sum::<f64>()
+    }
+}
+
+/// Robust scale and per-pose Huber weights of residual norms.
+pub fn robust_weights(residuals: &[Vector3<f64>], loss: Loss, threshold: f64) -> (f64, Vec<f64>) {
+    let mut norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
+    let sigma = {
+        let mut sorted = norms.clone();
+        sorted.sort_by(f64::total_cmp);
+        (sorted.get(sorted.len() / 2).copied().unwrap_or(0.0) / MAXWELL_MEDIAN).max(1e-15)
+    };
+    for n in norms.iter_mut() {
+        *n = match loss {
+            Loss::LeastSquares => 1.0,
+            Loss::Huber if *n <= threshold * sigma => 1.0,
+            Loss::Huber => threshold * sigma / *n,
+        };
+    }
+    (sigma, norms)
+}
+
+fn prior_cost(settings: &FitSettings, x: &DVector<f64>) -> f64 {
+    settings.prior.as_ref().map_or(0.0, |(lambda, x0)| {
+        let d = x - x0;
+        0.5 * d.dot(&(lambda * &d))
+    })
+}
+
+/// Relative precision of the cost: a sum over hundreds of poses of residuals that the FDA resolves
+/// to ~1e-14 rad. A predicted reduction below this is noise.
+const PRECISION: f64 = 1e-12;
+
+/// Reweightings allowed per stage before the fit is declared not converged.
+const MAX_REWEIGHTINGS: u32 = 30;
+
+/// Fit `x` from `x0` to the observations, by two-step feasible generalised least squares:
+/// stage 1 fits with unwhitened residuals; their class covariances then fix the whitening for
+/// stage 2. In each stage the robust scale is fixed and an outer loop re-estimates the Huber
+/// weights (IRLS, a monotone majorise–minimise scheme) while an inner trust-region loop minimises
+/// the cost with the weights fixed; a stage ends when a reweighting moves no parameter by more
+/// than the step tolerance.
+pub fn fit(
+    p: &Parameterisation,
+    x0: &DVector<f64>,
+    observations: &[Observation],
+    settings: &FitSettings,
+    on_iteration: &mut dyn FnMut(&IterationLog),
+) -> Result<FitOutcome, FitError> {
+    let free: Vec<usize> = (0..p.len()).filter(|&i| settings.free[i]).collect();
+    let markers: Vec<usize> = observations.iter().map(|o| o.markers).collect();
+    let mut x = x0.clone();
+    let mut eval = evaluate(p, &x, observations, None, true).map_err(FitError::Start)?;
+    let mut radius = settings.initial_radius;
+    let mut log: Vec<IterationLog> = Vec::new();
+    let mut weighting = Weighting::isotropic(observations.len());
+    for whitened in [false, true] {
+        if whitened {
+            weighting.whiten_by_class(&eval.residuals, &markers);
+        }
+        weighting.rescale(&eval.residuals);
+        weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
+        let mut settled = false;
+        for _ in 0..MAX_REWEIGHTINGS {
+            let start = x.clone();
+            loop {
+                let iteration = log.len() as u32 + 1;
+                if iteration > settings.max_iterations {
+                    let step = log.last().map_or(0.0, |l| l.step);
+                    return Err(FitError::NotConverged { iterations: settings.max_iterations, step, radius });
+                }
+                let (entry, done) = trust_region_step(
+                    p,
+                    &mut x,
+                    &mut eval,
+                    observations,
+                    settings,
+                    &free,
+                    &weighting,
+                    &mut radius,
+                    iteration,
+                )?;
+                on_iteration(&entry);
+                log.push(entry);
+                if done {
+                    break;
+                }
+            }
+            weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
+            if (&x - &start).amax() < settings.step_tolerance {
+                settled = true;
+                break;
+            }
+        }
+        if !settled {
+            let step = log.last().map_or(0.0, |l| l.step);
+            return Err(FitError::NotConverged { iterations: log.len() as u32, step, radius });
+        }
+    }
+    Ok(FitOutcome { x, evaluation: eval, weighting, log })
+}
+
+/// One trust-region iteration with a fixed weighting; returns its log entry and whether the inner
+/// loop has converged (a tiny accepted step, no predicted decrease, or a collapsed radius).
+#[allow(clippy::too_many_arguments)]
+fn trust_region_step(
+    p: &Parameterisation,
+    x: &mut DVector<f64>,
+    eval: &mut Evaluation,
+    observations: &[Observation],
+    settings: &FitSettings,
+    free: &[usize],
+    weighting: &Weighting,
+    radius: &mut f64,
+    iteration: u32,
+) -> Result<(IterationLog, bool), FitError> {
+    let cost = weighting.cost(&eval.residuals) + prior_cost(settings, x);
+    let (hessian, gradient) = normal_equations(eval, weighting, free, settings, x);
+    let (step, solver_iterations) = solve_subproblem(p, x, free, &hessian, &gradient, *radius)
+        .map_err(|status| FitError::Solver { iteration, status })?;
+    let predicted = -(0.5 * step.dot(&(&hessian * &step)) + gradient.dot(&step));
+    let mut trial_x = x.clone();
+    for (k, &i) in free.iter().enumerate() {
+        trial_x[i] += step[k];
+    }
+    let trial = evaluate(p, &trial_x, observations, Some(&eval.orientations), false);
+    let actual = match &trial {
+        Ok(t) => cost - weighting.cost(&t.residuals) - prior_cost(settings, &trial_x),
+        Err(_) => f64::NEG_INFINITY,
+    };
+    let ratio = if predicted > 0.0 { actual / predicted } else { 0.0 };
+    let accepted = ratio > 0.25 && trial.is_ok();
+    let step_norm = step.norm();
+    let entry = IterationLog {
+        iteration,
+        cost,
+        rms_deg: rms(&eval.residuals).to_degrees(),
+        step: step_norm,
+        radius: *radius,
+        ratio,
+        accepted,
+        solver_iterations,
+    };
+    let done = if accepted {
+        let orientations = trial.expect("accepted steps evaluated").orientations;
+        *x = trial_x;
+        *eval = evaluate(p, x, observations, Some(&orientations), true).map_err(FitError::Start)?;
+        if ratio > 0.75 && step_norm > 0.9 * *radius {
+            *radius = (2.0 * *radius).min(0.5);
+        }
+        step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
+    } else {
+        *radius /= 4.0;
+        // No step of useful size reduces the cost, or the reduction it promises is below what the
+        // cost can resolve: x is a minimum to working precision.
+        *radius < settings.step_tolerance || step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
+    };
+    Ok((entry, done))
+}
+
+/// RMS of the residual angles (radians).
+pub fn rms(residuals: &[Vector3<f64>]) -> f64 {
+    (residuals.iter().map(|r| r.norm_squared()).sum::<f64>() / residuals.len().max(1) as f64).sqrt()
+}
+
+/// `Jᵀ W J + Λ` and `Jᵀ W r + Λ (x − x_prior)` over the free parameters.
+pub fn normal_equations(
+    eval: &Evaluation,
+    weighting: &Weighting,
+    free: &[usize],
+    settings: &FitSettings,
+    x: &DVector<f64>,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let jac = eval.jacobian.as_ref().expect("evaluated with the Jacobian");
+    let n = free.len();
+    let mut jf = DMatrix::zeros(jac.nrows(), n);
+    for (k, &i) in free.iter().enumerate() {
+        jf.set_column(k, &jac.column(i));
+    }
+    let mut r = DVector::zeros(jac.nrows());
+    for (j, (res, w)) in eval.residuals.iter().zip(&weighting.weights).enumerate() {
+        let s = weighting.whitening[j] * w.sqrt();
+        r.rows_mut(3 * j, 3).copy_from(&(s * res));
+        let block = s * jf.rows(3 * j, 3);
+        jf.rows_mut(3 * j, 3).copy_from(&block);
+    }
+    let mut hessian = jf.transpose() * &jf;
+    let mut gradient = jf.transpose() * r;
+    if let Some((lambda, x0)) = &settings.prior {
+        let d = x - x0;
+        let full_gradient = lambda * d;
+        for (a, &i) in free.iter().enumerate() {
+            gradient[a] += full_gradient[i];
+            for (b, &k) in free.iter().enumerate() {
+                hessian[(a, b)] += lambda[(i, k)];
+            }
+        }
+    }
+    (hessian, gradient)
+}
+
+/// The clarabel subproblem: bounds as a nonnegative cone, the trust region as a second-order cone.
+/// It is solved in Jacobi-scaled variables `Δ = S Δ̃`, `S = diag(P)^{-1/2}`, with the objective
+/// divided by `|S q|`, so that clarabel sees unit curvatures and an O(1) gradient however small the
+/// residuals have become.
+fn solve_subproblem(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    free: &[usize],
+    hessian: &DMatrix<f64>,
+    gradient: &DVector<f64>,
+    radius: f64,
+) -> Result<(DVector<f64>, u32), String> {
+    let n = free.len();
+    let scale = DVector::from_fn(n, |k, _| {
+        let d = hessian[(k, k)];
+        if d > 0.0 { 1.0 / d.sqrt() } else { 1.0 }
+    });
+    let q_scaled = gradient.component_mul(&scale);
+    let normaliser = q_scaled.norm().max(f64::MIN_POSITIVE);
+    // Upper triangle of the scaled P, column by column.
+    let (mut colptr, mut rowval, mut nzval) = (vec![0], Vec::new(), Vec::new());
+    for c in 0..n {
+        for r in 0..=c {
+            rowval.push(r);
+            nzval.push(hessian[(r, c)] * scale[r] * scale[c] / normaliser);
+        }
+        colptr.push(rowval.len());
+    }
+    let p_matrix = CscMatrix::new(n, n, colptr, rowval, nzval);
+    let bounded: Vec<(usize, f64)> =
+        free.iter().enumerate().filter_map(|(k, &i)| p.entries[i].bound.map(|b| (k, b))).collect();
+    let rows = 2 * bounded.len() + n + 1;
+    let mut a = vec![vec![0.0; n]; rows];
+    let mut b = vec![0.0; rows];
+    for (row, &(k, bound)) in bounded.iter().enumerate() {
+        let value = x[free[k]];
+        a[2 * row][k] = scale[k];
+        b[2 * row] = bound - value;
+        a[2 * row + 1][k] = -scale[k];
+        b[2 * row + 1] = bound + value;
+    }
+    let soc = 2 * bounded.len();
+    b[soc] = radius;
+    for k in 0..n {
+        a[soc + 1 + k][k] = -scale[k];
+    }
+    let a_matrix = CscMatrix::from(a.iter().map(|r| r.iter()));
+    let mut cones: Vec<SupportedConeT<f64>> = Vec::new();
+    if !bounded.is_empty() {
+        cones.push(NonnegativeConeT(2 * bounded.len()));
+    }
+    cones.push(SecondOrderConeT(n + 1));
+    let settings = DefaultSettingsBuilder::default().verbose(false).build().expect("valid clarabel settings");
+    let q: Vec<f64> = q_scaled.iter().map(|v| v / normaliser).collect();
+    let mut solver =
+        DefaultSolver::new(&p_matrix, &q, &a_matrix, &b, &cones, settings).map_err(|e| format!("{e:?}"))?;
+    solver.solve();
+    let solution = &solver.solution;
+    let step = DVector::from_vec(solution.x.clone()).component_mul(&scale);
+    match solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok((step, solution.iterations)),
+        // Stalled close to the optimum: the step is still a feasible candidate, and the trust
+        // region's ratio test accepts it only if it really reduces the cost.
+        SolverStatus::InsufficientProgress | SolverStatus::MaxIterations if step.iter().all(|v| v.is_finite()) => {
+            Ok((step, solution.iterations))
+        }
+        status => Err(format!("{status:?}")),
+    }
+}

@@ -1,0 +1,123 @@
+//! FDA against vision: per pose, the angle between the orientation the model predicts from the
+//! joints and the one the camera measured, for one or more parameter sets.
+//!
+//! A parameter set without a camera registration (the nominal model) gets the best-fit
+//! registration alone, so that a camera misalignment is not blamed on the mechanism. With a
+//! registration (a calibrated file) only the reference rotation `A` is fitted: it belongs to the
+//! session (where its reference pose was), not to the device.
+
+use nalgebra::{DVector, Rotation3};
+use serde::Serialize;
+
+use crate::calib::{
+    CalibConfig, ErrorSummary, FitError, FitSettings, Group, Loss, Observation, Parameterisation, fit,
+    initial_registration,
+};
+use crate::dataset::Session;
+use crate::model::{LegGeometry, Parameters, Spm};
+use crate::vision::{Method, VisionError, estimate_session};
+
+/// The comparison of one parameter set.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SetComparison {
+    pub label: String,
+    /// How the camera registration was obtained.
+    pub registration: &'static str,
+    /// `(pose, angle in degrees)`.
+    pub per_pose: Vec<(u64, f64)>,
+    pub rms_deg: f64,
+    pub median_deg: f64,
+    pub max_deg: f64,
+    /// Poses whose forward kinematics failed with this set, and why.
+    pub excluded: Vec<String>,
+}
+
+/// Why a comparison could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("vision: {0}")]
+    Vision(#[from] VisionError),
+    #[error("{label}: {reason}")]
+    Set { label: String, reason: String },
+}
+
+/// Compare each `(label, parameters)` set with the camera on `session`.
+pub fn compare(
+    session: &Session,
+    sets: &[(String, Parameters)],
+    method: Method,
+) -> Result<Vec<SetComparison>, CompareError> {
+    let vision = estimate_session(session, method)?;
+    sets.iter().map(|(label, params)| compare_one(session, &vision, label, params)).collect()
+}
+
+fn compare_one(
+    session: &Session,
+    vision: &crate::vision::SessionEstimate,
+    label: &str,
+    params: &Parameters,
+) -> Result<SetComparison, CompareError> {
+    let fail = |reason: String| CompareError::Set { label: label.to_string(), reason };
+    let spm = Spm::new(params.legs).map_err(|e| fail(e.to_string()))?;
+    let mut observations = Vec::new();
+    let mut predicted = Vec::new();
+    let mut excluded = Vec::new();
+    for (pose, estimate) in &vision.poses {
+        let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses exist").joints;
+        match spm.forward(&joints) {
+            Ok(r) => {
+                observations.push(Observation {
+                    pose: *pose,
+                    joints,
+                    measured: estimate.rotation,
+                    markers: estimate.markers_used,
+                });
+                predicted.push(r);
+            }
+            Err(e) => excluded.push(format!("pose {pose}: {e}")),
+        }
+    }
+    let reference = observations.iter().position(|o| o.pose == vision.reference_pose).unwrap_or(0);
+    let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
+    let (camera0, reference0, registration, groups): (_, _, _, &[Group]) = match params.camera {
+        Some(c) => (
+            c.rotation,
+            c.rotation * predicted[reference],
+            "from the parameters file (reference rotation fitted)",
+            &[Group::ReferenceRotation],
+        ),
+        None => {
+            let (c, a) = initial_registration(&predicted, &measured, reference)
+                .ok_or_else(|| fail("every pose rotates about one axis: no registration".into()))?;
+            (c, a, "best fit to this session", &[Group::CameraRotation, Group::ReferenceRotation])
+        }
+    };
+    let legs: [LegGeometry; 3] = *spm.geometry();
+    let defaults = CalibConfig::default();
+    let p = Parameterisation::new(legs, camera0, reference0, &defaults.bounds);
+    let settings = FitSettings {
+        max_iterations: defaults.max_iterations,
+        initial_radius: defaults.initial_radius_deg.to_radians(),
+        step_tolerance: defaults.step_tolerance_deg.to_radians(),
+        loss: Loss::LeastSquares,
+        huber_threshold: defaults.huber_threshold,
+        free: p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect(),
+        prior: None,
+    };
+    let outcome = fit(&p, &DVector::zeros(p.len()), &observations, &settings, &mut |_| {})
+        .map_err(|e: FitError| fail(e.to_string()))?;
+    let summary = ErrorSummary::of(&outcome.evaluation.residuals);
+    Ok(SetComparison {
+        label: label.to_string(),
+        registration,
+        per_pose: observations
+            .iter()
+            .zip(&outcome.evaluation.residuals)
+            .map(|(o, r)| (o.pose, r.norm().to_degrees()))
+            .collect(),
+        rms_deg: summary.rms_deg,
+        median_deg: summary.median_deg,
+        max_deg: summary.max_deg,
+        excluded,
+    })
+}

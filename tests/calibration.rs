@@ -1,0 +1,315 @@
+//! Calibration against simulated ground truth: analytic Jacobians, the gauge, accuracy against the
+//! true orientations and the noise floor, honest uncertainties, robustness, and the settings.
+
+use std::path::Path;
+
+use nalgebra::{DVector, Rotation3};
+
+use spmcal::calib::{
+    CalibConfig, Calibration, FitSettings, Group, Loss, Observation, Parameterisation, TruthInGauge, Unidentifiable,
+    analyse, calibrate, evaluate, fit,
+};
+use spmcal::dataset::Session;
+use spmcal::model::RobotModel;
+use spmcal::sim::{SimConfig, simulate};
+use spmcal::so3;
+
+fn load(dir: &str) -> (Session, RobotModel) {
+    let (session, _) = Session::load(Path::new(dir), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    (session, model)
+}
+
+fn simulated(poses: usize, seed: u64) -> (Session, RobotModel) {
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    config.poses = poses;
+    config.seed = seed;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    (session, model)
+}
+
+/// The truth of a simulated session in the gauge of a calibration.
+fn truth(session: &Session, calibration: &Calibration) -> TruthInGauge {
+    let t = session.truth.as_ref().unwrap();
+    let r0 = t.orientations[&session.reference_pose];
+    TruthInGauge::new(&calibration.parameterisation, &t.parameters.legs, &t.parameters.camera.unwrap().rotation, &r0)
+}
+
+/// RMS angle (degrees), over `poses`, between the motion from the reference pose that the model
+/// predicts from the joints, as the camera sees it, `R_CB R_j R_0ᵀ R_CBᵀ`, and the true one. Both
+/// gauge freedoms cancel in it, and no vision measurement enters: it is the model's own error.
+fn error_against_truth(session: &Session, calibration: &Calibration, x: &DVector<f64>, poses: &[Observation]) -> f64 {
+    let t = session.truth.as_ref().unwrap();
+    let p = &calibration.parameterisation;
+    let spm = spmcal::model::Spm::new(p.legs(x)).unwrap();
+    let reference = session.reference();
+    let r0 = spm.forward(&reference.joints).unwrap();
+    let (camera, camera_true) = (p.camera(x), t.parameters.camera.unwrap().rotation);
+    let r0_true = t.orientations[&reference.id];
+    let sum: f64 = poses
+        .iter()
+        .map(|o| {
+            let predicted = camera * spm.forward(&o.joints).unwrap() * r0.inverse() * camera.inverse();
+            let truth = camera_true * t.orientations[&o.pose] * r0_true.inverse() * camera_true.inverse();
+            so3::geodesic_angle(&predicted, &truth).powi(2)
+        })
+        .sum();
+    (sum / poses.len() as f64).sqrt().to_degrees()
+}
+
+fn rms_deg(p: &Parameterisation, x: &DVector<f64>, observations: &[Observation]) -> f64 {
+    spmcal::calib::rms(&evaluate(p, x, observations, None, false).unwrap().residuals).to_degrees()
+}
+
+#[test]
+fn analytic_jacobian_matches_finite_differences() {
+    let (session, model) = load("datasets/agile_wrist_sim_20");
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let p = &calibration.parameterisation;
+    // Away from the optimum, with every parameter non-zero, so that no term hides.
+    let x = calibration.calibrated.x.map(|v| v * 1.5 + 0.003);
+    let obs = &calibration.observations;
+    let at = evaluate(p, &x, obs, None, true).unwrap();
+    let jac = at.jacobian.unwrap();
+    let h = 1e-6;
+    for i in 0..p.len() {
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[i] += h;
+        minus[i] -= h;
+        let rp = evaluate(p, &plus, obs, Some(&at.orientations), false).unwrap().residuals;
+        let rm = evaluate(p, &minus, obs, Some(&at.orientations), false).unwrap().residuals;
+        for j in 0..obs.len() {
+            let numeric = (rp[j] - rm[j]) / (2.0 * h);
+            let analytic = jac.fixed_view::<3, 1>(3 * j, i);
+            // Central differences: O(h²) ≈ 1e-12 truncation, ~1e-10 rounding (1e-16 / h).
+            assert!(
+                (numeric - analytic).amax() < 1e-8,
+                "{} pose {}: {numeric:?} vs {analytic:?}",
+                p.entries[i].name,
+                obs[j].pose
+            );
+        }
+    }
+}
+
+#[test]
+fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
+    let (session, model) = load("datasets/agile_wrist_sim_400");
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let id = &calibration.report.identifiability;
+    assert_eq!((id.rank, id.parameters), (21, 21), "{id:?}");
+    assert!(calibration.report.regularised.is_empty());
+    // Add the six gauge directions as extra columns: tilts of u_1 (2), of u_2 out of its plane (1),
+    // of v0_1 (2), of v0_2 out of its plane (1). They must be null: numerically differentiate the
+    // residuals along each and check the augmented Jacobian has exactly six zero singular values.
+    let p = &calibration.parameterisation;
+    let x = &calibration.calibrated.x;
+    let obs = &calibration.observations;
+    let base = evaluate(p, x, obs, None, true).unwrap();
+    let g = p.legs(x);
+    let n12 = g[0].u.cross(&g[1].u).normalize();
+    let m12 = g[0].v0.cross(&g[1].v0).normalize();
+    let t = |a: &nalgebra::Vector3<f64>| {
+        let e1 = a.cross(&nalgebra::Vector3::z()).normalize();
+        [e1, a.cross(&e1)]
+    };
+    let gauge_moves: Vec<(bool, usize, nalgebra::Vector3<f64>)> = vec![
+        (true, 0, t(&g[0].u)[0]),
+        (true, 0, t(&g[0].u)[1]),
+        (true, 1, g[1].u.cross(&n12).normalize()),
+        (false, 0, t(&g[0].v0)[0]),
+        (false, 0, t(&g[0].v0)[1]),
+        (false, 1, g[1].v0.cross(&m12).normalize()),
+    ];
+    let jac = base.jacobian.unwrap();
+    let mut augmented = nalgebra::DMatrix::zeros(jac.nrows(), jac.ncols() + 6);
+    augmented.view_mut((0, 0), (jac.nrows(), jac.ncols())).copy_from(&jac);
+    let residuals_after = |actuated: bool, leg: usize, rot: Rotation3<f64>| {
+        let mut legs = g;
+        if actuated {
+            legs[leg].u = rot * legs[leg].u;
+            legs[leg].z = rot * legs[leg].z;
+        } else {
+            legs[leg].v0 = rot * legs[leg].v0;
+        }
+        let q = Parameterisation::new(legs, p.camera(x), p.reference(x), &CalibConfig::default().bounds);
+        evaluate(&q, &DVector::zeros(q.len()), obs, Some(&base.orientations), false).unwrap().residuals
+    };
+    let h = 1e-6;
+    for (k, (actuated, leg, dir)) in gauge_moves.iter().enumerate() {
+        let plus = residuals_after(*actuated, *leg, so3::exp(&(dir * h)));
+        let minus = residuals_after(*actuated, *leg, so3::exp(&(dir * -h)));
+        for j in 0..obs.len() {
+            augmented.fixed_view_mut::<3, 1>(3 * j, jac.ncols() + k).copy_from(&((plus[j] - minus[j]) / (2.0 * h)));
+        }
+    }
+    let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
+    let all: Vec<usize> = (0..augmented.ncols()).collect();
+    let analysis = analyse(&augmented, &all, &names, 1e-5);
+    assert_eq!(analysis.rank, 21, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.unidentifiable.len(), 6);
+}
+
+/// Held-out RMS (degrees) of the true mechanism with its best-fit registration: the noise floor.
+fn floor_held_out(session: &Session, calibration: &Calibration) -> f64 {
+    let t = session.truth.as_ref().unwrap();
+    let p0 = &calibration.parameterisation;
+    let p = Parameterisation::new(
+        t.parameters.legs,
+        p0.camera(&calibration.calibrated.x),
+        p0.reference(&calibration.calibrated.x),
+        &CalibConfig::default().bounds,
+    );
+    let settings = FitSettings {
+        max_iterations: 50,
+        initial_radius: 0.05,
+        step_tolerance: 1e-10,
+        loss: Loss::Huber,
+        huber_threshold: 3.0,
+        free: p
+            .entries
+            .iter()
+            .map(|e| matches!(e.kind.group(), Group::CameraRotation | Group::ReferenceRotation))
+            .collect(),
+        prior: None,
+    };
+    let outcome = fit(&p, &DVector::zeros(p.len()), &calibration.observations, &settings, &mut |_| {}).unwrap();
+    rms_deg(&p, &outcome.x, &calibration.held_out)
+}
+
+#[test]
+fn sim_400_calibration_beats_nominal_fivefold_and_reaches_the_noise_floor() {
+    let (session, model) = load("datasets/agile_wrist_sim_400");
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    // Against the true orientations, on poses held out of the fit.
+    let nominal = error_against_truth(&session, &calibration, &calibration.nominal.x, &calibration.held_out);
+    let calibrated = error_against_truth(&session, &calibration, &calibration.calibrated.x, &calibration.held_out);
+    eprintln!(
+        "held-out error against truth: nominal {nominal:.4}°, calibrated {calibrated:.4}° ({:.1}×)",
+        nominal / calibrated
+    );
+    assert!(nominal >= 5.0 * calibrated, "nominal {nominal:.4}° vs calibrated {calibrated:.4}°");
+    // Against the camera, on held-out poses: within 10% of what the true parameters achieve.
+    let floor = floor_held_out(&session, &calibration);
+    let achieved = calibration.report.after.held_out.unwrap().rms_deg;
+    eprintln!("held-out FDA vs vision: calibrated {achieved:.4}°, true parameters {floor:.4}°");
+    assert!(achieved <= 1.10 * floor, "calibrated {achieved:.4}° vs floor {floor:.4}°");
+    assert_eq!(calibration.report.held_out_poses, 100);
+}
+
+#[test]
+fn recovered_parameters_lie_within_three_standard_errors_of_the_truth() {
+    let (mut inside, mut total, mut within_one) = (0, 0, 0);
+    let mut worst = Vec::new();
+    for seed in 0..10 {
+        let (session, model) = simulated(300, 1000 + seed);
+        let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+        let truth = truth(&session, &calibration);
+        for (i, e) in calibration.parameterisation.entries.iter().enumerate() {
+            if matches!(e.kind.group(), Group::ReferenceRotation) {
+                continue; // a property of the session's reference markers, not of the device
+            }
+            let se = calibration.covariance[(i, i)].sqrt();
+            let z = (calibration.calibrated.x[i] - truth.x[i]) / se;
+            total += 1;
+            within_one += usize::from(z.abs() <= 1.0);
+            if z.abs() <= 3.0 {
+                inside += 1;
+            } else {
+                worst.push(format!("seed {seed} {}: z = {z:.2}", e.name));
+            }
+        }
+    }
+    let share = inside as f64 / total as f64;
+    let share_one = within_one as f64 / total as f64;
+    eprintln!(
+        "{inside} of {total} parameters within 3 standard errors ({:.1}%), {within_one} within 1 ({:.1}%); outside: {worst:?}",
+        100.0 * share,
+        100.0 * share_one
+    );
+    assert!(share >= 0.95, "{inside} of {total}: {worst:?}");
+    // Honest from the other side too: inflated errors would put nearly everything within 1σ
+    // (68% expected; with 180 correlated draws, 55–82% is a generous 3σ band).
+    assert!((0.55..=0.82).contains(&share_one), "{within_one} of {total} within one standard error");
+}
+
+#[test]
+fn twenty_poses_converge_and_say_what_they_cannot_pin_down() {
+    let (session, model) = load("datasets/agile_wrist_sim_20");
+    let small = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let (session, model) = load("datasets/agile_wrist_sim_400");
+    let large = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let r = &small.report;
+    assert_eq!((r.fit_poses, r.held_out_poses), (15, 5));
+    assert!(r.iterations.last().unwrap().accepted || r.iterations.len() > 1);
+    // Fewer poses: a worse-conditioned problem and honestly larger standard errors.
+    assert!(r.identifiability.condition > large.report.identifiability.condition);
+    assert_eq!(r.identifiability.weakest.len(), 3);
+    for (a, b) in r.parameters.iter().zip(&large.report.parameters) {
+        assert!(a.std_error_deg.unwrap() > b.std_error_deg.unwrap(), "{}", a.name);
+    }
+    let u_small = r.orientation_uncertainty_deg.unwrap().mean;
+    let u_large = large.report.orientation_uncertainty_deg.unwrap().mean;
+    assert!(u_small > 2.0 * u_large, "{u_small} vs {u_large}");
+}
+
+#[test]
+fn outliers_are_flagged_and_down_weighted() {
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    config.poses = 200;
+    config.camera.outlier_probability = 0.03;
+    config.camera.outlier_sigma_m = 0.01;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    assert!(summary.outliers > 0);
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let flagged = &calibration.report.outliers;
+    assert!(!flagged.is_empty());
+    assert!(flagged.iter().all(|o| o.weight < 1.0), "{flagged:?}");
+    // The robust fit still reaches a calibrated model far better than nominal against the truth.
+    let nominal = error_against_truth(&session, &calibration, &calibration.nominal.x, &calibration.held_out);
+    let calibrated = error_against_truth(&session, &calibration, &calibration.calibrated.x, &calibration.held_out);
+    assert!(nominal > 5.0 * calibrated, "nominal {nominal:.4}° vs calibrated {calibrated:.4}°");
+}
+
+#[test]
+fn frozen_groups_do_not_move_and_refusal_names_the_directions() {
+    let (session, model) = load("datasets/agile_wrist_sim_20");
+    let mut config = CalibConfig::default();
+    config.freeze = vec![Group::JointOffsets, Group::PlatformAxes];
+    let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
+    for p in &calibration.report.parameters {
+        let frozen = p.name.ends_with(".delta") || p.name.contains(".v0_tilt");
+        assert_eq!(p.frozen, frozen, "{}", p.name);
+        if frozen {
+            assert_eq!((p.change_deg, p.std_error_deg), (0.0, None), "{}", p.name);
+        }
+    }
+    // An absurd threshold makes weak directions "unidentifiable": refuse names them...
+    config.freeze.clear();
+    config.min_singular_ratio = 0.2;
+    config.unidentifiable = Unidentifiable::Refuse;
+    let err = calibrate(&session, &model, &config, &mut |_| {}).unwrap_err().to_string();
+    assert!(err.contains("cannot identify") && err.contains("leg"), "{err}");
+    // ...and regularise holds them, and says so.
+    config.unidentifiable = Unidentifiable::Regularise;
+    let held = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
+    assert!(!held.report.regularised.is_empty());
+}
+
+#[test]
+fn config_errors_name_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("calibrate.yaml");
+    let good = std::fs::read_to_string("configs/calibrate.yaml").unwrap();
+    assert_eq!(CalibConfig::read(Path::new("configs/calibrate.yaml")).unwrap(), CalibConfig::default());
+    std::fs::write(&path, good.replace("holdout_every: 4", "hold_out_every: 4")).unwrap();
+    let err = CalibConfig::read(&path).unwrap_err().to_string();
+    assert!(err.contains("calibrate.yaml:") && err.contains("hold_out_every"), "{err}");
+    std::fs::write(&path, good.replace("huber_threshold: 3.0", "huber_threshold: -1")).unwrap();
+    let err = CalibConfig::read(&path).unwrap_err().to_string();
+    assert!(err.contains("calibrate.yaml:5") && err.contains("huber_threshold"), "{err}");
+    std::fs::write(&path, good.replace("freeze: []", "freeze: [offsets]")).unwrap();
+    assert!(CalibConfig::read(&path).unwrap_err().to_string().contains("unknown variant `offsets`"));
+}
