@@ -518,8 +518,22 @@ fn calibration_report(r: &CalibrationReport, out: &Path) -> String {
             None => s.push_str(&format!("  {:<26} {:+12.5}         frozen\n", p.name, p.change_deg)),
         }
     }
+    if !r.not_significant.is_empty() {
+        s.push_str(&format!(
+            "not distinguishable from nominal (|change| < 2 std errors): {} of {}: {}\n",
+            r.not_significant.len(),
+            r.parameters.iter().filter(|p| !p.frozen).count(),
+            r.not_significant.join(", ")
+        ));
+    }
     for c in r.high_correlations.iter().take(5) {
         s.push_str(&format!("  correlated: {} ~ {} (rho {:+.3})\n", c.a, c.b, c.rho));
+    }
+    for (markers, poses, sigma) in &r.residual_sigma_deg {
+        s.push_str(&format!(
+            "residual sigma, {poses} poses with {markers} markers: [{:.4}, {:.4}, {:.4}] deg (camera x, y, z)\n",
+            sigma[0], sigma[1], sigma[2]
+        ));
     }
     if let Some(u) = &r.orientation_uncertainty_deg {
         s.push_str(&format!(

@@ -103,3 +103,68 @@ fn shipped_datasets_load_with_their_truth() {
         assert!(truth.parameters.camera.is_some());
     }
 }
+
+#[test]
+fn calibrate_writes_parameters_and_compare_reports_both_sets() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.yaml");
+    let run = spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap()]);
+    let report = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(report.contains("calibrated, held out") && report.contains("identifiability: 21 of 21"), "{report}");
+    let written = spmcal::model::Parameters::read(&params).unwrap();
+    assert_eq!(written.source, spmcal::model::ParameterSource::Calibrated);
+    assert!(written.camera.is_some());
+    let fit = written.fit.expect("the fit statistics are in the header");
+    assert!(fit["rms_after_deg"].as_f64().unwrap() < fit["rms_before_deg"].as_f64().unwrap());
+
+    let json = spmcal(&[
+        "compare",
+        "--dataset",
+        "datasets/agile_wrist_sim_20",
+        "--params",
+        params.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(json.status.success(), "{}", String::from_utf8_lossy(&json.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let sets = v["sets"].as_array().unwrap();
+    assert_eq!((sets[0]["label"].as_str(), sets[1]["label"].as_str()), (Some("nominal"), Some("calibrated")));
+    for set in sets {
+        for key in ["rms_deg", "median_deg", "max_deg"] {
+            assert!(set[key].as_f64().unwrap() > 0.0, "{key}");
+        }
+        assert_eq!(set["poses"], 20);
+    }
+    assert!(sets[1]["rms_deg"].as_f64().unwrap() < sets[0]["rms_deg"].as_f64().unwrap());
+
+    let json =
+        spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(v["parameters"].as_array().unwrap().len(), 21);
+    assert!(v["after"]["held_out"]["rms_deg"].as_f64().is_some());
+}
+
+#[test]
+fn calibrate_reports_a_bad_config_with_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("c.yaml");
+    std::fs::write(
+        &config,
+        std::fs::read_to_string("configs/calibrate.yaml").unwrap().replace("loss: huber", "loss: cauchy"),
+    )
+    .unwrap();
+    let out = dir.path().join("p.yaml");
+    let run = spmcal(&[
+        "calibrate",
+        "--dataset",
+        "datasets/agile_wrist_sim_20",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && err.contains("c.yaml:4") && err.contains("cauchy"), "{err}");
+    assert!(!out.exists(), "no parameters file after a failure");
+}

@@ -98,6 +98,9 @@ pub struct CalibrationReport {
     pub identifiability: Identifiability,
     /// Unidentifiable directions held by a weak prior.
     pub regularised: Vec<String>,
+    /// Parameters whose change from nominal is smaller than twice its standard error: the data
+    /// cannot tell them from nominal.
+    pub not_significant: Vec<String>,
     pub high_correlations: Vec<Correlation>,
     /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance.
     pub orientation_uncertainty_deg: Option<Stats>,
@@ -221,6 +224,11 @@ pub fn calibrate(
         before,
         after,
         iterations: calibrated.log.clone(),
+        not_significant: parameter_reports(&p, &calibrated.x, &covariance, &free)
+            .into_iter()
+            .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
+            .map(|r| r.name)
+            .collect(),
         parameters: parameter_reports(&p, &calibrated.x, &covariance, &free),
         identifiability,
         regularised,
@@ -345,7 +353,7 @@ fn orientation_uncertainty(outcome: &FitOutcome, cov: &DMatrix<f64>) -> Option<S
     let values: Vec<f64> = (0..outcome.evaluation.residuals.len())
         .map(|j| {
             let block = jac.rows(3 * j, 3);
-            ((&block * cov * block.transpose()).trace() / 3.0).max(0.0).sqrt().to_degrees()
+            ((block * cov * block.transpose()).trace() / 3.0).max(0.0).sqrt().to_degrees()
         })
         .collect();
     Stats::of(&values)

@@ -85,7 +85,7 @@ pub fn evaluate(
             let d_omega = frames.orientation_sensitivity(&spm, &legs, &obs.joints, &r);
             let jl_inv = so3::left_jacobian_inverse(&residual);
             let mech = jl_inv * m.matrix() * camera.matrix();
-            let mut block = &mech * &d_omega * -1.0;
+            let mut block = -(mech * &d_omega);
             let (c, a) = p.registration_vectors(x);
             let (jc, ja) = (so3::left_jacobian(&c), so3::left_jacobian(&a));
             for (i, e) in p.entries.iter().enumerate() {
