@@ -9,6 +9,7 @@ pub mod dataset;
 pub mod files;
 pub mod model;
 pub mod polar;
+pub mod record;
 pub mod sim;
 pub mod so3;
 pub mod table;

@@ -37,6 +37,27 @@ enum Command {
     Calibrate(CalibrateArgs),
     /// Compare FDA-predicted with vision-measured orientations, nominal and calibrated.
     Compare(CompareArgs),
+    /// Write a session, pose by pose, as a Rerun recording to open offline.
+    Replay(ReplayArgs),
+}
+
+#[derive(Args)]
+struct ReplayArgs {
+    /// The session folder.
+    #[arg(long)]
+    dataset: PathBuf,
+    /// Parameters (e.g. calibrated) that draw the mechanism; default: the nominal model.
+    #[arg(long)]
+    params: Option<PathBuf>,
+    /// The URDF model (overrides the session's).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// The recording to write.
+    #[arg(long)]
+    rrd: PathBuf,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    json: bool,
 }
 
 /// Which manipulator geometry to use.
@@ -100,6 +121,9 @@ struct FdaArgs {
 
 #[derive(Args)]
 struct SimulateArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// Simulation settings (YAML).
     #[arg(long)]
     config: PathBuf,
@@ -125,6 +149,9 @@ struct SimulateArgs {
 
 #[derive(Args)]
 struct EstimateArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// The session folder.
     #[arg(long)]
     dataset: PathBuf,
@@ -144,6 +171,9 @@ struct EstimateArgs {
 
 #[derive(Args)]
 struct CalibrateArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// The session folder.
     #[arg(long)]
     dataset: PathBuf,
@@ -163,6 +193,9 @@ struct CalibrateArgs {
 
 #[derive(Args)]
 struct CompareArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    rrd: Option<PathBuf>,
     /// The session folder.
     #[arg(long)]
     dataset: PathBuf,
@@ -204,6 +237,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Estimate(args) => estimate(args),
         Command::Calibrate(args) => calibrate(args),
         Command::Compare(args) => compare(args),
+        Command::Replay(args) => replay(args),
     }
 }
 
@@ -330,6 +364,9 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     let (session, summary) = spmcal::sim::simulate(&config, &model, &mut |n| bar.set_position(n as u64))?;
     bar.finish_and_clear();
     session.write(&args.out)?;
+    if let Some(path) = &args.rrd {
+        record(path, &spmcal::record::simulation_scene(&session, &model)?)?;
+    }
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
     } else {
@@ -364,6 +401,10 @@ fn estimate(args: EstimateArgs) -> Result<()> {
     let session = load_session(&args.dataset, args.model.as_deref())?;
     let method: Method = args.method.into();
     let result = estimate_session(&session, method)?;
+    if let Some(path) = &args.rrd {
+        let model = RobotModel::load(&session.model)?;
+        record(path, &spmcal::record::estimate_scene(&session, &model)?)?;
+    }
     let mut table = String::from("pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m\n");
     for (pose, e) in &result.poses {
         let q = so3::to_wxyz(&e.rotation);
@@ -467,6 +508,9 @@ fn calibrate(args: CalibrateArgs) -> Result<()> {
     })?;
     spinner.finish_and_clear();
     calibration.parameters.write(&args.out)?;
+    if let Some(path) = &args.rrd {
+        record(path, &spmcal::record::calibration_scene(&session, &model, &calibration)?)?;
+    }
     if args.json {
         println!("{}", serde_json::to_string(&calibration.report)?);
     } else {
@@ -570,6 +614,9 @@ fn compare(args: CompareArgs) -> Result<()> {
         sets.push((label, params));
     }
     let result = spmcal::compare::compare(&session, &sets, args.method.into())?;
+    if let Some(path) = &args.rrd {
+        record(path, &spmcal::record::comparison_scene(&session, &model, &sets, &result)?)?;
+    }
     if args.json {
         let sets: Vec<_> = result
             .iter()
@@ -605,6 +652,25 @@ fn compare(args: CompareArgs) -> Result<()> {
             c.per_pose.len(),
             c.registration
         );
+    }
+    Ok(())
+}
+
+/// Write a recording and say so on standard error.
+fn record(path: &Path, scene: &spmcal::record::Scene) -> Result<spmcal::record::RecordingSummary> {
+    let summary = spmcal::record::write_recording(path, scene)?;
+    eprintln!("recording: {} ({} poses, {} bytes)", summary.path.display(), summary.poses, summary.bytes);
+    Ok(summary)
+}
+
+fn replay(args: ReplayArgs) -> Result<()> {
+    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let model = RobotModel::load(&session.model)?;
+    let params = args.params.as_deref().map(Parameters::read).transpose()?;
+    let scene = spmcal::record::replay_scene(&session, &model, params.as_ref())?;
+    let summary = record(&args.rrd, &scene)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
     }
     Ok(())
 }

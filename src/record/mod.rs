@@ -1,0 +1,124 @@
+//! Everything sent to Rerun. A [`Scene`] describes one run — the session, the mechanism that
+//! draws it, the camera registration, per-pose MP frames and error series, the fit's iterations and
+//! text documents — and [`write_recording`] turns it into one `.rrd` recording with the timelines
+//! `pose` (plus `time` when the session has capture times) and `iteration`.
+//!
+//! Entities: `world/base` (frame and actuated axes), `world/camera`, `world/legs/leg{i}/{proximal,
+//! distal}` (arcs on their spheres), `world/mp/<frame>` (one MP frame per source: `fda_nominal`,
+//! `fda_calibrated`, `vision`, `truth`), `world/markers/{measured,predicted}`, scalars under
+//! `errors/` and `fit/`, and documents under `parameters/`.
+
+mod draw;
+mod scenes;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Rotation3, Vector3};
+use rerun::blueprint::{
+    Blueprint, BlueprintActivation, Horizontal, Spatial3DView, TextDocumentView, TimeSeriesView, Vertical,
+};
+
+use crate::calib::IterationLog;
+use crate::dataset::Session;
+use crate::model::{CameraRegistration, RobotModel, Spm};
+
+pub use scenes::{
+    SceneError, calibration_scene, comparison_scene, estimate_scene, parameters_markdown, replay_scene,
+    simulation_scene,
+};
+
+/// MP orientations of one source, by pose.
+#[derive(Debug, Clone)]
+pub struct PoseFrames {
+    /// Entity name under `world/mp/`.
+    pub name: String,
+    pub rotations: BTreeMap<u64, Rotation3<f64>>,
+}
+
+/// A scalar per pose, plotted under `errors/`.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Entity path under `errors/`.
+    pub name: String,
+    pub values: BTreeMap<u64, f64>,
+}
+
+/// Everything one recording shows.
+pub struct Scene<'a> {
+    pub session: &'a Session,
+    pub model: &'a RobotModel,
+    /// The geometry that draws the legs and predicts the markers.
+    pub mechanism: Spm,
+    /// Camera registration, to put the measured markers in the base frame.
+    pub registration: Option<CameraRegistration>,
+    pub frames: Vec<PoseFrames>,
+    pub series: Vec<Series>,
+    pub iterations: Vec<IterationLog>,
+    /// `(entity under parameters/, markdown)`.
+    pub documents: Vec<(String, String)>,
+}
+
+/// What was written.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RecordingSummary {
+    pub path: PathBuf,
+    pub poses: usize,
+    pub bytes: u64,
+}
+
+/// Why a recording could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("{path}: cannot create the recording: {reason}")]
+    Create { path: PathBuf, reason: String },
+    #[error("{path}: cannot log {entity}: {reason}")]
+    Log { path: PathBuf, entity: String, reason: String },
+}
+
+/// The Rerun application id of every recording.
+pub const APPLICATION: &str = "spmcal";
+
+/// Write `scene` to `path` (atomically: a temporary file beside it, renamed when complete).
+pub fn write_recording(path: &Path, scene: &Scene) -> Result<RecordingSummary, RecordError> {
+    let create = |reason: String| RecordError::Create { path: path.to_path_buf(), reason };
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let tmp = tempfile::Builder::new()
+        .prefix(".spmcal-")
+        .suffix(".rrd.tmp")
+        .tempfile_in(dir)
+        .map_err(|e| create(e.to_string()))?;
+    let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp.path()).map_err(|e| create(e.to_string()))?;
+    let mut logger = draw::Logger { rec: &rec, path };
+    send_blueprint(&rec).map_err(|e| create(e.to_string()))?;
+    logger.scene(scene)?;
+    rec.flush_blocking().map_err(|e| create(e.to_string()))?;
+    drop(rec);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(|e| create(e.to_string()))?;
+    }
+    tmp.persist(path).map_err(|e| create(e.error.to_string()))?;
+    let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    Ok(RecordingSummary { path: path.to_path_buf(), poses: scene.session.poses.len(), bytes })
+}
+
+/// The default layout: the 3-D scene beside the error and fit plots and the parameters.
+fn send_blueprint(rec: &rerun::RecordingStream) -> rerun::RecordingStreamResult<()> {
+    let blueprint = Blueprint::new(Horizontal::new([
+        Spatial3DView::new("mechanism").with_origin("world").into(),
+        Vertical::new([
+            TimeSeriesView::new("errors").with_origin("errors").into(),
+            TimeSeriesView::new("fit").with_origin("fit").into(),
+            TextDocumentView::new("parameters").with_origin("parameters").into(),
+        ])
+        .into(),
+    ]));
+    blueprint.send(rec, BlueprintActivation::default())
+}
+
+/// `x_B = R_CBᵀ (x_C − t_CB)`.
+fn camera_to_base(registration: &CameraRegistration, p: &Vector3<f64>) -> Vector3<f64> {
+    registration.rotation.inverse() * (p - registration.translation)
+}

@@ -1,0 +1,238 @@
+//! The scene of each command: what `replay`, `simulate`, `estimate`, `calibrate` and `compare`
+//! put in their recordings.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use nalgebra::{DVector, Rotation3, Vector3};
+
+use super::{PoseFrames, Scene, Series};
+use crate::calib::{Calibration, initial_registration};
+use crate::compare::SetComparison;
+use crate::dataset::Session;
+use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
+use crate::vision::{Method, SessionEstimate, VisionError, estimate_session};
+
+/// Why a scene could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("vision: {0}")]
+    Vision(#[from] VisionError),
+    #[error("parameters: {0}")]
+    Parameters(#[from] crate::model::SpmError),
+    #[error("the camera registration cannot be estimated: every pose rotates about one axis")]
+    Registration,
+}
+
+/// MP orientations by forward kinematics, pose by pose (poses whose FDA fails are left out).
+fn fda_frames(name: &str, spm: &Spm, session: &Session) -> PoseFrames {
+    let rotations = session.poses.iter().filter_map(|p| spm.forward(&p.joints).ok().map(|r| (p.id, r))).collect();
+    PoseFrames { name: name.to_string(), rotations }
+}
+
+/// The vision orientations in the base frame, `R_CBᵀ Q_j A`.
+fn vision_frames(estimate: &SessionEstimate, camera: &Rotation3<f64>, reference: &Rotation3<f64>) -> PoseFrames {
+    let rotations = estimate.poses.iter().map(|(pose, e)| (*pose, camera.inverse() * e.rotation * reference)).collect();
+    PoseFrames { name: "vision".to_string(), rotations }
+}
+
+fn e_series(estimate: &SessionEstimate) -> Series {
+    Series { name: "e_j".into(), values: estimate.poses.iter().map(|(p, e)| (*p, e.error)).collect() }
+}
+
+/// Camera rotation and reference rotation `A` for showing vision in the base frame: from the
+/// parameters when they carry a registration, else fitted as `calibrate` starts it.
+fn registration(
+    session: &Session,
+    spm: &Spm,
+    estimate: &SessionEstimate,
+    params: Option<&Parameters>,
+) -> Result<(CameraRegistration, Rotation3<f64>), SceneError> {
+    let reference = session.reference();
+    let r_ref = spm.forward(&reference.joints).unwrap_or_else(|_| Rotation3::identity());
+    let translation = estimate.centre.map_or(Vector3::zeros(), |c| Vector3::from(c.position_m));
+    if let Some(camera) = params.and_then(|p| p.camera) {
+        return Ok((camera, camera.rotation * r_ref));
+    }
+    let (predicted, measured): (Vec<_>, Vec<_>) = estimate
+        .poses
+        .iter()
+        .filter_map(|(pose, e)| {
+            let joints = session.poses.iter().find(|p| p.id == *pose)?.joints;
+            spm.forward(&joints).ok().map(|r| (r, e.rotation))
+        })
+        .unzip();
+    let index = estimate.poses.iter().position(|(p, _)| *p == estimate.reference_pose).unwrap_or(0);
+    let (rotation, a) = initial_registration(&predicted, &measured, index.min(predicted.len().saturating_sub(1)))
+        .ok_or(SceneError::Registration)?;
+    Ok((CameraRegistration { rotation, translation }, a))
+}
+
+/// A markdown table of a parameter set.
+pub fn parameters_markdown(title: &str, p: &Parameters) -> String {
+    let mut s = format!("# {title}\n\n| leg | u | z | α1 (°) | α2 (°) | v0 | δ (°) |\n|---|---|---|---|---|---|---|\n");
+    let v = |x: &Vector3<f64>| format!("[{:.5}, {:.5}, {:.5}]", x.x, x.y, x.z);
+    for (i, g) in p.legs.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.4} | {:.4} | {} | {:.4} |",
+            i + 1,
+            v(&g.u),
+            v(&g.z),
+            g.alpha1.to_degrees(),
+            g.alpha2.to_degrees(),
+            v(&g.v0),
+            g.delta.to_degrees()
+        );
+    }
+    if let Some(c) = &p.camera {
+        let q = crate::so3::to_wxyz(&c.rotation);
+        let _ = write!(
+            s,
+            "\nCamera: R_CB (wxyz) [{:.5}, {:.5}, {:.5}, {:.5}], t_CB {} m\n",
+            q[0],
+            q[1],
+            q[2],
+            q[3],
+            v(&c.translation)
+        );
+    }
+    s
+}
+
+/// `spmcal replay`: the mechanism from the joints (with `params`, else nominal), the markers from
+/// the camera, the MP frames from FDA and vision, and `e_j`.
+pub fn replay_scene<'a>(
+    session: &'a Session,
+    model: &'a RobotModel,
+    params: Option<&Parameters>,
+) -> Result<Scene<'a>, SceneError> {
+    let spm = match params {
+        Some(p) => p.spm()?,
+        None => model.spm.clone(),
+    };
+    let estimate = estimate_session(session, Method::Kabsch)?;
+    let (camera, a) = registration(session, &spm, &estimate, params)?;
+    let name = if params.is_some() { "fda_calibrated" } else { "fda_nominal" };
+    let mut documents = vec![(
+        "nominal".to_string(),
+        parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None)),
+    )];
+    if let Some(p) = params {
+        documents.push(("used".to_string(), parameters_markdown("Parameters used", p)));
+    }
+    Ok(Scene {
+        session,
+        model,
+        frames: vec![fda_frames(name, &spm, session), vision_frames(&estimate, &camera.rotation, &a)],
+        mechanism: spm,
+        registration: Some(camera),
+        series: vec![e_series(&estimate)],
+        iterations: Vec::new(),
+        documents,
+    })
+}
+
+/// `spmcal estimate --rrd`: as a nominal replay (the vision frames are what `estimate` computed).
+pub fn estimate_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
+    replay_scene(session, model, None)
+}
+
+/// `spmcal simulate --rrd`: the true mechanism and camera, the true MP frames, the measured markers.
+pub fn simulation_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
+    let truth = session.truth.as_ref();
+    let spm = match truth {
+        Some(t) => t.parameters.spm()?,
+        None => model.spm.clone(),
+    };
+    let frames =
+        truth.map(|t| PoseFrames { name: "truth".into(), rotations: t.orientations.clone() }).into_iter().collect();
+    let documents = truth
+        .map(|t| ("truth".to_string(), parameters_markdown("True parameters", &t.parameters)))
+        .into_iter()
+        .collect();
+    Ok(Scene {
+        session,
+        model,
+        mechanism: spm,
+        registration: truth.and_then(|t| t.parameters.camera),
+        frames,
+        series: Vec::new(),
+        iterations: Vec::new(),
+        documents,
+    })
+}
+
+/// Per-pose FDA-vs-vision angles (degrees) of a fitted parameter vector, fitted and held-out poses.
+fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Series {
+    let p = &calibration.parameterisation;
+    let mut values = BTreeMap::new();
+    for set in [&calibration.observations, &calibration.held_out] {
+        if let Ok(eval) = crate::calib::evaluate(p, x, set, None, false) {
+            values.extend(set.iter().zip(&eval.residuals).map(|(o, r)| (o.pose, r.norm().to_degrees())));
+        }
+    }
+    Series { name: format!("fda_vs_vision/{name}"), values }
+}
+
+/// `spmcal calibrate --rrd`: nominal, calibrated and vision MP frames, the errors before and after,
+/// the fit's iterations, and the parameters before and after.
+pub fn calibration_scene<'a>(
+    session: &'a Session,
+    model: &'a RobotModel,
+    calibration: &Calibration,
+) -> Result<Scene<'a>, SceneError> {
+    let p = &calibration.parameterisation;
+    let x = &calibration.calibrated.x;
+    let spm = calibration.parameters.spm()?;
+    let camera = calibration.parameters.camera.expect("calibrations carry a registration");
+    let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
+    after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
+    for r in &calibration.report.parameters {
+        let se = r.std_error_deg.map_or("frozen".to_string(), |s| format!("{s:.4}"));
+        let _ = writeln!(after, "| {} | {:+.4} | {se} |", r.name, r.change_deg);
+    }
+    Ok(Scene {
+        session,
+        model,
+        frames: vec![
+            fda_frames("fda_nominal", &model.spm, session),
+            fda_frames("fda_calibrated", &spm, session),
+            vision_frames(&calibration.vision, &p.camera(x), &p.reference(x)),
+        ],
+        mechanism: spm,
+        registration: Some(camera),
+        series: vec![
+            e_series(&calibration.vision),
+            residual_series("nominal", calibration, &calibration.nominal.x),
+            residual_series("calibrated", calibration, x),
+        ],
+        iterations: calibration.calibrated.log.clone(),
+        documents: vec![
+            ("before".to_string(), parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None))),
+            ("after".to_string(), after),
+        ],
+    })
+}
+
+/// `spmcal compare --rrd`: each parameter set's MP frames and per-pose errors.
+pub fn comparison_scene<'a>(
+    session: &'a Session,
+    model: &'a RobotModel,
+    sets: &[(String, Parameters)],
+    results: &[SetComparison],
+) -> Result<Scene<'a>, SceneError> {
+    let last = sets.last().map(|(_, p)| p);
+    let mut scene = replay_scene(session, model, last.filter(|p| p.camera.is_some()))?;
+    scene.frames.retain(|f| f.name == "vision");
+    for (label, params) in sets {
+        scene.frames.push(fda_frames(&format!("fda_{label}"), &params.spm()?, session));
+        scene.documents.push((label.clone(), parameters_markdown(label, params)));
+    }
+    for r in results {
+        scene
+            .series
+            .push(Series { name: format!("fda_vs_vision/{}", r.label), values: r.per_pose.iter().copied().collect() });
+    }
+    Ok(scene)
+}

@@ -1,0 +1,205 @@
+//! Rerun recordings, decoded with the rerun crate's own decoder: entity paths, the poses on the
+//! timeline, and logged values against what the library computed. And, where the official Rerun
+//! CLI of the same version is installed, `rerun rrd verify`.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+use rerun::external::re_log_encoding::DecoderApp;
+use rerun::log::{Chunk, LogMsg};
+use spmcal::calib::{CalibConfig, calibrate};
+use spmcal::dataset::Session;
+use spmcal::model::RobotModel;
+
+/// The recording's data chunks (the blueprint's are left out).
+fn chunks(path: &Path) -> Vec<Chunk> {
+    let reader = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    DecoderApp::decode_lazy(reader)
+        .filter_map(|msg| match msg.expect("a well-formed rrd stream") {
+            LogMsg::ArrowMsg(store, arrow) if store.is_recording() => Some(Chunk::from_arrow_msg(&arrow).unwrap()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// `(timeline value, scalar)` of every row logged at `entity` on `timeline`.
+fn scalars(chunks: &[Chunk], entity: &str, timeline: &'static str) -> BTreeMap<i64, f64> {
+    let component = rerun::Scalars::descriptor_scalars().component;
+    let mut out = BTreeMap::new();
+    for c in chunks
+        .iter()
+        .filter(|c| c.entity_path().to_string() == format!("/{entity}") || c.entity_path().to_string() == entity)
+    {
+        let Some(times) = c.timelines().get(&timeline.into()) else { continue };
+        for (t, v) in times.times_raw().iter().zip(c.iter_slices::<f64>(component)) {
+            out.insert(*t, v[0]);
+        }
+    }
+    out
+}
+
+fn entities(chunks: &[Chunk]) -> BTreeSet<String> {
+    chunks.iter().map(|c| c.entity_path().to_string().trim_start_matches('/').to_string()).collect()
+}
+
+#[test]
+fn calibration_recording_has_the_entities_poses_and_values() {
+    let (session, _) = Session::load(Path::new("datasets/agile_wrist_sim_400"), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("calibration.rrd");
+    let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
+    let summary = spmcal::record::write_recording(&path, &scene).unwrap();
+    assert!(summary.bytes > 0 && summary.poses == 400);
+
+    let chunks = chunks(&path);
+    let found = entities(&chunks);
+    for e in [
+        "world/base",
+        "world/base/actuated_axes",
+        "world/camera",
+        "world/legs/leg1/proximal",
+        "world/legs/leg3/distal",
+        "world/mp/fda_nominal",
+        "world/mp/fda_calibrated",
+        "world/mp/vision",
+        "world/markers/measured",
+        "world/markers/predicted",
+        "errors/e_j",
+        "errors/fda_vs_vision/nominal",
+        "errors/fda_vs_vision/calibrated",
+        "fit/cost",
+        "fit/step",
+        "parameters/before",
+        "parameters/after",
+    ] {
+        assert!(found.contains(e), "{e} missing; found {found:?}");
+    }
+    // Every pose on the `pose` timeline, and the capture time beside it.
+    let poses: BTreeSet<i64> = chunks
+        .iter()
+        .filter(|c| c.entity_path().to_string().contains("legs/leg1/proximal"))
+        .flat_map(|c| c.timelines().get(&"pose".into()).map(|t| t.times_raw().to_vec()).unwrap_or_default())
+        .collect();
+    assert_eq!(poses.len(), 400);
+    assert!(chunks.iter().any(|c| c.timelines().contains_key(&"time".into())));
+    // Logged values are the computed ones: e_j per pose, and the fit's cost per iteration.
+    let e = scalars(&chunks, "errors/e_j", "pose");
+    assert_eq!(e.len(), calibration.vision.poses.len());
+    for (pose, estimate) in &calibration.vision.poses {
+        assert_eq!(e[&(*pose as i64)], estimate.error);
+    }
+    let cost = scalars(&chunks, "fit/cost", "iteration");
+    assert_eq!(cost.len(), calibration.calibrated.log.len());
+    assert_eq!(cost[&1], calibration.calibrated.log[0].cost);
+    let after = scalars(&chunks, "errors/fda_vs_vision/calibrated", "pose");
+    let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
+    let report = &calibration.report.after;
+    let expected = ((report.fit.rms_deg.powi(2) * report.fit.poses as f64
+        + report.held_out.unwrap().rms_deg.powi(2) * report.held_out.unwrap().poses as f64)
+        / 400.0)
+        .sqrt();
+    assert!((rms - expected).abs() < 1e-12, "{rms} vs {expected}");
+}
+
+#[test]
+fn replay_recording_shows_every_pose_and_the_markers_where_the_camera_saw_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("replay.rrd");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"))
+        .args(["replay", "--dataset", "datasets/agile_wrist_sim_20", "--rrd", path.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let chunks = chunks(&path);
+    let found = entities(&chunks);
+    assert!(
+        found.contains("world/mp/fda_nominal")
+            && found.contains("world/mp/vision")
+            && found.contains("world/markers/measured")
+    );
+    let poses: BTreeSet<i64> = chunks
+        .iter()
+        .filter(|c| c.entity_path().to_string().contains("markers/measured"))
+        .flat_map(|c| c.timelines().get(&"pose".into()).map(|t| t.times_raw().to_vec()).unwrap_or_default())
+        .collect();
+    assert_eq!(poses.len(), 20);
+    // No temporary file is left beside the recording.
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 1, "{names:?}");
+}
+
+#[test]
+fn every_command_writes_a_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal")).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    };
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    run(&[
+        "simulate",
+        "--config",
+        "configs/simulate_agile_wrist.yaml",
+        "--poses",
+        "15",
+        "--out",
+        &path("sim"),
+        "--rrd",
+        &path("sim.rrd"),
+    ]);
+    run(&["estimate", "--dataset", &path("sim"), "--out", &path("e.csv"), "--rrd", &path("estimate.rrd")]);
+    run(&[
+        "calibrate",
+        "--dataset",
+        "datasets/agile_wrist_sim_20",
+        "--out",
+        &path("p.yaml"),
+        "--rrd",
+        &path("cal.rrd"),
+    ]);
+    run(&[
+        "compare",
+        "--dataset",
+        "datasets/agile_wrist_sim_20",
+        "--params",
+        &path("p.yaml"),
+        "--json",
+        "--rrd",
+        &path("cmp.rrd"),
+    ]);
+    let sim = entities(&chunks(Path::new(&path("sim.rrd"))));
+    assert!(sim.contains("world/mp/truth") && sim.contains("parameters/truth"), "{sim:?}");
+    assert!(entities(&chunks(Path::new(&path("estimate.rrd")))).contains("errors/e_j"));
+    let cmp = entities(&chunks(Path::new(&path("cmp.rrd"))));
+    assert!(cmp.contains("errors/fda_vs_vision/nominal") && cmp.contains("errors/fda_vs_vision/calibrated"), "{cmp:?}");
+    assert!(cmp.contains("world/mp/fda_calibrated"));
+}
+
+#[test]
+fn the_official_rerun_cli_verifies_the_recording() {
+    let Ok(version) = std::process::Command::new("rerun").arg("--version").output() else {
+        eprintln!("the Rerun CLI is not installed (pip install rerun-sdk==0.36.3); skipped");
+        return;
+    };
+    let version = String::from_utf8_lossy(&version.stdout);
+    if !version.contains("0.36") {
+        eprintln!("Rerun CLI {version} is not 0.36.x; skipped");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("replay.rrd");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"))
+        .args(["replay", "--dataset", "datasets/agile_wrist_sim_20", "--rrd", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let verify = std::process::Command::new("rerun").args(["rrd", "verify", path.to_str().unwrap()]).output().unwrap();
+    assert!(
+        verify.status.success(),
+        "rerun rrd verify: {}{}",
+        String::from_utf8_lossy(&verify.stdout),
+        String::from_utf8_lossy(&verify.stderr)
+    );
+}
