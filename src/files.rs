@@ -96,6 +96,24 @@ pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
     Ok(out)
 }
 
+/// Read a YAML settings file into `T`, then `check` it; a value `check` refuses is reported at the
+/// line of its key (serde has no location for values it accepted).
+pub fn read_checked_yaml<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    check: impl Fn(&T) -> Result<(), (&'static str, String)>,
+) -> Result<T, FileError> {
+    let text = read_text(path)?;
+    let value: T = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
+    check(&value).map_err(|(key, reason)| {
+        let err = FileError::new(path, reason).in_column(key);
+        match yaml_key_line(&text, key) {
+            Some(line) => err.at_line(line),
+            None => err,
+        }
+    })?;
+    Ok(value)
+}
+
 /// Line of the first `key:` in a YAML text, for errors about values serde accepted but we refuse.
 pub fn yaml_key_line(text: &str, key: &str) -> Option<usize> {
     text.lines().position(|l| l.trim_start().trim_start_matches("- ").starts_with(&format!("{key}:"))).map(|i| i + 1)

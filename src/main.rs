@@ -43,15 +43,11 @@ enum Command {
 
 #[derive(Args)]
 struct ReplayArgs {
-    /// The session folder.
-    #[arg(long)]
-    dataset: PathBuf,
+    #[command(flatten)]
+    session: SessionArgs,
     /// Parameters (e.g. calibrated) that draw the mechanism; default: the nominal model.
     #[arg(long)]
     params: Option<PathBuf>,
-    /// The URDF model (overrides the session's).
-    #[arg(long)]
-    model: Option<PathBuf>,
     /// The recording to write.
     #[arg(long)]
     rrd: PathBuf,
@@ -147,23 +143,41 @@ struct SimulateArgs {
     json: bool,
 }
 
+/// Which session, and optionally which model instead of the session's.
+#[derive(Args)]
+struct SessionArgs {
+    /// The session folder.
+    #[arg(long)]
+    dataset: PathBuf,
+    /// The URDF model (overrides the session's).
+    #[arg(long)]
+    model: Option<PathBuf>,
+}
+
+impl SessionArgs {
+    /// Load the session, printing its warnings on standard error.
+    fn load(&self) -> Result<Session> {
+        let (session, warnings) = Session::load(&self.dataset, self.model.as_deref())?;
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        Ok(session)
+    }
+}
+
 #[derive(Args)]
 struct EstimateArgs {
     /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
     #[arg(long)]
     rrd: Option<PathBuf>,
-    /// The session folder.
-    #[arg(long)]
-    dataset: PathBuf,
+    #[command(flatten)]
+    session: SessionArgs,
     /// `paper` (least squares + polar decomposition) or `kabsch` (optimal rotation).
     #[arg(long, value_enum, default_value = "paper")]
     method: MethodArg,
     /// Write `pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m` here (atomically) instead of standard output.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// The URDF model (overrides the session's).
-    #[arg(long)]
-    model: Option<PathBuf>,
     /// Print a machine-readable summary (JSON).
     #[arg(long)]
     json: bool,
@@ -174,12 +188,8 @@ struct CalibrateArgs {
     /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
     #[arg(long)]
     rrd: Option<PathBuf>,
-    /// The session folder.
-    #[arg(long)]
-    dataset: PathBuf,
-    /// The URDF model (overrides the session's).
-    #[arg(long)]
-    model: Option<PathBuf>,
+    #[command(flatten)]
+    session: SessionArgs,
     /// Calibration settings (default: the built-in values, as in configs/calibrate.yaml).
     #[arg(long)]
     config: Option<PathBuf>,
@@ -196,15 +206,11 @@ struct CompareArgs {
     /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
     #[arg(long)]
     rrd: Option<PathBuf>,
-    /// The session folder.
-    #[arg(long)]
-    dataset: PathBuf,
+    #[command(flatten)]
+    session: SessionArgs,
     /// A parameters file (e.g. calibrated) to compare beside the nominal model.
     #[arg(long)]
     params: Option<PathBuf>,
-    /// The URDF model (overrides the session's).
-    #[arg(long)]
-    model: Option<PathBuf>,
     /// Vision estimator.
     #[arg(long, value_enum, default_value = "kabsch")]
     method: MethodArg,
@@ -388,17 +394,8 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-/// Load a session, printing its warnings on standard error.
-fn load_session(dataset: &Path, model: Option<&Path>) -> Result<Session> {
-    let (session, warnings) = Session::load(dataset, model)?;
-    for w in &warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(session)
-}
-
 fn estimate(args: EstimateArgs) -> Result<()> {
-    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let session = args.session.load()?;
     let method: Method = args.method.into();
     let result = estimate_session(&session, method)?;
     if let Some(path) = &args.rrd {
@@ -420,7 +417,7 @@ fn estimate(args: EstimateArgs) -> Result<()> {
     let redundant = result.poses.iter().filter(|(_, e)| e.redundant).count();
     let summary = json!({
         "command": "estimate",
-        "dataset": args.dataset.display().to_string(),
+        "dataset": args.session.dataset.display().to_string(),
         "method": format!("{method:?}").to_lowercase(),
         "reference_pose": result.reference_pose,
         "poses_estimated": result.poses.len(),
@@ -495,7 +492,7 @@ impl From<MethodArg> for Method {
 }
 
 fn calibrate(args: CalibrateArgs) -> Result<()> {
-    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let session = args.session.load()?;
     let model = RobotModel::load(&session.model)?;
     let config = match &args.config {
         Some(path) => CalibConfig::read(path)?,
@@ -605,7 +602,7 @@ fn calibration_report(r: &CalibrationReport, out: &Path) -> String {
 }
 
 fn compare(args: CompareArgs) -> Result<()> {
-    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let session = args.session.load()?;
     let model = RobotModel::load(&session.model)?;
     let mut sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None))];
     if let Some(path) = &args.params {
@@ -624,7 +621,10 @@ fn compare(args: CompareArgs) -> Result<()> {
                 "max_deg": c.max_deg, "poses": c.per_pose.len(), "excluded": c.excluded,
                 "per_pose_deg": c.per_pose.iter().map(|(p, a)| json!({"pose": p, "angle_deg": a})).collect::<Vec<_>>()}))
             .collect();
-        println!("{}", json!({"command": "compare", "dataset": args.dataset.display().to_string(), "sets": sets}));
+        println!(
+            "{}",
+            json!({"command": "compare", "dataset": args.session.dataset.display().to_string(), "sets": sets})
+        );
         return Ok(());
     }
     let mut table = String::from("pose");
@@ -664,7 +664,7 @@ fn record(path: &Path, scene: &spmcal::record::Scene) -> Result<spmcal::record::
 }
 
 fn replay(args: ReplayArgs) -> Result<()> {
-    let session = load_session(&args.dataset, args.model.as_deref())?;
+    let session = args.session.load()?;
     let model = RobotModel::load(&session.model)?;
     let params = args.params.as_deref().map(Parameters::read).transpose()?;
     let scene = spmcal::record::replay_scene(&session, &model, params.as_ref())?;

@@ -83,6 +83,20 @@ pub fn from_wxyz(q: [f64; 4]) -> Option<Rotation3<f64>> {
     Some(UnitQuaternion::from_quaternion(quat).to_rotation_matrix())
 }
 
+/// The right-handed orthonormal frame `[e1, e2, e3]` of two non-parallel vectors: `e1 ∥ a`,
+/// `e2 ∝ b − (e1·b) e1`, `e3 = e1 × e2`.
+pub fn pair_frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
+    let e1 = a.normalize();
+    let e2 = (b - e1 * e1.dot(b)).normalize();
+    Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
+}
+
+/// The rotation that carries the frame of the pair `(a1, b1)` onto that of `(a2, b2)`: `a1 ↦ a2`
+/// exactly, and `b1` into the half-plane of `b2` (exactly onto it when the angles agree).
+pub fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vector3<f64>) -> Rotation3<f64> {
+    Rotation3::from_matrix_unchecked(pair_frame(a2, b2) * pair_frame(a1, b1).transpose())
+}
+
 /// The proper rotation nearest to `m` in the Frobenius norm (via SVD), or `None` when
 /// `m` is rank-deficient (no unique nearest rotation).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
@@ -140,6 +154,14 @@ mod tests {
                 assert!((numeric - jl.column(k)).amax() < 1e-8, "{phi:?} column {k}");
             }
         }
+    }
+
+    #[test]
+    fn carry_maps_one_pair_onto_another() {
+        let r = exp(&Vector3::new(0.3, -1.1, 0.4));
+        let (a, b) = (Vector3::new(0.2, 0.9, -0.3), Vector3::new(-0.5, 0.1, 0.8));
+        let c = carry(&a, &b, &(r * a), &(r * b));
+        assert!(geodesic_angle(&c, &r) < 1e-14);
     }
 
     #[test]

@@ -138,3 +138,39 @@ fn stereo_noise_grows_with_the_square_of_the_distance() {
     assert!((far / near - 4.0).abs() < 0.15, "ratio {}", far / near);
     assert!((near - config.camera.depth_sigma_m).abs() < 0.03 * config.camera.depth_sigma_m);
 }
+
+#[test]
+fn the_spiral_is_a_continuous_trajectory() {
+    let mut config = config();
+    config.poses = 300;
+    config.workspace.trajectory = spmcal::sim::Trajectory::Spiral;
+    // Within ±10° of yaw no corner collides, so every candidate is kept and the steps are visible.
+    config.workspace.max_yaw_deg = 10.0;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let truth = session.truth.unwrap();
+    let rotations: Vec<_> = truth.orientations.values().collect();
+    assert_eq!((summary.attempts, summary.poses), (300, 300), "{summary:?}");
+    // Three turns of up to 30° tilt and five yaw swings of ±10° over 300 poses: steps of a few degrees.
+    let max_step = rotations.windows(2).map(|w| so3::geodesic_angle(w[0], w[1])).fold(0.0, f64::max).to_degrees();
+    assert!(max_step < 4.0, "largest step {max_step:.2}°");
+    // It reaches the edge of the tilt range at the end.
+    let last_tilt = (rotations.last().unwrap().matrix() * nalgebra::Vector3::z()).z.acos().to_degrees();
+    assert!(last_tilt > 20.0, "final tilt {last_tilt:.1}°");
+}
+
+#[test]
+fn poses_near_a_singularity_are_rejected() {
+    let mut config = config();
+    config.poses = 60;
+    config.workspace.min_conditioning = 0.78;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    assert!(summary.rejected_singular > 0, "{summary:?}");
+    let truth = session.truth.unwrap();
+    let spm = truth.parameters.spm().unwrap();
+    for r in truth.orientations.values() {
+        let joints = spm.ik(r).unwrap();
+        assert!(spmcal::model::conditioning_index(&spm.jacobians(&joints, r).a) >= 0.78);
+    }
+}

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::files::{FileError, read_text, yaml_key_line};
+use crate::files::{FileError, read_checked_yaml};
 use crate::vision::Method;
 
 /// A group of parameters that can be frozen at its nominal (or initial) value.
@@ -103,16 +103,7 @@ impl Default for CalibConfig {
 impl CalibConfig {
     /// Read and check a config file.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let text = read_text(path)?;
-        let config: CalibConfig = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
-        config.check().map_err(|(key, reason)| {
-            let err = FileError::new(path, reason).in_column(key);
-            match yaml_key_line(&text, key) {
-                Some(line) => err.at_line(line),
-                None => err,
-            }
-        })?;
-        Ok(config)
+        read_checked_yaml(path, CalibConfig::check)
     }
 
     /// Values serde accepted but that make no sense, as `(key, reason)`.

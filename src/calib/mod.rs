@@ -14,7 +14,7 @@ pub use calibrate::{
 };
 pub use config::{Bounds, CalibConfig, Group, Loss, Unidentifiable};
 pub use identify::{Direction, Identifiability, analyse};
-pub use params::{Entry, Kind, Parameterisation, TruthInGauge, gauge_rotation};
+pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use registration::initial_registration;
 pub use residual::{EvalError, Evaluation, Observation, evaluate};
 pub use solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit, rms, robust_weights};

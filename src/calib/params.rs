@@ -13,7 +13,7 @@
 //! nominal axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and the reference
 //! rotation `A = exp(a) A⁰` (see `residual.rs`).
 
-use nalgebra::{DVector, Matrix3, Rotation3, Vector3};
+use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::config::{Bounds, Group};
 use crate::model::LegGeometry;
@@ -261,18 +261,6 @@ fn tilt_between(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
     axis * (s.atan2(a.dot(b)) / s)
 }
 
-/// The rotation `F(a₂, b₂) F(a₁, b₁)ᵀ` that carries the frame of the pair `(a₁, b₁)` onto that of
-/// `(a₂, b₂)`: `a₁ ↦ a₂`, and `b₁` into the plane of `a₂`, `b₂`. Used to move a geometry into
-/// this parameterisation's gauge.
-pub fn gauge_rotation(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vector3<f64>) -> Rotation3<f64> {
-    let frame = |a: &Vector3<f64>, b: &Vector3<f64>| {
-        let e1 = a.normalize();
-        let e2 = (b - e1 * e1.dot(b)).normalize();
-        Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
-    };
-    Rotation3::from_matrix_unchecked(frame(a2, b2) * frame(a1, b1).transpose())
-}
-
 /// A true parameter set moved into the gauge of `p`: the base frame rotated by `G` so that `u_1`
 /// and the plane of `u_1, u_2` are nominal, the platform frame by `H` likewise for `v0_1, v0_2`.
 #[derive(Debug, Clone)]
@@ -293,8 +281,8 @@ impl TruthInGauge {
         reference_pose: &Rotation3<f64>,
     ) -> Self {
         let n = &p.initial;
-        let base = gauge_rotation(&legs[0].u, &legs[1].u, &n[0].u, &n[1].u);
-        let platform = gauge_rotation(&legs[0].v0, &legs[1].v0, &n[0].v0, &n[1].v0);
+        let base = so3::carry(&legs[0].u, &legs[1].u, &n[0].u, &n[1].u);
+        let platform = so3::carry(&legs[0].v0, &legs[1].v0, &n[0].v0, &n[1].v0);
         let moved = legs.map(|g| LegGeometry { u: base * g.u, z: base * g.z, v0: platform * g.v0, ..g });
         let camera = camera * base.inverse();
         // A = R_CB R_0 (P → C at the reference pose); in the new frames R_0' = G R_0 Hᵀ.

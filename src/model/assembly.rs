@@ -17,6 +17,7 @@
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 use super::spm::{Branch, Spm, conditioning_index};
+use crate::so3;
 
 /// One real solution of the FDA.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -126,14 +127,6 @@ pub(crate) fn real_roots(coefficients: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// Orthonormal frame `[e1, e2, e3]` of two non-parallel unit vectors: `e1 = a`,
-/// `e2 ∝ b − (a·b) a`, `e3 = e1 × e2`.
-fn frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
-    let e1 = a.normalize();
-    let e2 = (b - e1 * e1.dot(b)).normalize();
-    Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
-}
-
 impl Spm {
     /// Every real solution (at most 8) of the FDA for the joint readings, each polished by
     /// Newton to the closure tolerance and labelled with its leg branches; sorted by distance
@@ -153,7 +146,7 @@ impl Spm {
         let (v01, v02, v03) = (self.legs[0].v0, self.legs[1].v0, self.legs[2].v0);
         let k12 = v01.dot(&v02);
         let s12 = v01.cross(&v02).norm();
-        let frame0 = frame(&v01, &v02);
+        let frame0 = so3::pair_frame(&v01, &v02);
         let c = frame0.transpose() * v03;
         let (g1, g2, g3) = (c[0] - c[1] * k12 / s12, c[1] / s12, c[2] / s12);
         let w3 = w[2];
@@ -180,7 +173,7 @@ impl Spm {
             for psi2 in second_angles(&first, &second, psi1) {
                 let v1 = e1[0] + e1[1] * psi1.cos() + e1[2] * psi1.sin();
                 let v2 = e2[0] + e2[1] * psi2.cos() + e2[2] * psi2.sin();
-                let guess = Rotation3::from_matrix_unchecked(frame(&v1, &v2) * frame0.transpose());
+                let guess = Rotation3::from_matrix_unchecked(so3::pair_frame(&v1, &v2) * frame0.transpose());
                 self.add_polished(&w, joints, &guess, &mut modes);
             }
         }

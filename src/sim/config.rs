@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::files::{FileError, read_text, yaml_key_line};
+use crate::files::{FileError, read_checked_yaml};
 
 /// How the orientations are chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -106,15 +106,7 @@ pub struct Capture {
 impl SimConfig {
     /// Read and check a config; `model` is resolved against the config's folder.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let text = read_text(path)?;
-        let mut config: SimConfig = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
-        config.check().map_err(|(key, reason)| {
-            let err = FileError::new(path, reason).in_column(key);
-            match yaml_key_line(&text, key) {
-                Some(line) => err.at_line(line),
-                None => err,
-            }
-        })?;
+        let mut config = read_checked_yaml(path, SimConfig::check)?;
         config.model = path.parent().unwrap_or(Path::new(".")).join(&config.model);
         Ok(config)
     }

@@ -1,12 +1,13 @@
 //! The mechanism's collision geometry posed at a configuration (parry): link–link collisions
 //! and occlusion of a marker's line of sight.
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
 use parry3d_f64::math::{Pose, Vector};
 use parry3d_f64::query::{Ray, intersection_test};
 use parry3d_f64::shape::SharedShape;
 
 use crate::model::{Body, RobotModel, Shape, Spm};
+use crate::so3;
 
 /// The bodies in a fixed order: base, proximal 1–3, distal 1–3, platform.
 const BODIES: [Body; 8] = [
@@ -57,16 +58,6 @@ fn to_vector(v: &Vector3<f64>) -> Vector {
     Vector::new(v.x, v.y, v.z)
 }
 
-/// The rotation that carries the pair `(a0, b0)` onto `(a, b)` (same angle between them).
-fn carry(a0: &Vector3<f64>, b0: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> Rotation3<f64> {
-    let frame = |x: &Vector3<f64>, y: &Vector3<f64>| {
-        let e1 = x.normalize();
-        let e2 = (y - e1 * e1.dot(y)).normalize();
-        Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
-    };
-    Rotation3::from_matrix_unchecked(frame(a, b) * frame(a0, b0).transpose())
-}
-
 impl Scene {
     /// The model's collision primitives. URDF cylinders and capsules run along z, parry's
     /// cylinders along y: a quarter turn about x maps one onto the other.
@@ -107,8 +98,8 @@ impl Scene {
         let mut out = [Rotation3::identity(); 8];
         for i in 0..3 {
             let [u0, w0, v0] = &self.home_axes[i];
-            out[1 + i] = carry(u0, w0, &g[i].u, &w[i]);
-            out[4 + i] = carry(w0, v0, &w[i], &v[i]);
+            out[1 + i] = so3::carry(u0, w0, &g[i].u, &w[i]);
+            out[4 + i] = so3::carry(w0, v0, &w[i], &v[i]);
         }
         out[7] = *r;
         out
