@@ -185,6 +185,9 @@ struct EstimateArgs {
 
 #[derive(Args)]
 struct CalibrateArgs {
+    /// Print every iteration of the fit (RMS, step, trust radius, ratio) on standard error.
+    #[arg(long, short)]
+    verbose: bool,
     /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
     #[arg(long)]
     rrd: Option<PathBuf>,
@@ -499,7 +502,18 @@ fn calibrate(args: CalibrateArgs) -> Result<()> {
         None => CalibConfig::default(),
     };
     let spinner = indicatif::ProgressBar::new_spinner();
+    if args.verbose {
+        eprintln!("iteration   RMS (deg)   step (rad)   radius (rad)   ratio   accepted");
+    }
     let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |it| {
+        if args.verbose {
+            spinner.suspend(|| {
+                eprintln!(
+                    "{:9} {:11.5} {:12.3e} {:14.3e} {:7.3} {}",
+                    it.iteration, it.rms_deg, it.step, it.radius, it.ratio, it.accepted
+                )
+            });
+        }
         spinner.set_message(format!("iteration {}: RMS {:.4}°, step {:.2e} rad", it.iteration, it.rms_deg, it.step));
         spinner.tick();
     })?;
@@ -632,11 +646,13 @@ fn compare(args: CompareArgs) -> Result<()> {
         table.push_str(&format!(",{}_deg", c.label));
     }
     table.push('\n');
-    for (k, (pose, _)) in result[0].per_pose.iter().enumerate() {
+    // Every pose any set could predict; a set whose FDA failed on a pose leaves its cell empty.
+    let poses: std::collections::BTreeSet<u64> =
+        result.iter().flat_map(|c| c.per_pose.iter().map(|(p, _)| *p)).collect();
+    for pose in poses {
         table.push_str(&pose.to_string());
         for c in &result {
-            let value = c.per_pose.iter().find(|(p, _)| p == pose).map_or(String::new(), |(_, a)| format!("{a:.5}"));
-            let _ = k;
+            let value = c.per_pose.iter().find(|(p, _)| *p == pose).map_or(String::new(), |(_, a)| format!("{a:.5}"));
             table.push_str(&format!(",{value}"));
         }
         table.push('\n');
