@@ -16,7 +16,8 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Rotation3, Vector3};
 use rerun::blueprint::{
-    Blueprint, BlueprintActivation, Horizontal, Spatial3DView, TextDocumentView, TimeSeriesView, Vertical,
+    Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs, TextDocumentView, TimePanel, TimeSeriesView,
+    Vertical,
 };
 
 use crate::calib::IterationLog;
@@ -90,7 +91,7 @@ pub fn write_recording(path: &Path, scene: &Scene) -> Result<RecordingSummary, R
         .map_err(|e| create(e.to_string()))?;
     let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp.path()).map_err(|e| create(e.to_string()))?;
     let mut logger = draw::Logger { rec: &rec, path };
-    send_blueprint(&rec).map_err(|e| create(e.to_string()))?;
+    send_blueprint(&rec, scene).map_err(|e| create(e.to_string()))?;
     logger.scene(scene)?;
     rec.flush_blocking().map_err(|e| create(e.to_string()))?;
     drop(rec);
@@ -104,17 +105,27 @@ pub fn write_recording(path: &Path, scene: &Scene) -> Result<RecordingSummary, R
     Ok(RecordingSummary { path: path.to_path_buf(), poses: scene.session.poses.len(), bytes })
 }
 
-/// The default layout: the 3-D scene beside the error and fit plots and the parameters.
-fn send_blueprint(rec: &rerun::RecordingStream) -> rerun::RecordingStreamResult<()> {
+/// The default layout: the 3-D scene beside the plots — FDA-vs-vision angles (degrees), `e_j`
+/// (dimensionless, so on its own axes), the fit — and one tab per parameters document (a text view
+/// shows one document). The `pose` timeline is selected: the `iteration` plots need `iteration`.
+fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::RecordingStreamResult<()> {
+    let mut plots: Vec<rerun::blueprint::ContainerLike> = vec![
+        TimeSeriesView::new("FDA vs vision (deg)").with_origin("errors/fda_vs_vision").into(),
+        TimeSeriesView::new("e_j").with_origin("errors/e_j").into(),
+        TimeSeriesView::new("fit (timeline: iteration)").with_origin("fit").into(),
+    ];
+    if !scene.documents.is_empty() {
+        let tabs = scene
+            .documents
+            .iter()
+            .map(|(name, _)| TextDocumentView::new(name.as_str()).with_origin(format!("parameters/{name}")).into());
+        plots.push(Tabs::new(tabs).into());
+    }
     let blueprint = Blueprint::new(Horizontal::new([
         Spatial3DView::new("mechanism").with_origin("world").into(),
-        Vertical::new([
-            TimeSeriesView::new("errors").with_origin("errors").into(),
-            TimeSeriesView::new("fit").with_origin("fit").into(),
-            TextDocumentView::new("parameters").with_origin("parameters").into(),
-        ])
-        .into(),
-    ]));
+        Vertical::new(plots).into(),
+    ]))
+    .with_time_panel(TimePanel::new().with_timeline("pose"));
     blueprint.send(rec, BlueprintActivation::default())
 }
 
