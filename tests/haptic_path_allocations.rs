@@ -1,4 +1,4 @@
-//! The haptic-loop path (`Spm::track`, and `Spm::ik`) must not touch the heap: a counting
+//! The haptic-loop path (`Spm::track`, `Spm::forward` and `Spm::ik`) must not touch the heap: a counting
 //! global allocator (this test binary only) sees every allocation.
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -40,6 +40,9 @@ fn tracking_a_trajectory_does_not_allocate() {
     for (j, expected) in joints.iter().zip(&orientations) {
         r = spm.track(j, &r).unwrap();
         let _ = spm.ik(expected).unwrap();
+        // The working-mode FDA from home, the entry point without a previous pose.
+        let from_home = spm.forward(j).unwrap();
+        assert!(so3::geodesic_angle(&from_home, expected) < 1e-12);
         assert!(so3::geodesic_angle(&r, expected) < 1e-12);
     }
     let after = ALLOCATIONS.load(Ordering::SeqCst);
