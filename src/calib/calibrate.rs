@@ -213,6 +213,7 @@ pub fn calibrate(
         camera: Some(CameraRegistration { rotation: p.camera(&calibrated.x), translation: Vector3::from(translation) }),
         fit: None,
     };
+    let reports = parameter_reports(&p, &calibrated.x, &covariance, &free);
     let report = CalibrationReport {
         session: session.name.clone(),
         vision_method: config.vision_method,
@@ -224,12 +225,12 @@ pub fn calibrate(
         before,
         after,
         iterations: calibrated.log.clone(),
-        not_significant: parameter_reports(&p, &calibrated.x, &covariance, &free)
-            .into_iter()
+        not_significant: reports
+            .iter()
             .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
-            .map(|r| r.name)
+            .map(|r| r.name.clone())
             .collect(),
-        parameters: parameter_reports(&p, &calibrated.x, &covariance, &free),
+        parameters: reports,
         identifiability,
         regularised,
         high_correlations: correlations(&p, &covariance, 0.9),
