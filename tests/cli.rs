@@ -138,6 +138,10 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     }
     assert!(sets[1]["rms_deg"].as_f64().unwrap() < sets[0]["rms_deg"].as_f64().unwrap());
 
+    // The calibrated file drives the kinematics commands.
+    let fda = spmcal(&["fda", "--joints", "datasets/joystick_circle/joints.csv", "--params", params.to_str().unwrap()]);
+    assert!(fda.status.success(), "{}", String::from_utf8_lossy(&fda.stderr));
+    assert_eq!(String::from_utf8_lossy(&fda.stdout).lines().count(), 1 + 36);
     let json =
         spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
