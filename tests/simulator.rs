@@ -174,3 +174,22 @@ fn poses_near_a_singularity_are_rejected() {
         assert!(spmcal::model::conditioning_index(&spm.jacobians(&joints, r).a) >= 0.78);
     }
 }
+
+#[test]
+fn the_shipped_20_pose_dataset_is_what_the_committed_config_makes() {
+    // As the README says: --poses 20 --seed 20 --name agile_wrist_sim_20. A simulator change that
+    // alters the data must come with regenerated datasets.
+    let mut config = config();
+    config.poses = 20;
+    config.seed = 20;
+    config.name = "agile_wrist_sim_20".into();
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    session.write(dir.path()).unwrap();
+    for file in ["joints.csv", "markers.csv", "truth.yaml", "truth_orientations.csv"] {
+        let made = std::fs::read(dir.path().join(file)).unwrap();
+        let shipped = std::fs::read(Path::new("datasets/agile_wrist_sim_20").join(file)).unwrap();
+        assert!(made == shipped, "{file} differs from the shipped dataset: regenerate it (see README)");
+    }
+}
