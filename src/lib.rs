@@ -2,6 +2,32 @@
 //! from joint readings and stereo-camera marker positions.
 //!
 //! Data flows one way: dataset → vision → calib (uses model) → compare / record.
+//!
+//! Using a (calibrated) model at run time, e.g. in a 1 kHz haptic loop:
+//!
+//! ```
+//! use nalgebra::Vector3;
+//! use spmcal::model::{Parameters, RobotModel};
+//!
+//! // The nominal model, or a calibrated one: `Parameters::read(path)?.spm()?`.
+//! let spm = RobotModel::load(std::path::Path::new("models/agile_wrist.urdf"))?.spm;
+//! # let dir = tempfile::tempdir()?;
+//! # let path = dir.path().join("params.yaml");
+//! # Parameters::nominal(&spm, None).write(&path)?;
+//! let spm = Parameters::read(&path)?.spm()?;
+//!
+//! // Once: the working-mode orientation, by continuation from home (≈2 µs).
+//! let mut r = spm.forward(&Vector3::new(0.10, -0.05, 0.02))?;
+//! // Every tick: Newton from the previous orientation (≈0.6 µs, no allocation). A pose near a
+//! // singularity or off the working mode is an error, never a silently wrong branch.
+//! for k in 1..=10 {
+//!     let joints = Vector3::new(0.10 + 0.001 * k as f64, -0.05, 0.02);
+//!     r = spm.track(&joints, &r)?;
+//! }
+//! let [qw, qx, qy, qz] = spmcal::so3::to_wxyz(&r); // MP → base, scalar first
+//! assert!((qw * qw + qx * qx + qy * qy + qz * qz - 1.0).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod calib;
 pub mod compare;
