@@ -77,6 +77,12 @@ fn compare_one(
             Err(e) => excluded.push(format!("pose {pose}: {e}")),
         }
     }
+    if observations.len() < 3 {
+        return Err(fail(format!(
+            "only {} poses have both a vision estimate and a forward kinematics solution",
+            observations.len()
+        )));
+    }
     let reference = observations.iter().position(|o| o.pose == vision.reference_pose).unwrap_or(0);
     let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
     let (camera0, reference0, registration, groups): (_, _, _, &[Group]) = match params.camera {

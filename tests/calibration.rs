@@ -349,3 +349,19 @@ fn an_error_in_the_reference_pose_does_not_bias_the_mechanism() {
     eprintln!("largest mechanism change: {worst:.3} standard errors");
     assert!(worst < 0.25, "{worst}");
 }
+
+#[test]
+fn too_few_usable_poses_are_an_error_not_a_panic() {
+    let (mut session, model) = load("datasets/agile_wrist_sim_20");
+    // The camera lost every pose after the fifth.
+    for pose in session.poses.iter_mut().skip(5) {
+        pose.markers.iter_mut().for_each(|m| *m = None);
+    }
+    let err = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap_err().to_string();
+    assert!(err.contains("usable poses") && err.contains("21 parameters"), "{err}");
+    session.poses.truncate(2);
+    let sets = [("nominal".to_string(), spmcal::model::Parameters::nominal(&model.spm, None))];
+    let err = spmcal::compare::compare(&session, &sets, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
+    assert!(err.contains("only 2 poses"), "{err}");
+    assert!(spmcal::record::replay_scene(&session, &model, None).is_err());
+}

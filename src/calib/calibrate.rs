@@ -155,14 +155,10 @@ pub fn calibrate(
     });
     let observations: Vec<Observation> = fit_set.iter().map(|(_, (o, _))| *o).collect();
     let held_out: Vec<Observation> = held_set.iter().map(|(_, (o, _))| *o).collect();
-    let reference = fit_set.iter().position(|(_, (o, _))| o.pose == vision.reference_pose).unwrap_or(0);
-    let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
-    let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
-    let (camera0, reference0) =
-        initial_registration(&predicted, &measured, reference).ok_or(CalibError::Registration)?;
-    let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
-    let free: Vec<bool> = p.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
-    let n_free = free.iter().filter(|f| **f).count();
+    // Enough poses for the free parameters (3 residuals each), checked before anything indexes them.
+    let layout =
+        Parameterisation::new(*nominal_spm.geometry(), Rotation3::identity(), Rotation3::identity(), &config.bounds);
+    let n_free = layout.entries.iter().filter(|e| !config.freeze.contains(&e.kind.group())).count();
     if 3 * observations.len() < n_free + 3 {
         return Err(CalibError::TooFewPoses {
             usable: observations.len(),
@@ -170,6 +166,13 @@ pub fn calibrate(
             parameters: n_free,
         });
     }
+    let reference = fit_set.iter().position(|(_, (o, _))| o.pose == vision.reference_pose).unwrap_or(0);
+    let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
+    let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
+    let (camera0, reference0) =
+        initial_registration(&predicted, &measured, reference).ok_or(CalibError::Registration)?;
+    let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
+    let free: Vec<bool> = p.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
     let settings = |free: Vec<bool>, prior| FitSettings {
         max_iterations: config.max_iterations,
         initial_radius: config.initial_radius_deg.to_radians(),

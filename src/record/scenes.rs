@@ -20,7 +20,7 @@ pub enum SceneError {
     Vision(#[from] VisionError),
     #[error("parameters: {0}")]
     Parameters(#[from] crate::model::SpmError),
-    #[error("the camera registration cannot be estimated: every pose rotates about one axis")]
+    #[error("the camera registration cannot be estimated: too few poses, or every pose rotates about one axis")]
     Registration,
 }
 
@@ -62,6 +62,9 @@ fn registration(
             spm.forward(&joints).ok().map(|r| (r, e.rotation))
         })
         .unzip();
+    if predicted.len() < 2 {
+        return Err(SceneError::Registration);
+    }
     let index = estimate.poses.iter().position(|(p, _)| *p == estimate.reference_pose).unwrap_or(0);
     let (rotation, a) = initial_registration(&predicted, &measured, index.min(predicted.len().saturating_sub(1)))
         .ok_or(SceneError::Registration)?;
