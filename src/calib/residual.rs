@@ -72,7 +72,7 @@ pub fn evaluate(
         jacobian: with_jacobian.then(|| DMatrix::zeros(3 * n, p.len())),
         orientation_jacobians: with_jacobian.then(|| Vec::with_capacity(n)),
     };
-    let frames = Frames::new(p, x, &legs);
+    let frames = Frames::new(p, x);
     for (j, obs) in observations.iter().enumerate() {
         let r = match warm {
             Some(w) => spm.track(&obs.joints, &w[j]),
@@ -113,7 +113,7 @@ struct Frames<'a> {
 }
 
 impl<'a> Frames<'a> {
-    fn new(p: &'a Parameterisation, x: &DVector<f64>, _legs: &[LegGeometry; 3]) -> Self {
+    fn new(p: &'a Parameterisation, x: &DVector<f64>) -> Self {
         let actuated = std::array::from_fn(|leg| {
             let jl = so3::left_jacobian(&p.tilts(x, leg).0);
             p.actuated_dirs[leg].iter().map(|d| jl * d).collect()

@@ -203,6 +203,15 @@ fn prior_cost(settings: &FitSettings, x: &DVector<f64>) -> f64 {
     })
 }
 
+/// What stays fixed during a fit.
+struct Problem<'a> {
+    p: &'a Parameterisation,
+    observations: &'a [Observation],
+    settings: &'a FitSettings,
+    /// Indices of the free parameters.
+    free: Vec<usize>,
+}
+
 /// Relative precision of the cost: a sum over hundreds of poses of residuals that the FDA resolves
 /// to ~1e-14 rad. A predicted reduction below this is noise.
 const PRECISION: f64 = 1e-12;
@@ -223,7 +232,7 @@ pub fn fit(
     settings: &FitSettings,
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<FitOutcome, FitError> {
-    let free: Vec<usize> = (0..p.len()).filter(|&i| settings.free[i]).collect();
+    let problem = Problem { p, observations, settings, free: (0..p.len()).filter(|&i| settings.free[i]).collect() };
     let markers: Vec<usize> = observations.iter().map(|o| o.markers).collect();
     let mut x = x0.clone();
     let mut eval = evaluate(p, &x, observations, None, true).map_err(FitError::Start)?;
@@ -245,17 +254,7 @@ pub fn fit(
                     let step = log.last().map_or(0.0, |l| l.step);
                     return Err(FitError::NotConverged { iterations: settings.max_iterations, step, radius });
                 }
-                let (entry, done) = trust_region_step(
-                    p,
-                    &mut x,
-                    &mut eval,
-                    observations,
-                    settings,
-                    &free,
-                    &weighting,
-                    &mut radius,
-                    iteration,
-                )?;
+                let (entry, done) = problem.trust_region_step(&mut x, &mut eval, &weighting, &mut radius, iteration)?;
                 on_iteration(&entry);
                 log.push(entry);
                 if done {
@@ -278,60 +277,59 @@ pub fn fit(
 
 /// One trust-region iteration with a fixed weighting; returns its log entry and whether the inner
 /// loop has converged (a tiny accepted step, no predicted decrease, or a collapsed radius).
-#[allow(clippy::too_many_arguments)]
-fn trust_region_step(
-    p: &Parameterisation,
-    x: &mut DVector<f64>,
-    eval: &mut Evaluation,
-    observations: &[Observation],
-    settings: &FitSettings,
-    free: &[usize],
-    weighting: &Weighting,
-    radius: &mut f64,
-    iteration: u32,
-) -> Result<(IterationLog, bool), FitError> {
-    let cost = weighting.cost(&eval.residuals) + prior_cost(settings, x);
-    let (hessian, gradient) = normal_equations(eval, weighting, free, settings, x);
-    let (step, solver_iterations) = solve_subproblem(p, x, free, &hessian, &gradient, *radius)
-        .map_err(|status| FitError::Solver { iteration, status })?;
-    let predicted = -(0.5 * step.dot(&(&hessian * &step)) + gradient.dot(&step));
-    let mut trial_x = x.clone();
-    for (k, &i) in free.iter().enumerate() {
-        trial_x[i] += step[k];
-    }
-    let trial = evaluate(p, &trial_x, observations, Some(&eval.orientations), false);
-    let actual = match &trial {
-        Ok(t) => cost - weighting.cost(&t.residuals) - prior_cost(settings, &trial_x),
-        Err(_) => f64::NEG_INFINITY,
-    };
-    let ratio = if predicted > 0.0 { actual / predicted } else { 0.0 };
-    let accepted = ratio > 0.25 && trial.is_ok();
-    let step_norm = step.norm();
-    let entry = IterationLog {
-        iteration,
-        cost,
-        rms_deg: rms(&eval.residuals).to_degrees(),
-        step: step_norm,
-        radius: *radius,
-        ratio,
-        accepted,
-        solver_iterations,
-    };
-    let done = if accepted {
-        let orientations = trial.expect("accepted steps evaluated").orientations;
-        *x = trial_x;
-        *eval = evaluate(p, x, observations, Some(&orientations), true).map_err(FitError::Start)?;
-        if ratio > 0.75 && step_norm > 0.9 * *radius {
-            *radius = (2.0 * *radius).min(0.5);
+impl Problem<'_> {
+    fn trust_region_step(
+        &self,
+        x: &mut DVector<f64>,
+        eval: &mut Evaluation,
+        weighting: &Weighting,
+        radius: &mut f64,
+        iteration: u32,
+    ) -> Result<(IterationLog, bool), FitError> {
+        let (p, observations, settings, free) = (self.p, self.observations, self.settings, &self.free);
+        let cost = weighting.cost(&eval.residuals) + prior_cost(settings, x);
+        let (hessian, gradient) = normal_equations(eval, weighting, free, settings, x);
+        let (step, solver_iterations) = solve_subproblem(p, x, free, &hessian, &gradient, *radius)
+            .map_err(|status| FitError::Solver { iteration, status })?;
+        let predicted = -(0.5 * step.dot(&(&hessian * &step)) + gradient.dot(&step));
+        let mut trial_x = x.clone();
+        for (k, &i) in free.iter().enumerate() {
+            trial_x[i] += step[k];
         }
-        step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
-    } else {
-        *radius /= 4.0;
-        // No step of useful size reduces the cost, or the reduction it promises is below what the
-        // cost can resolve: x is a minimum to working precision.
-        *radius < settings.step_tolerance || step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
-    };
-    Ok((entry, done))
+        let trial = evaluate(p, &trial_x, observations, Some(&eval.orientations), false);
+        let actual = match &trial {
+            Ok(t) => cost - weighting.cost(&t.residuals) - prior_cost(settings, &trial_x),
+            Err(_) => f64::NEG_INFINITY,
+        };
+        let ratio = if predicted > 0.0 { actual / predicted } else { 0.0 };
+        let accepted = ratio > 0.25 && trial.is_ok();
+        let step_norm = step.norm();
+        let entry = IterationLog {
+            iteration,
+            cost,
+            rms_deg: rms(&eval.residuals).to_degrees(),
+            step: step_norm,
+            radius: *radius,
+            ratio,
+            accepted,
+            solver_iterations,
+        };
+        let done = if accepted {
+            let orientations = trial.expect("accepted steps evaluated").orientations;
+            *x = trial_x;
+            *eval = evaluate(p, x, observations, Some(&orientations), true).map_err(FitError::Start)?;
+            if ratio > 0.75 && step_norm > 0.9 * *radius {
+                *radius = (2.0 * *radius).min(0.5);
+            }
+            step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
+        } else {
+            *radius /= 4.0;
+            // No step of useful size reduces the cost, or the reduction it promises is below what the
+            // cost can resolve: x is a minimum to working precision.
+            *radius < settings.step_tolerance || step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
+        };
+        Ok((entry, done))
+    }
 }
 
 /// RMS of the residual angles (radians).
