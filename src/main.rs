@@ -592,7 +592,7 @@ fn calibration_report(r: &CalibrationReport, out: &Path) -> String {
     }
     if let Some(u) = &r.orientation_uncertainty_deg {
         s.push_str(&format!(
-            "predicted orientation uncertainty (1 sigma): mean {:.4} deg, max {:.4} deg\n",
+            "predicted orientation uncertainty (1 sigma, as the camera sees it): mean {:.4} deg, max {:.4} deg\n",
             u.mean, u.max
         ));
     }
