@@ -48,6 +48,28 @@ pub struct CameraRegistration {
     pub translation: Vector3<f64>,
 }
 
+impl CameraRegistration {
+    /// The camera with rotation `R_CB` and its centre at `centre` (in B): `t_CB = −R_CB c`.
+    pub fn from_centre(rotation: Rotation3<f64>, centre: &Vector3<f64>) -> Self {
+        CameraRegistration { rotation, translation: -(rotation * centre) }
+    }
+
+    /// The camera centre in B, `c = −R_CBᵀ t_CB`.
+    pub fn centre(&self) -> Vector3<f64> {
+        -(self.rotation.inverse() * self.translation)
+    }
+
+    /// A point in B seen in the camera frame, `x_C = R_CB x_B + t_CB`.
+    pub fn to_camera(&self, point: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation * point + self.translation
+    }
+
+    /// A point in the camera frame put in B, `x_B = R_CBᵀ (x_C − t_CB)`.
+    pub fn to_base(&self, point: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation.inverse() * (point - self.translation)
+    }
+}
+
 /// A complete parameter set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameters {

@@ -5,7 +5,7 @@ use std::path::Path;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use rerun::{Arrows3D, Color, LineStrips3D, Points3D, Scalars, TextDocument, Transform3D};
 
-use super::{RecordError, Scene, camera_to_base};
+use super::{RecordError, Scene};
 use crate::model::Spm;
 
 /// Radii (m) of the spheres the proximal and distal links move on, as in the nominal model.
@@ -87,7 +87,7 @@ impl Logger<'_> {
         let u: Vec<[f32; 3]> = g.iter().map(|l| f32x3(&(l.u * 0.25))).collect();
         self.log_static("world/base/actuated_axes", &Arrows3D::from_vectors(u).with_labels(["u1", "u2", "u3"]))?;
         if let Some(reg) = &scene.registration {
-            let centre = -(reg.rotation.inverse() * reg.translation);
+            let centre = reg.centre();
             self.log_static(
                 "world/camera",
                 &Transform3D::from_translation_rotation(f32x3(&centre), quaternion(&reg.rotation.inverse())),
@@ -142,7 +142,7 @@ impl Logger<'_> {
                     .markers
                     .iter()
                     .zip(&scene.session.markers)
-                    .filter_map(|(m, name)| m.map(|p| (f32x3(&camera_to_base(reg, &p)), name.clone())))
+                    .filter_map(|(m, name)| m.map(|p| (f32x3(&reg.to_base(&p)), name.clone())))
                     .unzip();
                 self.log(
                     "world/markers/measured",

@@ -14,7 +14,7 @@ mod scenes;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Rotation3;
 use rerun::blueprint::{
     Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs, TextDocumentView, TimePanel, TimeSeriesView,
     Vertical,
@@ -127,9 +127,4 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
     ]))
     .with_time_panel(TimePanel::new().with_timeline("pose"));
     blueprint.send(rec, BlueprintActivation::default())
-}
-
-/// `x_B = R_CBᵀ (x_C − t_CB)`.
-fn camera_to_base(registration: &CameraRegistration, p: &Vector3<f64>) -> Vector3<f64> {
-    registration.rotation.inverse() * (p - registration.translation)
 }

@@ -11,17 +11,12 @@ use crate::model::CameraRegistration;
 /// down, camera x along base x (so camera y is base −y).
 pub fn looking_down(height: f64) -> CameraRegistration {
     let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0)));
-    CameraRegistration { rotation, translation: -(rotation * Vector3::new(0.0, 0.0, height)) }
-}
-
-/// Camera centre in B.
-pub fn centre(registration: &CameraRegistration) -> Vector3<f64> {
-    -(registration.rotation.inverse() * registration.translation)
+    CameraRegistration::from_centre(rotation, &Vector3::new(0.0, 0.0, height))
 }
 
 /// The two lens centres in B, half a baseline either side of the centre along camera x.
 pub fn lenses(registration: &CameraRegistration, baseline: f64) -> [Vector3<f64>; 2] {
-    let c = centre(registration);
+    let c = registration.centre();
     let x = registration.rotation.inverse() * Vector3::x();
     [c - x * (baseline / 2.0), c + x * (baseline / 2.0)]
 }
@@ -43,7 +38,7 @@ pub fn measure<R: Rng + ?Sized>(
     camera: &Camera,
     rng: &mut R,
 ) -> Measurement {
-    let exact = registration.rotation * point_b + registration.translation;
+    let exact = registration.to_camera(point_b);
     let distance = exact.norm();
     let along = exact / distance;
     let across1 =

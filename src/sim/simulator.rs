@@ -83,7 +83,7 @@ pub fn simulate(
     let camera_centre =
         Vector3::new(0.0, 0.0, config.camera.height_m) + Vector3::from_fn(|_, _| position.sample(&mut rng));
     let rotation = so3::exp(&random_rotation_vector(t.camera_rotation_deg.to_radians(), &mut rng)) * nominal.rotation;
-    let camera = CameraRegistration { rotation, translation: -(rotation * camera_centre) };
+    let camera = CameraRegistration::from_centre(rotation, &camera_centre);
     let summary = SimSummary { name: config.name.clone(), seed: config.seed, ..Default::default() };
     let mut sim = Simulator { config, model, spm, camera, scene: Scene::new(model), rng, summary };
     let session = sim.run(progress)?;
