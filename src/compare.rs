@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::calib::{
     CalibConfig, ErrorSummary, FitError, FitSettings, Group, Loss, Observation, Parameterisation, fit,
-    initial_registration,
+    initial_registration, observations,
 };
 use crate::dataset::Session;
 use crate::model::{LegGeometry, Parameters, Spm};
@@ -59,24 +59,9 @@ fn compare_one(
 ) -> Result<SetComparison, CompareError> {
     let fail = |reason: String| CompareError::Set { label: label.to_string(), reason };
     let spm = Spm::new(params.legs).map_err(|e| fail(e.to_string()))?;
-    let mut observations = Vec::new();
-    let mut predicted = Vec::new();
-    let mut excluded = Vec::new();
-    for (pose, estimate) in &vision.poses {
-        let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses exist").joints;
-        match spm.forward(&joints) {
-            Ok(r) => {
-                observations.push(Observation {
-                    pose: *pose,
-                    joints,
-                    measured: estimate.rotation,
-                    markers: estimate.markers_used,
-                });
-                predicted.push(r);
-            }
-            Err(e) => excluded.push(format!("pose {pose}: {e}")),
-        }
-    }
+    let (kept, failed) = observations(session, vision, &spm);
+    let excluded: Vec<String> = failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")).collect();
+    let (observations, predicted): (Vec<Observation>, Vec<Rotation3<f64>>) = kept.into_iter().unzip();
     if observations.len() < 3 {
         return Err(fail(format!(
             "only {} poses have both a vision estimate and a forward kinematics solution",

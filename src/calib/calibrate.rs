@@ -8,7 +8,7 @@ use super::config::{CalibConfig, Group, Loss, Unidentifiable};
 use super::identify::{Identifiability, analyse};
 use super::params::Parameterisation;
 use super::registration::initial_registration;
-use super::residual::{EvalError, Observation, evaluate};
+use super::residual::{EvalError, Observation, evaluate, observations};
 use super::solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
@@ -136,29 +136,22 @@ pub fn calibrate(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
     let vision = estimate_session(session, config.vision_method)?;
-    let mut excluded: Vec<String> = vision.skipped.iter().map(|s| s.to_string()).collect();
     let nominal_spm = &model.spm;
-    // Observations whose nominal FDA exists, reference pose first in its place.
-    let mut all: Vec<(Observation, Rotation3<f64>)> = Vec::new();
-    for (pose, estimate) in &vision.poses {
-        let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses exist").joints;
-        match nominal_spm.forward(&joints) {
-            Ok(r) => all.push((
-                Observation { pose: *pose, joints, measured: estimate.rotation, markers: estimate.markers_used },
-                r,
-            )),
-            Err(e) => excluded.push(format!("pose {pose}: nominal forward kinematics: {e}")),
-        }
-    }
+    // Observations whose nominal FDA exists.
+    let (all, failed) = observations(session, &vision, nominal_spm);
+    let mut excluded: Vec<String> = vision.skipped.iter().map(|s| s.to_string()).collect();
+    excluded.extend(failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")));
     let (fit_set, held_set): (Vec<_>, Vec<_>) = all.iter().enumerate().partition(|(k, (o, _))| {
         config.holdout_every == 0 || o.pose == vision.reference_pose || (k + 1) % config.holdout_every != 0
     });
     let observations: Vec<Observation> = fit_set.iter().map(|(_, (o, _))| *o).collect();
     let held_out: Vec<Observation> = held_set.iter().map(|(_, (o, _))| *o).collect();
     // Enough poses for the free parameters (3 residuals each), checked before anything indexes them.
+    // (The entries do not depend on the rotations: the free mask is known before the registration.)
     let layout =
         Parameterisation::new(*nominal_spm.geometry(), Rotation3::identity(), Rotation3::identity(), &config.bounds);
-    let n_free = layout.entries.iter().filter(|e| !config.freeze.contains(&e.kind.group())).count();
+    let free: Vec<bool> = layout.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
+    let n_free = free.iter().filter(|f| **f).count();
     if 3 * observations.len() < n_free + 3 {
         return Err(CalibError::TooFewPoses {
             usable: observations.len(),
@@ -172,7 +165,6 @@ pub fn calibrate(
     let (camera0, reference0) =
         initial_registration(&predicted, &measured, reference).ok_or(CalibError::Registration)?;
     let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
-    let free: Vec<bool> = p.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
     let settings = |free: Vec<bool>, prior| FitSettings {
         max_iterations: config.max_iterations,
         initial_radius: config.initial_radius_deg.to_radians(),
@@ -209,7 +201,7 @@ pub fn calibrate(
     let after = Errors { fit: ErrorSummary::of(&calibrated.evaluation.residuals), held_out: held(&calibrated.x)? };
     let centre = vision.centre;
     let translation = centre.map_or([0.0; 3], |c| c.position_m);
-    let parameters = Parameters {
+    let mut parameters = Parameters {
         source: ParameterSource::Calibrated,
         model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
         legs: p.legs(&calibrated.x),
@@ -243,7 +235,6 @@ pub fn calibrate(
         camera_translation_m: translation,
         camera_translation_std_error_m: centre.map_or([f64::NAN; 3], |c| c.std_error_m),
     };
-    let mut parameters = parameters;
     parameters.fit = Some(fit_header(&report));
     Ok(Calibration {
         parameters,

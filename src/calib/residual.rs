@@ -17,8 +17,10 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 use super::params::{Kind, Parameterisation};
+use crate::dataset::Session;
 use crate::model::{FdaError, LegGeometry, Spm, SpmError};
 use crate::so3;
+use crate::vision::SessionEstimate;
 
 /// One pose of the fit: joint readings and the measured rotation from the reference pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,6 +31,27 @@ pub struct Observation {
     pub measured: Rotation3<f64>,
     /// Markers the vision estimate used (its noise depends on it).
     pub markers: usize,
+}
+
+/// The estimated poses of a session as observations, each with the orientation `spm` predicts
+/// from its joints; the poses whose forward kinematics fails, with the error.
+pub fn observations(
+    session: &Session,
+    vision: &SessionEstimate,
+    spm: &Spm,
+) -> (Vec<(Observation, Rotation3<f64>)>, Vec<(u64, FdaError)>) {
+    let (mut kept, mut failed) = (Vec::new(), Vec::new());
+    for (pose, estimate) in &vision.poses {
+        let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses are session poses").joints;
+        match spm.forward(&joints) {
+            Ok(r) => kept.push((
+                Observation { pose: *pose, joints, measured: estimate.rotation, markers: estimate.markers_used },
+                r,
+            )),
+            Err(e) => failed.push((*pose, e)),
+        }
+    }
+    (kept, failed)
 }
 
 /// Residuals (and optionally their Jacobian) at a parameter vector.

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::{PoseFrames, Scene, Series};
-use crate::calib::{Calibration, initial_registration};
+use crate::calib::{Calibration, initial_registration, observations};
 use crate::compare::SetComparison;
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
@@ -54,20 +54,14 @@ fn registration(
     if let Some(camera) = params.and_then(|p| p.camera) {
         return Ok((camera, camera.rotation * r_ref));
     }
-    let (predicted, measured): (Vec<_>, Vec<_>) = estimate
-        .poses
-        .iter()
-        .filter_map(|(pose, e)| {
-            let joints = session.poses.iter().find(|p| p.id == *pose)?.joints;
-            spm.forward(&joints).ok().map(|r| (r, e.rotation))
-        })
-        .unzip();
-    if predicted.len() < 2 {
+    let (kept, _) = observations(session, estimate, spm);
+    if kept.len() < 2 {
         return Err(SceneError::Registration);
     }
-    let index = estimate.poses.iter().position(|(p, _)| *p == estimate.reference_pose).unwrap_or(0);
-    let (rotation, a) = initial_registration(&predicted, &measured, index.min(predicted.len().saturating_sub(1)))
-        .ok_or(SceneError::Registration)?;
+    // The reference's place among the poses kept (not among all estimated ones).
+    let index = kept.iter().position(|(o, _)| o.pose == estimate.reference_pose).unwrap_or(0);
+    let (measured, predicted): (Vec<_>, Vec<_>) = kept.iter().map(|(o, r)| (o.measured, *r)).unzip();
+    let (rotation, a) = initial_registration(&predicted, &measured, index).ok_or(SceneError::Registration)?;
     Ok((CameraRegistration { rotation, translation }, a))
 }
 
