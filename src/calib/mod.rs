@@ -16,5 +16,5 @@ pub use config::{Bounds, CalibConfig, Group, Loss, Unidentifiable};
 pub use identify::{Direction, Identifiability, analyse};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use registration::initial_registration;
-pub use residual::{EvalError, Evaluation, Observation, evaluate, observations};
+pub use residual::{EvalError, Evaluation, Observation, Predicted, Unpredicted, evaluate, observations};
 pub use solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit, rms, robust_weights};

@@ -33,13 +33,15 @@ pub struct Observation {
     pub markers: usize,
 }
 
+/// An observation with the orientation a model predicts from its joints.
+pub type Predicted = (Observation, Rotation3<f64>);
+
+/// A pose whose forward kinematics failed, and why.
+pub type Unpredicted = (u64, FdaError);
+
 /// The estimated poses of a session as observations, each with the orientation `spm` predicts
 /// from its joints; the poses whose forward kinematics fails, with the error.
-pub fn observations(
-    session: &Session,
-    vision: &SessionEstimate,
-    spm: &Spm,
-) -> (Vec<(Observation, Rotation3<f64>)>, Vec<(u64, FdaError)>) {
+pub fn observations(session: &Session, vision: &SessionEstimate, spm: &Spm) -> (Vec<Predicted>, Vec<Unpredicted>) {
     let (mut kept, mut failed) = (Vec::new(), Vec::new());
     for (pose, estimate) in &vision.poses {
         let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses are session poses").joints;
