@@ -403,7 +403,7 @@ fn estimate(args: EstimateArgs) -> Result<()> {
     let result = estimate_session(&session, method)?;
     if let Some(path) = &args.rrd {
         let model = RobotModel::load(&session.model)?;
-        record(path, &spmcal::record::estimate_scene(&session, &model)?)?;
+        record(path, &spmcal::record::estimate_scene(&session, &model, &result)?)?;
     }
     let mut table = String::from("pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m\n");
     for (pose, e) in &result.poses {

@@ -104,12 +104,32 @@ pub fn replay_scene<'a>(
     model: &'a RobotModel,
     params: Option<&Parameters>,
 ) -> Result<Scene<'a>, SceneError> {
+    let estimate = estimate_session(session, Method::Kabsch)?;
+    vision_scene(session, model, params, &estimate)
+}
+
+/// `spmcal estimate --rrd`: a nominal replay whose vision frames and `e_j` are `estimate`'s, the
+/// ones the command computed (with the method it was asked for).
+pub fn estimate_scene<'a>(
+    session: &'a Session,
+    model: &'a RobotModel,
+    estimate: &SessionEstimate,
+) -> Result<Scene<'a>, SceneError> {
+    vision_scene(session, model, None, estimate)
+}
+
+/// The mechanism (with `params`, else nominal) and the vision estimate of a session.
+fn vision_scene<'a>(
+    session: &'a Session,
+    model: &'a RobotModel,
+    params: Option<&Parameters>,
+    estimate: &SessionEstimate,
+) -> Result<Scene<'a>, SceneError> {
     let spm = match params {
         Some(p) => p.spm()?,
         None => model.spm.clone(),
     };
-    let estimate = estimate_session(session, Method::Kabsch)?;
-    let (camera, a) = registration(session, &spm, &estimate, params)?;
+    let (camera, a) = registration(session, &spm, estimate, params)?;
     let name = if params.is_some() { "fda_calibrated" } else { "fda_nominal" };
     let mut documents = vec![(
         "nominal".to_string(),
@@ -121,18 +141,13 @@ pub fn replay_scene<'a>(
     Ok(Scene {
         session,
         model,
-        frames: vec![fda_frames(name, &spm, session), vision_frames(&estimate, &camera.rotation, &a)],
+        frames: vec![fda_frames(name, &spm, session), vision_frames(estimate, &camera.rotation, &a)],
         mechanism: spm,
         registration: Some(camera),
-        series: vec![e_series(&estimate)],
+        series: vec![e_series(estimate)],
         iterations: Vec::new(),
         documents,
     })
-}
-
-/// `spmcal estimate --rrd`: as a nominal replay (the vision frames are what `estimate` computed).
-pub fn estimate_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
-    replay_scene(session, model, None)
 }
 
 /// `spmcal simulate --rrd`: the true mechanism and camera, the true MP frames, the measured markers.
