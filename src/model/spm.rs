@@ -150,7 +150,7 @@ impl Spm {
         };
         let home = Rotation3::identity();
         spm.home_joints = spm.ik(&home).map_err(SpmError::NoHomeClosure)?;
-        spm.check_pose(&spm.home_joints.clone(), &home).map_err(SpmError::SingularHome)?;
+        spm.check_pose(&spm.home_joints, &home).map_err(SpmError::SingularHome)?;
         Ok(spm)
     }
 
@@ -185,10 +185,6 @@ impl Spm {
     /// Loop-closure residuals `w_i(θ_i) · R v0_i − cos α2_i`.
     pub fn closure_residual(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Vector3<f64> {
         let w = self.intermediate_axes(joints);
-        self.residual_with_axes(&w, r)
-    }
-
-    fn residual_with_axes(&self, w: &[Vector3<f64>; 3], r: &Rotation3<f64>) -> Vector3<f64> {
         Vector3::from_fn(|i, _| w[i].dot(&(r * self.legs[i].v0)) - self.legs[i].cos_a2)
     }
 
