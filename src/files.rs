@@ -55,23 +55,103 @@ impl FileError {
 /// Write `contents` to `path` atomically: a temporary file in the same folder, then a rename,
 /// so that a reader never sees a half-written file and a failure leaves the old one intact.
 pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
-    use std::io::Write;
-    let dir = match path.parent() {
+    let mut outputs = Outputs::new();
+    let slot = outputs.reserve(path)?;
+    outputs.write(slot, contents)?;
+    outputs.commit()
+}
+
+/// The outputs of one command, reserved before the work and written together after it, so that a
+/// failed run changes no existing file: every destination is checked first (not a folder, its
+/// folder takes new files) by creating its temporary file; [`Outputs::commit`] renames them all
+/// into place only when every one was written.
+#[derive(Debug, Default)]
+pub struct Outputs {
+    staged: Vec<(PathBuf, tempfile::NamedTempFile)>,
+}
+
+/// A reserved output of an [`Outputs`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Slot(usize);
+
+impl Outputs {
+    /// No outputs yet.
+    pub fn new() -> Self {
+        Outputs::default()
+    }
+
+    /// Reserve `path` as an output.
+    ///
+    /// # Errors
+    /// `path` is a folder, is reserved twice, or its folder does not take a new file.
+    pub fn reserve(&mut self, path: &Path) -> Result<Slot, FileError> {
+        if path.is_dir() {
+            return Err(FileError::new(path, "is a folder; an output file was expected"));
+        }
+        if self.staged.iter().any(|(p, _)| p == path) {
+            return Err(FileError::new(path, "is given as two different outputs"));
+        }
+        let tmp = tempfile::Builder::new()
+            .prefix(".spmcal-")
+            .suffix(".tmp")
+            .tempfile_in(parent_folder(path))
+            .map_err(|e| FileError::new(path, format!("cannot write here: {e}")))?;
+        self.staged.push((path.to_path_buf(), tmp));
+        Ok(Slot(self.staged.len() - 1))
+    }
+
+    /// The temporary file behind `slot`, for writers that open a path themselves.
+    pub fn temp_path(&self, slot: Slot) -> &Path {
+        self.staged[slot.0].1.path()
+    }
+
+    /// The final destination of `slot`.
+    pub fn destination(&self, slot: Slot) -> &Path {
+        &self.staged[slot.0].0
+    }
+
+    /// Write `contents` into the temporary file of `slot`.
+    ///
+    /// # Errors
+    /// The write fails (e.g. the disk is full).
+    pub fn write(&mut self, slot: Slot, contents: &[u8]) -> Result<(), FileError> {
+        use std::io::{Seek, Write};
+        let (path, tmp) = &mut self.staged[slot.0];
+        let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
+        let file = tmp.as_file_mut();
+        file.set_len(0).map_err(fail)?;
+        file.rewind().map_err(fail)?;
+        file.write_all(contents).map_err(fail)
+    }
+
+    /// Put every output in place (ordinary permissions, synced, renamed over the destination).
+    ///
+    /// # Errors
+    /// Syncing or renaming fails; outputs renamed before the failure stay in place.
+    pub fn commit(self) -> Result<(), FileError> {
+        for (path, tmp) in &self.staged {
+            let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
+            // A temporary file is private (0600); the result is an ordinary file, like any other output.
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(fail)?;
+            }
+            std::fs::File::open(tmp.path()).and_then(|f| f.sync_all()).map_err(fail)?;
+        }
+        for (path, tmp) in self.staged {
+            tmp.persist(&path).map_err(|e| FileError::new(&path, format!("cannot write: {}", e.error)))?;
+        }
+        Ok(())
+    }
+}
+
+/// The folder a file is written in (`.` for a bare file name).
+pub fn parent_folder(path: &Path) -> &Path {
+    match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
-    };
-    let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
-    tmp.write_all(contents).map_err(fail)?;
-    // A temporary file is private (0600); the result is an ordinary file, like any other output.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(fail)?;
     }
-    tmp.as_file().sync_all().map_err(fail)?;
-    tmp.persist(path).map_err(|e| fail(e.error))?;
-    Ok(())
 }
 
 /// Read a whole text file, naming it in the error.
@@ -94,29 +174,6 @@ pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
     let mut out: PathBuf = from.components().skip(common).map(|_| "..").collect();
     out.extend(target.components().skip(common));
     Ok(out)
-}
-
-/// Read a YAML settings file into `T`, then `check` it; a value `check` refuses is reported at the
-/// line of its key (serde has no location for values it accepted).
-pub fn read_checked_yaml<T: serde::de::DeserializeOwned>(
-    path: &Path,
-    check: impl Fn(&T) -> Result<(), (&'static str, String)>,
-) -> Result<T, FileError> {
-    let text = read_text(path)?;
-    let value: T = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
-    check(&value).map_err(|(key, reason)| {
-        let err = FileError::new(path, reason).in_column(key);
-        match yaml_key_line(&text, key) {
-            Some(line) => err.at_line(line),
-            None => err,
-        }
-    })?;
-    Ok(value)
-}
-
-/// Line of the first `key:` in a YAML text, for errors about values serde accepted but we refuse.
-pub fn yaml_key_line(text: &str, key: &str) -> Option<usize> {
-    text.lines().position(|l| l.trim_start().trim_start_matches("- ").starts_with(&format!("{key}:"))).map(|i| i + 1)
 }
 
 /// `a/b/../c` → `a/c`, without touching the file system (for paths recorded in files).

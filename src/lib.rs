@@ -31,12 +31,15 @@
 
 pub mod calib;
 pub mod compare;
+pub mod constellation;
 pub mod dataset;
 pub mod files;
 pub mod model;
 pub mod polar;
 pub mod record;
+pub mod report;
 pub mod sim;
 pub mod so3;
 pub mod table;
 pub mod vision;
+mod yaml;

@@ -80,7 +80,9 @@ fn simulate_writes_a_loadable_session_and_a_json_summary() {
         ["simulate", "--config", "configs/simulate_agile_wrist.yaml", "--poses", "25", "--seed", "3", "--name", "t"];
     let run = spmcal(&[&args[..], &["--out", out.to_str().unwrap(), "--json"]].concat());
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    let summary: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let envelope: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(envelope["command"], "simulate");
+    let summary = &envelope["results"];
     assert_eq!(summary["poses"], 25);
     assert_eq!(summary["seed"], 3);
     let attempts = summary["attempts"].as_u64().unwrap();
@@ -128,13 +130,14 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     ]);
     assert!(json.status.success(), "{}", String::from_utf8_lossy(&json.stderr));
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
-    let sets = v["sets"].as_array().unwrap();
+    assert_eq!(v["command"], "compare");
+    let sets = v["results"].as_array().unwrap();
     assert_eq!((sets[0]["label"].as_str(), sets[1]["label"].as_str()), (Some("nominal"), Some("calibrated")));
     for set in sets {
         for key in ["rms_deg", "median_deg", "max_deg"] {
             assert!(set[key].as_f64().unwrap() > 0.0, "{key}");
         }
-        assert_eq!(set["poses"], 20);
+        assert_eq!(set["per_pose"].as_array().unwrap().len(), 20);
     }
     assert!(sets[1]["rms_deg"].as_f64().unwrap() < sets[0]["rms_deg"].as_f64().unwrap());
 
@@ -145,8 +148,9 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     let json =
         spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
-    assert_eq!(v["parameters"].as_array().unwrap().len(), 21);
-    assert!(v["after"]["held_out"]["rms_deg"].as_f64().is_some());
+    let report = &v["results"];
+    assert_eq!(report["parameters"].as_array().unwrap().len(), 21);
+    assert!(report["after"]["held_out"]["rms_deg"].as_f64().is_some());
 }
 
 #[test]

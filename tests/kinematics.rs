@@ -233,3 +233,16 @@ fn forward_refuses_poses_near_a_parallel_singularity() {
         "{e}"
     );
 }
+
+#[test]
+fn ik_refuses_a_serial_singularity_instead_of_inventing_a_joint_angle() {
+    // Nominal wrist: turn leg 1's platform axis onto its actuated axis. Every joint angle closes
+    // that leg's loop alike, so there is no answer to give.
+    let spm = general_geometry(90.0 * DEG, 90.0 * DEG);
+    let g = spm.geometry()[0];
+    let r = Rotation3::rotation_between(&g.v0, &g.u).unwrap();
+    assert!(matches!(spm.ik(&r), Err(IkError::SerialSingularity { leg: 1, .. })), "{:?}", spm.ik(&r));
+    // Slightly away from it the answer is determined again.
+    let off = Rotation3::from_axis_angle(&Vector3::x_axis(), 1e-3) * r;
+    assert!(spm.ik(&off).is_ok() || matches!(spm.ik(&off), Err(IkError::OutsideWorkspace { .. })));
+}

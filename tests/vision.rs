@@ -5,6 +5,7 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use proptest::prelude::*;
+use spmcal::constellation::Degeneracy;
 use spmcal::polar::polar;
 use spmcal::so3;
 use spmcal::vision::{MarkerError, Method, Reference, orthogonality_error};
@@ -149,9 +150,21 @@ proptest! {
 #[test]
 fn degenerate_markers_get_typed_errors() {
     let line: Vec<_> = (0..4).map(|i| Vector3::new(0.01 * i as f64, 0.02 * i as f64, 0.7)).collect();
-    assert!(matches!(Reference::new(&line), Err(MarkerError::Collinear { .. })));
+    assert!(matches!(Reference::new(&line), Err(MarkerError::Degenerate(Degeneracy::Collinear { .. }))));
     let point = vec![Vector3::new(0.1, 0.2, 0.7); 4];
-    assert!(matches!(Reference::new(&point), Err(MarkerError::Coincident { .. })));
+    assert!(matches!(Reference::new(&point), Err(MarkerError::Degenerate(Degeneracy::Coincident { .. }))));
+    // Degeneracy is judged against the noise: a triangle 0.5 mm off a line, or two markers 0.1 mm
+    // apart, is degenerate to a camera with millimetre noise (it would flip by 180° on noise).
+    let near_line = vec![Vector3::new(0.0, 0.0, 0.7), Vector3::new(0.05, 0.0005, 0.7), Vector3::new(0.1, 0.0, 0.7)];
+    assert!(matches!(Reference::new(&near_line), Err(MarkerError::Degenerate(Degeneracy::Collinear { .. }))));
+    let mut close = tetrahedron();
+    close[3] = close[2] + Vector3::new(1e-4, 0.0, 0.0);
+    assert!(matches!(Reference::new(&close), Err(MarkerError::Degenerate(Degeneracy::Coincident { .. }))));
+    let good = Reference::new(&tetrahedron()).unwrap();
+    assert!(matches!(
+        good.estimate(&close, Method::Kabsch),
+        Err(MarkerError::Degenerate(Degeneracy::Coincident { .. }))
+    ));
     assert!(matches!(Reference::new(&point[..2]), Err(MarkerError::TooFew { seen: 2 })));
     // A mirror image is not a rotation.
     let reference = tetrahedron();

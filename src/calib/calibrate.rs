@@ -9,7 +9,7 @@ use super::identify::{Identifiability, analyse};
 use super::params::Parameterisation;
 use super::registration::initial_registration;
 use super::residual::{EvalError, Observation, evaluate, observations};
-use super::solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit};
+use super::solver::{Convergence, FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::{Method, SessionEstimate, Stats, VisionError, estimate_session};
@@ -17,6 +17,8 @@ use crate::vision::{Method, SessionEstimate, Stats, VisionError, estimate_sessio
 /// Why a calibration could not be done.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
+    #[error("config `{key}`: {reason}")]
+    Config { key: String, reason: String },
     #[error("vision: {0}")]
     Vision(#[from] VisionError),
     #[error("only {usable} usable poses; at least {needed} are needed for {parameters} parameters")]
@@ -94,6 +96,8 @@ pub struct CalibrationReport {
     pub before: Errors,
     pub after: Errors,
     pub iterations: Vec<IterationLog>,
+    /// How the fit ended: converged, or stalled at a minimum.
+    pub convergence: Convergence,
     pub parameters: Vec<ParameterReport>,
     pub identifiability: Identifiability,
     /// Unidentifiable directions held by a weak prior.
@@ -108,8 +112,10 @@ pub struct CalibrationReport {
     /// `(markers, poses, [σx, σy, σz])`.
     pub residual_sigma_deg: Vec<(usize, usize, [f64; 3])>,
     pub outliers: Vec<Outlier>,
-    pub camera_translation_m: [f64; 3],
-    pub camera_translation_std_error_m: [f64; 3],
+    /// `t_CB` from the centre of rotation; `None` when the poses leave it undetermined.
+    pub camera_translation_m: Option<[f64; 3]>,
+    /// Its standard errors.
+    pub camera_translation_std_error_m: Option<[f64; 3]>,
 }
 
 /// A calibration: the parameters file and the report, plus what a recording needs.
@@ -135,6 +141,7 @@ pub fn calibrate(
     config: &CalibConfig,
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
+    config.check().map_err(|(key, reason)| CalibError::Config { key, reason })?;
     let vision = estimate_session(session, config.vision_method)?;
     let nominal_spm = &model.spm;
     // Observations whose nominal FDA exists.
@@ -152,6 +159,10 @@ pub fn calibrate(
         Parameterisation::new(*nominal_spm.geometry(), Rotation3::identity(), Rotation3::identity(), &config.bounds);
     let free: Vec<bool> = layout.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
     let n_free = free.iter().filter(|f| **f).count();
+    if n_free == 0 {
+        let reason = "every parameter is frozen: there is nothing to fit".to_string();
+        return Err(CalibError::Config { key: "freeze".into(), reason });
+    }
     if 3 * observations.len() < n_free + 3 {
         return Err(CalibError::TooFewPoses {
             usable: observations.len(),
@@ -199,13 +210,17 @@ pub fn calibrate(
     };
     let before = Errors { fit: ErrorSummary::of(&nominal.evaluation.residuals), held_out: held(&nominal.x)? };
     let after = Errors { fit: ErrorSummary::of(&calibrated.evaluation.residuals), held_out: held(&calibrated.x)? };
+    // Orientations fix R_CB; t_CB comes from the centre of rotation. When the poses leave the
+    // centre undetermined (all about one axis) no registration is written rather than a made-up t_CB.
     let centre = vision.centre;
-    let translation = centre.map_or([0.0; 3], |c| c.position_m);
     let mut parameters = Parameters {
         source: ParameterSource::Calibrated,
         model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
         legs: p.legs(&calibrated.x),
-        camera: Some(CameraRegistration { rotation: p.camera(&calibrated.x), translation: Vector3::from(translation) }),
+        camera: centre.map(|c| CameraRegistration {
+            rotation: p.camera(&calibrated.x),
+            translation: Vector3::from(c.position_m),
+        }),
         fit: None,
     };
     let reports = parameter_reports(&p, &calibrated.x, &covariance, &free);
@@ -220,6 +235,7 @@ pub fn calibrate(
         before,
         after,
         iterations: calibrated.log.clone(),
+        convergence: calibrated.status,
         not_significant: reports
             .iter()
             .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
@@ -232,8 +248,8 @@ pub fn calibrate(
         orientation_uncertainty_deg: orientation_uncertainty(&calibrated, &covariance),
         residual_sigma_deg: residual_sigmas(&calibrated.weighting),
         outliers: outliers(&observations, &calibrated, config.outlier_threshold),
-        camera_translation_m: translation,
-        camera_translation_std_error_m: centre.map_or([f64::NAN; 3], |c| c.std_error_m),
+        camera_translation_m: centre.map(|c| c.position_m),
+        camera_translation_std_error_m: centre.map(|c| c.std_error_m),
     };
     parameters.fit = Some(fit_header(&report));
     Ok(Calibration {
@@ -389,7 +405,7 @@ fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         free_parameters: usize,
         condition_number: f64,
         std_errors_deg: Vec<(&'a str, f64)>,
-        camera_translation_std_error_m: [f64; 3],
+        camera_translation_std_error_m: Option<[f64; 3]>,
     }
     let header = Header {
         session: &report.session,

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::files::{FileError, read_checked_yaml};
+use crate::files::FileError;
 use crate::vision::Method;
 
 /// A group of parameters that can be frozen at its nominal (or initial) value.
@@ -46,8 +46,9 @@ pub enum Unidentifiable {
     Regularise,
 }
 
+/// Calibration settings; every field has a default (a partial file works).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct CalibConfig {
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
@@ -73,12 +74,19 @@ pub struct CalibConfig {
     pub min_singular_ratio: f64,
 }
 
+/// Physical bounds on the departures from nominal, degrees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Bounds {
     pub axis_tilt_deg: f64,
     pub link_angle_deg: f64,
     pub joint_offset_deg: f64,
+}
+
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds { axis_tilt_deg: 10.0, link_angle_deg: 5.0, joint_offset_deg: 30.0 }
+    }
 }
 
 impl Default for CalibConfig {
@@ -93,7 +101,7 @@ impl Default for CalibConfig {
             max_iterations: 200,
             initial_radius_deg: 3.0,
             step_tolerance_deg: 1e-7,
-            bounds: Bounds { axis_tilt_deg: 10.0, link_angle_deg: 5.0, joint_offset_deg: 30.0 },
+            bounds: Bounds::default(),
             unidentifiable: Unidentifiable::Regularise,
             min_singular_ratio: 1e-6,
         }
@@ -103,31 +111,62 @@ impl Default for CalibConfig {
 impl CalibConfig {
     /// Read and check a config file.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        read_checked_yaml(path, CalibConfig::check)
+        crate::yaml::read_checked(path, CalibConfig::check)
     }
 
     /// Values serde accepted but that make no sense, as `(key, reason)`.
-    pub fn check(&self) -> Result<(), (&'static str, String)> {
+    pub fn check(&self) -> Result<(), (String, String)> {
         let positive = [
             ("huber_threshold", self.huber_threshold),
             ("outlier_threshold", self.outlier_threshold),
             ("initial_radius_deg", self.initial_radius_deg),
             ("step_tolerance_deg", self.step_tolerance_deg),
-            ("axis_tilt_deg", self.bounds.axis_tilt_deg),
-            ("link_angle_deg", self.bounds.link_angle_deg),
-            ("joint_offset_deg", self.bounds.joint_offset_deg),
+            ("bounds.axis_tilt_deg", self.bounds.axis_tilt_deg),
+            ("bounds.link_angle_deg", self.bounds.link_angle_deg),
+            ("bounds.joint_offset_deg", self.bounds.joint_offset_deg),
             ("min_singular_ratio", self.min_singular_ratio),
         ];
         for (key, value) in positive {
             if !(value.is_finite() && value > 0.0) {
-                return Err((key, format!("`{key}` must be a positive number (got {value})")));
+                return Err((key.into(), format!("`{key}` must be a positive number (got {value})")));
             }
         }
         if self.max_iterations == 0 {
-            return Err(("max_iterations", "`max_iterations` must be at least 1".into()));
+            return Err(("max_iterations".into(), "`max_iterations` must be at least 1".into()));
         }
         if self.holdout_every == 1 {
-            return Err(("holdout_every", "`holdout_every: 1` would hold out every pose".into()));
+            return Err(("holdout_every".into(), "`holdout_every: 1` would hold out every pose".into()));
+        }
+        // Values that are positive but absurd: the fit works in radians of a few degrees.
+        if self.initial_radius_deg > 90.0 {
+            return Err((
+                "initial_radius_deg".into(),
+                format!(
+                    "`initial_radius_deg` {} is absurd: a trust region of at most 90° is meaningful",
+                    self.initial_radius_deg
+                ),
+            ));
+        }
+        if self.step_tolerance_deg >= self.initial_radius_deg {
+            return Err((
+                "step_tolerance_deg".into(),
+                "`step_tolerance_deg` must be smaller than `initial_radius_deg`".into(),
+            ));
+        }
+        if self.min_singular_ratio >= 1.0 {
+            return Err(("min_singular_ratio".into(), "`min_singular_ratio` must be below 1".into()));
+        }
+        if self.outlier_threshold < 1.0 || self.huber_threshold < 0.5 {
+            let key = if self.outlier_threshold < 1.0 { "outlier_threshold" } else { "huber_threshold" };
+            return Err((key.into(), format!("`{key}` below 1 (0.5 for huber) would flag ordinary noise")));
+        }
+        let mechanism =
+            [Group::ActuatedAxes, Group::PlatformAxes, Group::ProximalAngles, Group::DistalAngles, Group::JointOffsets];
+        if mechanism.iter().all(|g| self.freeze.contains(g)) {
+            return Err((
+                "freeze".into(),
+                "`freeze` holds every mechanism parameter fixed: there is nothing to calibrate".into(),
+            ));
         }
         Ok(())
     }

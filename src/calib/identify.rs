@@ -55,6 +55,19 @@ pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String
         column_norms[i] = if norm > 0.0 { norm } else { 1.0 };
         scaled.set_column(k, &(col / column_norms[i]));
     }
+    if free.is_empty() || scaled.nrows() == 0 {
+        // Nothing free (or no data): no direction to analyse.
+        return Identifiability {
+            parameters: free.len(),
+            rank: 0,
+            condition: f64::INFINITY,
+            weakest: Vec::new(),
+            unidentifiable: Vec::new(),
+            null_vectors: Vec::new(),
+            scale: 0.0,
+            column_norms,
+        };
+    }
     let svd = scaled.svd(false, true);
     let v_t = svd.v_t.expect("asked for V");
     let s = &svd.singular_values;

@@ -17,4 +17,7 @@ pub use identify::{Direction, Identifiability, analyse};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use registration::initial_registration;
 pub use residual::{EvalError, Evaluation, Observation, Predicted, Unpredicted, evaluate, observations};
-pub use solver::{FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit, rms, robust_weights};
+pub use solver::{
+    Convergence, FitError, FitOutcome, FitSettings, IterationLog, RELATIVE_COST_TOLERANCE, Weighting, fit, rms,
+    robust_weights,
+};

@@ -63,9 +63,29 @@ pub struct IterationLog {
     pub solver_iterations: u32,
 }
 
+/// How a successful fit ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Convergence {
+    /// The last steps moved no parameter by more than the step tolerance.
+    Converged,
+    /// Steps stayed above the tolerance, but the trust radius collapsed or the cost stopped
+    /// changing (relative change below [`RELATIVE_COST_TOLERANCE`]): a minimum to working precision.
+    StalledAtMinimum,
+}
+
+/// A fit whose cost changes by less than this fraction in a whole reweighting cycle, or over the
+/// last [`STALL_WINDOW`] iterations, is at its minimum whatever its steps: the cost is a sum over
+/// hundreds of residuals, so 1e-10 of it is far below anything the data can tell apart.
+pub const RELATIVE_COST_TOLERANCE: f64 = 1e-10;
+/// Iterations over which a stalled cost is judged.
+const STALL_WINDOW: usize = 5;
+
 /// A converged fit.
 #[derive(Debug, Clone)]
 pub struct FitOutcome {
+    /// How the fit ended.
+    pub status: Convergence,
     pub x: DVector<f64>,
     pub evaluation: Evaluation,
     /// The weighting at the solution.
@@ -80,8 +100,14 @@ pub enum FitError {
     Start(EvalError),
     #[error("clarabel failed on the subproblem of iteration {iteration}: status {status}")]
     Solver { iteration: u32, status: String },
-    #[error("the fit did not converge in {iterations} iterations (last step {step:.3e} rad, radius {radius:.3e} rad)")]
-    NotConverged { iterations: u32, step: f64, radius: f64 },
+    #[error(
+        "the fit was still improving after `max_iterations` = {iterations} iterations (last step {step:.3e} rad, radius {radius:.3e} rad, cost still falling by {relative_decrease:.1e} per iteration): raise `max_iterations`"
+    )]
+    IterationLimit { iterations: u32, step: f64, radius: f64, relative_decrease: f64 },
+    #[error("the robust (Huber) reweighting did not settle in {cycles} cycles: try `loss: least_squares`")]
+    ReweightingUnsettled { cycles: u32 },
+    #[error("the fit diverged at iteration {iteration}: {reason}")]
+    Diverged { iteration: u32, reason: String },
 }
 
 /// How the residuals are weighted: each pose whitened by `S = Σ_r^{-1/2}`, the inverse root of the
@@ -239,44 +265,70 @@ pub fn fit(
     let mut radius = settings.initial_radius;
     let mut log: Vec<IterationLog> = Vec::new();
     let mut weighting = Weighting::isotropic(observations.len());
+    let mut status = Convergence::Converged;
     for whitened in [false, true] {
         if whitened {
             weighting.whiten_by_class(&eval.residuals, &markers);
         }
         weighting.rescale(&eval.residuals);
         weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
-        let mut settled = false;
+        let mut settled = None;
         for _ in 0..MAX_REWEIGHTINGS {
             let start = x.clone();
-            loop {
+            let start_cost = weighting.cost(&eval.residuals);
+            let stop = loop {
                 let iteration = log.len() as u32 + 1;
                 if iteration > settings.max_iterations {
-                    let step = log.last().map_or(0.0, |l| l.step);
-                    return Err(FitError::NotConverged { iterations: settings.max_iterations, step, radius });
+                    break iteration_limit(&log, radius)?;
                 }
-                let (entry, done) = problem.trust_region_step(&mut x, &mut eval, &weighting, &mut radius, iteration)?;
+                let (entry, stop) = problem.trust_region_step(&mut x, &mut eval, &weighting, &mut radius, iteration)?;
                 on_iteration(&entry);
                 log.push(entry);
-                if done {
-                    break;
+                if let Some(stop) = stop {
+                    break stop;
                 }
-            }
+            };
+            let end_cost = weighting.cost(&eval.residuals);
             weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
-            if (&x - &start).amax() < settings.step_tolerance {
-                settled = true;
+            let moved = (&x - &start).amax();
+            if moved < settings.step_tolerance && stop == Convergence::Converged {
+                settled = Some(Convergence::Converged);
+            } else if moved < settings.step_tolerance
+                || (start_cost - end_cost).abs() <= RELATIVE_COST_TOLERANCE * start_cost
+                || log.len() as u32 >= settings.max_iterations
+            {
+                settled = Some(Convergence::StalledAtMinimum);
+            }
+            if settled.is_some() {
                 break;
             }
         }
-        if !settled {
-            let step = log.last().map_or(0.0, |l| l.step);
-            return Err(FitError::NotConverged { iterations: log.len() as u32, step, radius });
+        match settled {
+            Some(Convergence::StalledAtMinimum) => status = Convergence::StalledAtMinimum,
+            Some(Convergence::Converged) => {}
+            None => return Err(FitError::ReweightingUnsettled { cycles: MAX_REWEIGHTINGS }),
         }
     }
-    Ok(FitOutcome { x, evaluation: eval, weighting, log })
+    Ok(FitOutcome { status, x, evaluation: eval, weighting, log })
+}
+
+/// The iteration budget is spent: a fit whose cost no longer falls is at its minimum (stalled);
+/// one still improving is an error naming the config key to raise.
+fn iteration_limit(log: &[IterationLog], radius: f64) -> Result<Convergence, FitError> {
+    let last = log.last().copied();
+    let window = &log[log.len().saturating_sub(STALL_WINDOW)..];
+    let (first, latest) = (window.first().map_or(0.0, |l| l.cost), last.map_or(0.0, |l| l.cost));
+    let relative_decrease = if first > 0.0 { (first - latest) / first / window.len().max(1) as f64 } else { 0.0 };
+    if relative_decrease <= RELATIVE_COST_TOLERANCE {
+        return Ok(Convergence::StalledAtMinimum);
+    }
+    let (iterations, step) = (log.len() as u32, last.map_or(0.0, |l| l.step));
+    Err(FitError::IterationLimit { iterations, step, radius, relative_decrease })
 }
 
 /// One trust-region iteration with a fixed weighting; returns its log entry and whether the inner
-/// loop has converged (a tiny accepted step, no predicted decrease, or a collapsed radius).
+/// loop has stopped: converged (a tiny accepted step) or stalled at a minimum (no predicted
+/// decrease the cost can resolve, or a collapsed radius).
 impl Problem<'_> {
     fn trust_region_step(
         &self,
@@ -285,9 +337,12 @@ impl Problem<'_> {
         weighting: &Weighting,
         radius: &mut f64,
         iteration: u32,
-    ) -> Result<(IterationLog, bool), FitError> {
+    ) -> Result<(IterationLog, Option<Convergence>), FitError> {
         let (p, observations, settings, free) = (self.p, self.observations, self.settings, &self.free);
         let cost = weighting.cost(&eval.residuals) + prior_cost(settings, x);
+        if !cost.is_finite() {
+            return Err(FitError::Diverged { iteration, reason: format!("the cost is {cost}") });
+        }
         let (hessian, gradient) = normal_equations(eval, weighting, free, settings, x);
         let (step, solver_iterations) = solve_subproblem(p, x, free, &hessian, &gradient, *radius)
             .map_err(|status| FitError::Solver { iteration, status })?;
@@ -304,6 +359,9 @@ impl Problem<'_> {
         let ratio = if predicted > 0.0 { actual / predicted } else { 0.0 };
         let accepted = ratio > 0.25 && trial.is_ok();
         let step_norm = step.norm();
+        if !step_norm.is_finite() {
+            return Err(FitError::Diverged { iteration, reason: "the step is not finite".into() });
+        }
         let entry = IterationLog {
             iteration,
             cost,
@@ -314,6 +372,7 @@ impl Problem<'_> {
             accepted,
             solver_iterations,
         };
+        let negligible = predicted <= PRECISION * cost;
         let done = if accepted {
             let orientations = trial.expect("accepted steps evaluated").orientations;
             *x = trial_x;
@@ -321,12 +380,20 @@ impl Problem<'_> {
             if ratio > 0.75 && step_norm > 0.9 * *radius {
                 *radius = (2.0 * *radius).min(0.5);
             }
-            step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
+            if step.amax() < settings.step_tolerance {
+                Some(Convergence::Converged)
+            } else {
+                negligible.then_some(Convergence::StalledAtMinimum)
+            }
         } else {
             *radius /= 4.0;
             // No step of useful size reduces the cost, or the reduction it promises is below what the
             // cost can resolve: x is a minimum to working precision.
-            *radius < settings.step_tolerance || step.amax() < settings.step_tolerance || predicted <= PRECISION * cost
+            if step.amax() < settings.step_tolerance {
+                Some(Convergence::Converged)
+            } else {
+                (*radius < settings.step_tolerance || negligible).then_some(Convergence::StalledAtMinimum)
+            }
         };
         Ok((entry, done))
     }

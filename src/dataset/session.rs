@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use super::joints::{JointReading, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
-use crate::files::{FileError, read_text, relative_path, write_atomic, yaml_key_line};
+use crate::files::{FileError, relative_path, write_atomic};
 use crate::model::Parameters;
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
@@ -103,15 +103,8 @@ impl Session {
     /// Load and validate the session in `dir`; `model` overrides the one named in `session.yaml`.
     pub fn load(dir: &Path, model: Option<&Path>) -> Result<(Session, Vec<Warning>), FileError> {
         let yaml_path = dir.join("session.yaml");
-        let text = read_text(&yaml_path)?;
-        let file: SessionFile = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(&yaml_path, &e))?;
-        let at = |key: &str, reason: String| {
-            let err = FileError::new(&yaml_path, reason).in_column(key);
-            match yaml_key_line(&text, key) {
-                Some(line) => err.at_line(line),
-                None => err,
-            }
-        };
+        let (file, keys) = crate::yaml::read::<SessionFile>(&yaml_path)?;
+        let at = |key: &str, reason: String| keys.error(&yaml_path, key, reason);
         check_marker_names(&file.markers).map_err(|reason| at("markers", reason))?;
         let model = match (model, &file.model) {
             (Some(m), _) => m.to_path_buf(),
@@ -167,13 +160,28 @@ impl Session {
         Ok((session, warnings))
     }
 
-    /// Write the session into `dir` (created if needed). Every file is written atomically and
-    /// `session.yaml` last, so a folder without it is an interrupted write, never a session.
-    pub fn write(&self, dir: &Path) -> Result<(), FileError> {
+    /// Check, before any work, that a session can be written into `dir`: a session folder (it has
+    /// `session.yaml`), an empty folder, or a new folder whose parent exists and takes files.
+    ///
+    /// # Errors
+    /// `dir` is a file, a folder holding something that is not a session, or not writable.
+    pub fn check_destination(dir: &Path) -> Result<(), FileError> {
+        if dir.exists() && !dir.is_dir() {
+            return Err(FileError::new(dir, "is a file; a session is a folder"));
+        }
         let occupied = std::fs::read_dir(dir).is_ok_and(|mut entries| entries.next().is_some());
         if occupied && !dir.join("session.yaml").exists() {
             return Err(FileError::new(dir, "the folder is not empty and holds no session: refusing to write into it"));
         }
+        let probe_in = if dir.is_dir() { dir } else { crate::files::parent_folder(dir) };
+        tempfile::tempfile_in(probe_in).map_err(|e| FileError::new(dir, format!("cannot write here: {e}")))?;
+        Ok(())
+    }
+
+    /// Write the session into `dir` (created if needed). Every file is written atomically and
+    /// `session.yaml` last, so a folder without it is an interrupted write, never a session.
+    pub fn write(&self, dir: &Path) -> Result<(), FileError> {
+        Session::check_destination(dir)?;
         std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;
         let readings: Vec<_> = self
             .poses

@@ -42,6 +42,18 @@ pub enum GeometryError {
 /// axes printed with 9 significant digits, tight enough to catch a wrong axis.
 pub const AXIS_TOLERANCE: f64 = 1e-6;
 
+impl GeometryError {
+    /// The leg the error is about (1-based).
+    pub fn leg(&self) -> usize {
+        match self {
+            GeometryError::NotFinite { leg, .. }
+            | GeometryError::NotUnit { leg, .. }
+            | GeometryError::ZeroDirectionNotOrthogonal { leg, .. }
+            | GeometryError::LinkAngleOutOfRange { leg, .. } => *leg,
+        }
+    }
+}
+
 impl LegGeometry {
     /// The nominal leg `i` (0-based) of DESIGN.md for cone angles `b`, `p` and link angles `α1`, `α2`.
     pub fn nominal(i: usize, base_cone: f64, platform_cone: f64, alpha1: f64, alpha2: f64) -> Self {

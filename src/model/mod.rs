@@ -7,6 +7,7 @@ mod params;
 mod perturb;
 mod spm;
 mod urdf;
+mod urdf_check;
 
 pub use assembly::AssemblyMode;
 pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};

@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use super::geometry::LegGeometry;
 use super::spm::Spm;
-use crate::files::{FileError, read_text, write_atomic};
+use crate::files::{FileError, write_atomic};
 use crate::so3;
 
 /// The format tag written at the top of every parameters file.
@@ -127,14 +127,13 @@ impl Parameters {
 
     /// Read and validate a parameters file.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let text = read_text(path)?;
-        let record: ParametersRecord = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(path, &e))?;
+        let (record, keys) = crate::yaml::read::<ParametersRecord>(path)?;
         if record.format != PARAMETERS_FORMAT {
-            return Err(FileError::new(path, format!("format is `{}`, expected `{PARAMETERS_FORMAT}`", record.format))
-                .in_column("format"));
+            let reason = format!("format is `{}`, expected `{PARAMETERS_FORMAT}`", record.format);
+            return Err(keys.error(path, "format", reason));
         }
         let legs: [LegRecord; 3] = record.legs.try_into().map_err(|v: Vec<LegRecord>| {
-            FileError::new(path, format!("`legs` has {} entries, expected 3", v.len())).in_column("legs")
+            keys.error(path, "legs", format!("`legs` has {} entries, expected 3", v.len()))
         })?;
         let legs = legs.map(|l| LegGeometry {
             u: Vector3::from(l.u),
@@ -144,14 +143,21 @@ impl Parameters {
             v0: Vector3::from(l.v0),
             delta: l.delta_deg.to_radians(),
         });
-        Spm::new(legs).map_err(|e| FileError::new(path, e.to_string()).in_column("legs"))?;
+        Spm::new(legs).map_err(|e| {
+            // Locate the leg the error is about (leg numbers are 1-based, the file's list 0-based).
+            let key = match &e {
+                super::SpmError::Geometry(g) => format!("legs[{}]", g.leg() - 1),
+                _ => "legs".to_string(),
+            };
+            keys.error(path, &key, e.to_string())
+        })?;
         let camera = match record.camera {
             None => None,
             Some(c) => {
                 let rotation = so3::from_wxyz(c.r_cb_wxyz)
-                    .ok_or_else(|| FileError::new(path, "`r_cb_wxyz` is not a unit quaternion").in_column("camera"))?;
+                    .ok_or_else(|| keys.error(path, "camera.r_cb_wxyz", "`r_cb_wxyz` is not a unit quaternion"))?;
                 if !c.t_cb_m.iter().all(|x| x.is_finite()) {
-                    return Err(FileError::new(path, "`t_cb_m` is not finite").in_column("camera"));
+                    return Err(keys.error(path, "camera.t_cb_m", "`t_cb_m` is not finite"));
                 }
                 Some(CameraRegistration { rotation, translation: Vector3::from(c.t_cb_m) })
             }

@@ -66,7 +66,16 @@ pub enum IkError {
     OutsideWorkspace { leg: usize, ratio: f64 },
     #[error("orientation is not finite")]
     NotFinite,
+    #[error(
+        "leg {leg} is at a serial singularity: its platform axis lies {angle_deg:.2e}° from its actuated axis, so the joint angle is undetermined"
+    )]
+    SerialSingularity { leg: usize, angle_deg: f64 },
 }
+
+/// Below this sine of the angle between a leg's platform axis and its actuated axis, IK refuses:
+/// the joint angle's sensitivity to the orientation is 1/sine, and rounding alone (1e-16) would
+/// move it by more than 1e-10 rad.
+pub const IK_SINGULAR_SINE: f64 = 1e-6;
 
 /// Why the forward displacement analysis gave no trustworthy working-mode orientation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -217,8 +226,13 @@ impl Spm {
         }
         let ratio = c / rho;
         // Beyond 1 by more than rounding: the cone of v around w does not meet the circle of w.
-        if ratio.abs() > 1.0 + 1e-12 || rho == 0.0 {
+        if ratio.abs() > 1.0 + 1e-12 {
             return Err(IkError::OutsideWorkspace { leg: i + 1, ratio: ratio.abs() });
+        }
+        // ρ = sin α1 · sin∠(u, v): zero when v lies along u, where every φ closes the loop alike.
+        let sine = rho / leg.sin_a1;
+        if sine.is_nan() || sine < IK_SINGULAR_SINE {
+            return Err(IkError::SerialSingularity { leg: i + 1, angle_deg: sine.asin().to_degrees() });
         }
         let gamma = ratio.clamp(-1.0, 1.0).acos();
         let psi = b.atan2(a);

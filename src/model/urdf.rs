@@ -15,6 +15,10 @@ use serde::Deserialize;
 
 use super::geometry::LegGeometry;
 use super::spm::{Spm, SpmError};
+use super::urdf_check::Fault;
+use crate::constellation;
+use crate::files::FileError;
+use crate::yaml::KeyLines;
 
 /// Largest distance (m) from O of a joint axis line still accepted as passing through O:
 /// a few CAD rounding steps, far below any real misalignment worth calibrating.
@@ -144,30 +148,56 @@ impl RobotModel {
     pub fn load(urdf: &Path) -> Result<Self, ModelError> {
         let robot = urdf_rs::read_file(urdf)
             .map_err(|e| ModelError::Unreadable { path: urdf.to_path_buf(), reason: e.to_string() })?;
+        super::urdf_check::check(&robot).map_err(|fault| {
+            let path = urdf.to_path_buf();
+            match fault {
+                Fault::Joint(joint, reason) => ModelError::Joint { path, joint, reason },
+                Fault::Link(link, reason) => ModelError::Link { path, link, reason },
+                Fault::Robot(reason) => ModelError::Unreadable { path, reason: format!("the robot {reason}") },
+            }
+        })?;
         let companion_file = companion_path(urdf);
-        let companion = read_companion(&companion_file)?;
-        Loader { path: urdf, robot: &robot }.build(companion, &companion_file)
+        let (companion, _) = read_companion(&companion_file)?;
+        Loader { path: urdf, robot: &robot }.build(companion)
     }
 }
 
-fn read_companion(path: &Path) -> Result<Companion, ModelError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ModelError::Unreadable {
-        path: path.to_path_buf(),
-        reason: format!("cannot read the URDF companion: {e}"),
-    })?;
-    let companion: Companion = serde_yaml::from_str(&text).map_err(|e| ModelError::Companion {
-        path: path.to_path_buf(),
-        line: e.location().map_or(0, |l| l.line()),
-        reason: e.to_string(),
+fn companion_error(e: FileError) -> ModelError {
+    ModelError::Companion { path: e.path.clone(), line: e.line.unwrap_or(0), reason: e.to_string() }
+}
+
+fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
+    let (companion, keys) = crate::yaml::read::<Companion>(path).map_err(|e| match e.line {
+        None if e.reason.starts_with("cannot read") => ModelError::Unreadable {
+            path: path.to_path_buf(),
+            reason: format!("cannot read the URDF companion: {}", e.reason),
+        },
+        _ => companion_error(e),
     })?;
     if companion.legs.len() != 3 {
-        return Err(ModelError::Companion {
-            path: path.to_path_buf(),
-            line: 0,
-            reason: format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len()),
-        });
+        let reason = format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len());
+        return Err(companion_error(keys.error(path, "legs", reason)));
     }
-    Ok(companion)
+    let points: Vec<Vector3<f64>> = companion.markers_m.values().map(|p| Vector3::from(*p)).collect();
+    for (name, p) in &companion.markers_m {
+        if !p.iter().all(|c| c.is_finite()) {
+            let reason = format!("marker `{name}` has a non-finite position");
+            return Err(companion_error(keys.error(path, &format!("markers_m.{name}"), reason)));
+        }
+    }
+    // The model's own markers must fix an orientation, whatever the camera's noise: judged
+    // against the noise the vision estimator assumes.
+    if let Err(d) = constellation::check(&points, constellation::MARKER_NOISE_M) {
+        let names: Vec<&String> = companion.markers_m.keys().collect();
+        let reason = match &d {
+            constellation::Degeneracy::Coincident { first, second, .. } => {
+                format!("markers `{}` and `{}`: {d}", names[first - 1], names[second - 1])
+            }
+            _ => format!("the markers cannot fix an orientation: {d}"),
+        };
+        return Err(companion_error(keys.error(path, "markers_m", reason)));
+    }
+    Ok((companion, keys))
 }
 
 struct Loader<'a> {
@@ -243,7 +273,7 @@ impl<'a> Loader<'a> {
         Ok(placed)
     }
 
-    fn build(&self, companion: Companion, companion_file: &Path) -> Result<RobotModel, ModelError> {
+    fn build(&self, companion: Companion) -> Result<RobotModel, ModelError> {
         let frames = self.link_frames()?;
         let platform = frames
             .get(companion.platform_link.as_str())
@@ -282,21 +312,8 @@ impl<'a> Loader<'a> {
             leg_links.push([actuated.joint.child.link.clone(), intermediate.joint.child.link.clone()]);
         }
         let spm = Spm::new(legs).map_err(|source| ModelError::Geometry { path: self.path.to_path_buf(), source })?;
-        let markers = companion
-            .markers_m
-            .into_iter()
-            .map(|(name, p)| {
-                if p.iter().all(|c| c.is_finite()) {
-                    Ok(Marker { name, position: Vector3::from(p) })
-                } else {
-                    Err(ModelError::Companion {
-                        path: companion_file.to_path_buf(),
-                        line: 0,
-                        reason: format!("marker `{name}` has a non-finite position"),
-                    })
-                }
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let markers =
+            companion.markers_m.into_iter().map(|(name, p)| Marker { name, position: Vector3::from(p) }).collect();
         let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;
         Ok(RobotModel { name: self.robot.name.clone(), urdf_path: self.path.to_path_buf(), spm, markers, shapes })
     }

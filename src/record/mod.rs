@@ -81,27 +81,37 @@ pub enum RecordError {
 pub const APPLICATION: &str = "spmcal";
 
 /// Write `scene` to `path` (atomically: a temporary file beside it, renamed when complete).
+///
+/// # Errors
+/// The destination cannot be written, or Rerun refuses to log an entity.
 pub fn write_recording(path: &Path, scene: &Scene) -> Result<RecordingSummary, RecordError> {
+    let create = |e: crate::files::FileError| RecordError::Create { path: path.to_path_buf(), reason: e.reason };
+    let mut outputs = crate::files::Outputs::new();
+    let slot = outputs.reserve(path).map_err(create)?;
+    let summary = stage_recording(&outputs, slot, scene)?;
+    outputs.commit().map_err(create)?;
+    Ok(summary)
+}
+
+/// Write `scene` into the reserved output `slot` (put in place by [`crate::files::Outputs::commit`]).
+///
+/// # Errors
+/// The temporary file cannot be written, or Rerun refuses to log an entity.
+pub fn stage_recording(
+    outputs: &crate::files::Outputs,
+    slot: crate::files::Slot,
+    scene: &Scene,
+) -> Result<RecordingSummary, RecordError> {
+    let path = outputs.destination(slot);
     let create = |reason: String| RecordError::Create { path: path.to_path_buf(), reason };
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp = tempfile::Builder::new()
-        .prefix(".spmcal-")
-        .suffix(".rrd.tmp")
-        .tempfile_in(dir)
-        .map_err(|e| create(e.to_string()))?;
-    let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp.path()).map_err(|e| create(e.to_string()))?;
+    let tmp = outputs.temp_path(slot);
+    let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp).map_err(|e| create(e.to_string()))?;
     let mut logger = draw::Logger { rec: &rec, path };
     send_blueprint(&rec, scene).map_err(|e| create(e.to_string()))?;
     logger.scene(scene)?;
     rec.flush_blocking().map_err(|e| create(e.to_string()))?;
     drop(rec);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(|e| create(e.to_string()))?;
-    }
-    tmp.persist(path).map_err(|e| create(e.error.to_string()))?;
-    let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
+    let bytes = std::fs::metadata(tmp).map_or(0, |m| m.len());
     Ok(RecordingSummary { path: path.to_path_buf(), poses: scene.session.poses.len(), bytes })
 }
 

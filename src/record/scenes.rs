@@ -22,6 +22,8 @@ pub enum SceneError {
     Parameters(#[from] crate::model::SpmError),
     #[error("the camera registration cannot be estimated: too few poses, or every pose rotates about one axis")]
     Registration,
+    #[error("reference pose {pose}: forward kinematics failed: {error}")]
+    ReferencePose { pose: u64, error: crate::model::FdaError },
 }
 
 /// MP orientations by forward kinematics, pose by pose (poses whose FDA fails are left out).
@@ -40,19 +42,30 @@ fn e_series(estimate: &SessionEstimate) -> Series {
     Series { name: "e_j".into(), values: estimate.poses.iter().map(|(p, e)| (*p, e.error)).collect() }
 }
 
+/// How vision is put in the base frame: the camera rotation `R_CB` and the reference rotation
+/// `A`, plus the full registration (with `t_CB`) when it is known.
+struct VisionPlacement {
+    camera: Rotation3<f64>,
+    reference: Rotation3<f64>,
+    /// `None` when the poses leave the centre of rotation, and so `t_CB`, undetermined.
+    registration: Option<CameraRegistration>,
+}
+
 /// Camera rotation and reference rotation `A` for showing vision in the base frame: from the
-/// parameters when they carry a registration, else fitted as `calibrate` starts it.
+/// parameters when they carry a registration, else fitted as `calibrate` starts it. Nothing is
+/// made up: a reference pose without FDA is an error, an unknown `t_CB` stays unknown.
 fn registration(
     session: &Session,
     spm: &Spm,
     estimate: &SessionEstimate,
     params: Option<&Parameters>,
-) -> Result<(CameraRegistration, Rotation3<f64>), SceneError> {
+) -> Result<VisionPlacement, SceneError> {
     let reference = session.reference();
-    let r_ref = spm.forward(&reference.joints).unwrap_or_else(|_| Rotation3::identity());
-    let translation = estimate.centre.map_or(Vector3::zeros(), |c| Vector3::from(c.position_m));
+    let r_ref =
+        spm.forward(&reference.joints).map_err(|error| SceneError::ReferencePose { pose: reference.id, error })?;
     if let Some(camera) = params.and_then(|p| p.camera) {
-        return Ok((camera, camera.rotation * r_ref));
+        let reference = camera.rotation * r_ref;
+        return Ok(VisionPlacement { camera: camera.rotation, reference, registration: Some(camera) });
     }
     let (kept, _) = observations(session, estimate, spm);
     if kept.len() < 2 {
@@ -62,7 +75,9 @@ fn registration(
     let index = kept.iter().position(|(o, _)| o.pose == estimate.reference_pose).unwrap_or(0);
     let (measured, predicted): (Vec<_>, Vec<_>) = kept.iter().map(|(o, r)| (o.measured, *r)).unzip();
     let (rotation, a) = initial_registration(&predicted, &measured, index).ok_or(SceneError::Registration)?;
-    Ok((CameraRegistration { rotation, translation }, a))
+    let registration =
+        estimate.centre.map(|c| CameraRegistration { rotation, translation: Vector3::from(c.position_m) });
+    Ok(VisionPlacement { camera: rotation, reference: a, registration })
 }
 
 /// A markdown table of a parameter set.
@@ -129,7 +144,7 @@ fn vision_scene<'a>(
         Some(p) => p.spm()?,
         None => model.spm.clone(),
     };
-    let (camera, a) = registration(session, &spm, estimate, params)?;
+    let placement = registration(session, &spm, estimate, params)?;
     let name = if params.is_some() { "fda_calibrated" } else { "fda_nominal" };
     let mut documents = vec![(
         "nominal".to_string(),
@@ -141,9 +156,9 @@ fn vision_scene<'a>(
     Ok(Scene {
         session,
         model,
-        frames: vec![fda_frames(name, &spm, session), vision_frames(estimate, &camera.rotation, &a)],
+        frames: vec![fda_frames(name, &spm, session), vision_frames(estimate, &placement.camera, &placement.reference)],
         mechanism: spm,
-        registration: Some(camera),
+        registration: placement.registration,
         series: vec![e_series(estimate)],
         iterations: Vec::new(),
         documents,
@@ -197,7 +212,6 @@ pub fn calibration_scene<'a>(
     let p = &calibration.parameterisation;
     let x = &calibration.calibrated.x;
     let spm = calibration.parameters.spm()?;
-    let camera = calibration.parameters.camera.expect("calibrations carry a registration");
     let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
     after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
     for r in &calibration.report.parameters {
@@ -213,7 +227,7 @@ pub fn calibration_scene<'a>(
             vision_frames(&calibration.vision, &p.camera(x), &p.reference(x)),
         ],
         mechanism: spm,
-        registration: Some(camera),
+        registration: calibration.parameters.camera,
         series: vec![
             e_series(&calibration.vision),
             residual_series("nominal", calibration, &calibration.nominal.x),
@@ -227,15 +241,18 @@ pub fn calibration_scene<'a>(
     })
 }
 
-/// `spmcal compare --rrd`: each parameter set's MP frames and per-pose errors.
+/// `spmcal compare --rrd`: each parameter set's MP frames and per-pose errors, with vision by the
+/// estimator the comparison used.
 pub fn comparison_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,
     sets: &[(String, Parameters)],
     results: &[SetComparison],
+    method: Method,
 ) -> Result<Scene<'a>, SceneError> {
     let last = sets.last().map(|(_, p)| p);
-    let mut scene = replay_scene(session, model, last.filter(|p| p.camera.is_some()))?;
+    let estimate = estimate_session(session, method)?;
+    let mut scene = vision_scene(session, model, last.filter(|p| p.camera.is_some()), &estimate)?;
     scene.frames.retain(|f| f.name == "vision");
     for (label, params) in sets {
         scene.frames.push(fda_frames(&format!("fda_{label}"), &params.spm()?, session));

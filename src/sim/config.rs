@@ -5,13 +5,14 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::files::{FileError, read_checked_yaml};
+use crate::files::FileError;
 
 /// How the orientations are chosen.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Trajectory {
     /// Independent samples, uniform over the tilt disc and the yaw range.
+    #[default]
     Random,
     /// A continuous spiral: three turns of growing tilt with a yaw oscillation.
     Spiral,
@@ -27,10 +28,11 @@ impl Trajectory {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct SimConfig {
     pub name: String,
-    /// The URDF model, relative to the config file.
+    /// The URDF model, relative to the config file (default: `models/agile_wrist.urdf` relative to
+    /// the working directory, as on the command line).
     pub model: PathBuf,
     pub poses: usize,
     pub seed: u64,
@@ -45,7 +47,7 @@ pub struct SimConfig {
 
 /// Standard deviations of the true geometry around the nominal model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct TruthSpread {
     pub axis_tilt_deg: f64,
     pub link_angle_deg: f64,
@@ -55,7 +57,7 @@ pub struct TruthSpread {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Workspace {
     pub trajectory: Trajectory,
     pub max_tilt_deg: f64,
@@ -68,7 +70,7 @@ pub struct Workspace {
 
 /// A Bumblebee-like stereo camera above the MP, looking down.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Camera {
     /// Height of the camera centre above O.
     pub height_m: f64,
@@ -86,14 +88,14 @@ pub struct Camera {
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Encoders {
     pub counts_per_revolution: u32,
     pub noise_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Capture {
     /// One marker at a time, as in the paper, with a small motion of the MP between captures.
     pub sequential: bool,
@@ -103,58 +105,147 @@ pub struct Capture {
     pub interval_s: f64,
 }
 
+impl Default for SimConfig {
+    /// The settings of `configs/simulate_agile_wrist.yaml`.
+    fn default() -> Self {
+        SimConfig {
+            name: "simulated".into(),
+            model: PathBuf::new(),
+            poses: 400,
+            seed: 400,
+            description: None,
+            truth: TruthSpread::default(),
+            workspace: Workspace::default(),
+            camera: Camera::default(),
+            encoders: Encoders::default(),
+            capture: Capture::default(),
+        }
+    }
+}
+
+impl Default for TruthSpread {
+    fn default() -> Self {
+        TruthSpread {
+            axis_tilt_deg: 0.5,
+            link_angle_deg: 0.3,
+            joint_offset_deg: 1.0,
+            camera_position_m: 0.01,
+            camera_rotation_deg: 1.0,
+        }
+    }
+}
+
+impl Default for Workspace {
+    fn default() -> Self {
+        Workspace {
+            trajectory: Trajectory::Random,
+            max_tilt_deg: 30.0,
+            max_yaw_deg: 30.0,
+            min_conditioning: 0.2,
+            min_branch_margin: 0.1,
+        }
+    }
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            height_m: 0.8,
+            baseline_m: 0.12,
+            lateral_sigma_m: 0.0002,
+            depth_sigma_m: 0.0008,
+            reference_distance_m: 0.8,
+            outlier_probability: 0.0,
+            outlier_sigma_m: 0.005,
+            marker_radius_m: 0.006,
+        }
+    }
+}
+
+impl Default for Encoders {
+    fn default() -> Self {
+        Encoders { counts_per_revolution: 16384, noise_deg: 0.005 }
+    }
+}
+
+impl Default for Capture {
+    fn default() -> Self {
+        Capture { sequential: false, motion_deg: 0.05, interval_s: 0.5 }
+    }
+}
+
+/// The model used when a config names none.
+pub const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
+
 impl SimConfig {
     /// Read and check a config; `model` is resolved against the config's folder.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let mut config = read_checked_yaml(path, SimConfig::check)?;
-        config.model = path.parent().unwrap_or(Path::new(".")).join(&config.model);
+        let mut config: SimConfig = crate::yaml::read_checked(path, SimConfig::check)?;
+        config.model = if config.model.as_os_str().is_empty() {
+            PathBuf::from(DEFAULT_MODEL)
+        } else {
+            path.parent().unwrap_or(Path::new(".")).join(&config.model)
+        };
         Ok(config)
     }
 
     /// Values serde accepted but that make no physical sense, as `(key, reason)`.
-    pub fn check(&self) -> Result<(), (&'static str, String)> {
+    pub fn check(&self) -> Result<(), (String, String)> {
         let non_negative = [
-            ("axis_tilt_deg", self.truth.axis_tilt_deg),
-            ("link_angle_deg", self.truth.link_angle_deg),
-            ("joint_offset_deg", self.truth.joint_offset_deg),
-            ("camera_position_m", self.truth.camera_position_m),
-            ("camera_rotation_deg", self.truth.camera_rotation_deg),
-            ("max_tilt_deg", self.workspace.max_tilt_deg),
-            ("max_yaw_deg", self.workspace.max_yaw_deg),
-            ("min_conditioning", self.workspace.min_conditioning),
-            ("min_branch_margin", self.workspace.min_branch_margin),
-            ("baseline_m", self.camera.baseline_m),
-            ("lateral_sigma_m", self.camera.lateral_sigma_m),
-            ("depth_sigma_m", self.camera.depth_sigma_m),
-            ("outlier_sigma_m", self.camera.outlier_sigma_m),
-            ("marker_radius_m", self.camera.marker_radius_m),
-            ("noise_deg", self.encoders.noise_deg),
-            ("motion_deg", self.capture.motion_deg),
-            ("interval_s", self.capture.interval_s),
+            ("truth.axis_tilt_deg", self.truth.axis_tilt_deg),
+            ("truth.link_angle_deg", self.truth.link_angle_deg),
+            ("truth.joint_offset_deg", self.truth.joint_offset_deg),
+            ("truth.camera_position_m", self.truth.camera_position_m),
+            ("truth.camera_rotation_deg", self.truth.camera_rotation_deg),
+            ("workspace.max_tilt_deg", self.workspace.max_tilt_deg),
+            ("workspace.max_yaw_deg", self.workspace.max_yaw_deg),
+            ("workspace.min_conditioning", self.workspace.min_conditioning),
+            ("workspace.min_branch_margin", self.workspace.min_branch_margin),
+            ("camera.baseline_m", self.camera.baseline_m),
+            ("camera.lateral_sigma_m", self.camera.lateral_sigma_m),
+            ("camera.depth_sigma_m", self.camera.depth_sigma_m),
+            ("camera.outlier_sigma_m", self.camera.outlier_sigma_m),
+            ("camera.marker_radius_m", self.camera.marker_radius_m),
+            ("encoders.noise_deg", self.encoders.noise_deg),
+            ("capture.motion_deg", self.capture.motion_deg),
+            ("capture.interval_s", self.capture.interval_s),
         ];
         for (key, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {
-                return Err((key, format!("`{key}` must be a finite, non-negative number (got {value})")));
+                return Err((key.into(), format!("`{key}` must be a finite, non-negative number (got {value})")));
             }
         }
-        for (key, value) in
-            [("height_m", self.camera.height_m), ("reference_distance_m", self.camera.reference_distance_m)]
-        {
+        for (key, value) in [
+            ("camera.height_m", self.camera.height_m),
+            ("camera.reference_distance_m", self.camera.reference_distance_m),
+        ] {
             if !(value.is_finite() && value > 0.0) {
-                return Err((key, format!("`{key}` must be positive (got {value})")));
+                return Err((key.into(), format!("`{key}` must be positive (got {value})")));
             }
         }
         if self.poses == 0 {
-            return Err(("poses", "`poses` must be at least 1".into()));
+            return Err(("poses".into(), "`poses` must be at least 1".into()));
         }
         if !(0.0..=1.0).contains(&self.camera.outlier_probability) {
-            return Err(("outlier_probability", "`outlier_probability` must lie in [0, 1]".into()));
+            return Err(("camera.outlier_probability".into(), "`outlier_probability` must lie in [0, 1]".into()));
         }
         if self.encoders.counts_per_revolution == 0 {
-            return Err(("counts_per_revolution", "`counts_per_revolution` must be at least 1".into()));
+            return Err(("encoders.counts_per_revolution".into(), "`counts_per_revolution` must be at least 1".into()));
         }
         if self.workspace.max_tilt_deg >= 90.0 {
-            return Err(("max_tilt_deg", "`max_tilt_deg` must be below 90°".into()));
+            return Err(("workspace.max_tilt_deg".into(), "`max_tilt_deg` must be below 90°".into()));
+        }
+        if self.workspace.max_yaw_deg > 180.0 {
+            return Err(("workspace.max_yaw_deg".into(), "`max_yaw_deg` must be at most 180°".into()));
+        }
+        if self.camera.outlier_probability.is_nan() {
+            return Err(("camera.outlier_probability".into(), "`outlier_probability` is not a number".into()));
+        }
+        if self.camera.height_m <= self.camera.marker_radius_m {
+            return Err(("camera.height_m".into(), "the camera must be above the markers".into()));
+        }
+        if self.name.trim().is_empty() {
+            return Err(("name".into(), "`name` must not be empty".into()));
         }
         Ok(())
     }

@@ -40,10 +40,19 @@ pub struct SimSummary {
 pub enum SimError {
     #[error("the true geometry drawn is not a valid manipulator (spreads too large?): {0}")]
     Geometry(#[from] SpmError),
-    #[error(
-        "only {found} of {wanted} poses survived {attempts} attempts: the workspace settings reject almost every orientation"
-    )]
-    TooFewPoses { found: usize, wanted: usize, attempts: usize },
+    #[error("only {found} of {wanted} poses survived {attempts} attempts: {cause}; loosen `{key}` in the config")]
+    TooFewPoses {
+        /// Poses accepted.
+        found: usize,
+        /// Poses asked for.
+        wanted: usize,
+        /// Candidate orientations tried.
+        attempts: usize,
+        /// What rejected most candidates.
+        cause: String,
+        /// The config key that governs that rejection.
+        key: &'static str,
+    },
 }
 
 /// Why a candidate orientation was rejected.
@@ -101,6 +110,22 @@ fn tilt_yaw(azimuth: f64, tilt: f64, yaw: f64) -> Rotation3<f64> {
 }
 
 impl Simulator<'_> {
+    /// Why the simulation fell short, and the config key that governs it.
+    fn dominant_rejection(&self, home: Option<&SessionPose>) -> (String, &'static str) {
+        let s = &self.summary;
+        if let Some(home) = home.filter(|p| p.seen() < MIN_MARKERS) {
+            let cause = format!("the camera sees only {} markers at home (the reference pose)", home.seen());
+            return (cause, "camera.height_m");
+        }
+        let counts = [
+            (s.rejected_unreachable, "unreachable", "workspace.max_tilt_deg"),
+            (s.rejected_singular, "near a singularity", "workspace.min_conditioning"),
+            (s.rejected_collision, "colliding", "workspace.max_tilt_deg"),
+        ];
+        let (n, what, key) = counts.into_iter().max_by_key(|c| c.0).expect("three counts");
+        (format!("{n} candidates were rejected as {what}"), key)
+    }
+
     fn run(&mut self, progress: &mut dyn FnMut(usize)) -> Result<Session, SimError> {
         let wanted = self.config.poses;
         let max_attempts = match self.config.workspace.trajectory {
@@ -134,7 +159,14 @@ impl Simulator<'_> {
             Trajectory::Spiral => poses.len() >= wanted.min(MIN_MARKERS),
         };
         if !enough || poses.is_empty() || poses[0].seen() < MIN_MARKERS {
-            return Err(SimError::TooFewPoses { found: poses.len(), wanted, attempts: self.summary.attempts });
+            let (cause, key) = self.dominant_rejection(poses.first());
+            return Err(SimError::TooFewPoses {
+                found: poses.len(),
+                wanted,
+                attempts: self.summary.attempts,
+                cause,
+                key,
+            });
         }
         self.summary.poses = poses.len();
         self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();

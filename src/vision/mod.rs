@@ -8,7 +8,5 @@ mod session;
 
 pub use accuracy::{AccuracyRow, accuracy_study};
 pub use centre::{CentreOfRotation, centre_of_rotation};
-pub use pose::{
-    COINCIDENT_M, COLLINEAR_RATIO, MarkerError, Method, PLANAR_RATIO, PoseEstimate, Reference, orthogonality_error,
-};
+pub use pose::{MarkerError, Method, PLANAR_RATIO, PoseEstimate, Reference, orthogonality_error};
 pub use session::{SessionEstimate, Stats, VisionError, estimate_session};

@@ -12,8 +12,9 @@
 //! squares undetermined; a virtual marker along the plane's normal (Newell's method, scaled to the
 //! markers' RMS radius) is then added to both poses, which determines `Q̃` without redundancy.
 
-use nalgebra::{DMatrix, Matrix3, Rotation3, SymmetricEigen, Vector3};
+use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
+use crate::constellation::{self, Degeneracy, MARKER_NOISE_M};
 use crate::polar::polar;
 use crate::so3;
 
@@ -28,28 +29,21 @@ pub enum Method {
     Kabsch,
 }
 
-/// Smallest ratio of the second to the largest singular value of the centred markers: below it
-/// they lie on a line (less than 1 µm of width per millimetre of length) and the rotation about
-/// that line cannot be measured.
-pub const COLLINEAR_RATIO: f64 = 1e-3;
 /// Below this ratio of the third to the largest singular value the markers count as planar and
 /// get the virtual normal marker (a 4th marker 5% of the triangle's size off the plane adds
 /// little but noise in the normal direction).
 pub const PLANAR_RATIO: f64 = 0.05;
-/// RMS distance (m) of the markers from their centroid below which they coincide.
-pub const COINCIDENT_M: f64 = 1e-6;
-
 /// Why markers cannot give an orientation (the pose is named by the caller).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MarkerError {
     #[error("{seen} markers seen in both this pose and the reference; at least 3 are needed")]
     TooFew { seen: usize },
-    #[error("the markers coincide (RMS radius {radius_m:.2e} m)")]
-    Coincident { radius_m: f64 },
-    #[error(
-        "the markers are collinear (singular value ratio {ratio:.2e}): the rotation about their line is unobservable"
-    )]
-    Collinear { ratio: f64 },
+    /// The markers cannot fix an orientation (judged against the marker noise).
+    #[error(transparent)]
+    Degenerate(#[from] Degeneracy),
+    /// The least squares has no unique solution for this pose's markers.
+    #[error("this pose's markers give no unique rotation (they collapse onto a line or a point)")]
+    NoSolution,
     #[error(
         "the putative rotation has determinant {det:.4} ≤ 0: the markers are mirrored (swapped labels?), not rotated"
     )]
@@ -117,17 +111,10 @@ impl Reference {
         if points.len() < 3 {
             return Err(MarkerError::TooFew { seen: points.len() });
         }
+        constellation::check(points, MARKER_NOISE_M)?;
         let (centroid, mut columns) = centred(points);
-        let scatter: Matrix3<f64> = columns.iter().map(|p| p * p.transpose()).sum();
-        let mut sigma = SymmetricEigen::new(scatter).eigenvalues.map(|l| l.max(0.0).sqrt());
-        sigma.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
-        let scale = (sigma.norm_squared() / points.len() as f64).sqrt();
-        if scale < COINCIDENT_M {
-            return Err(MarkerError::Coincident { radius_m: scale });
-        }
-        if sigma[1] < COLLINEAR_RATIO * sigma[0] {
-            return Err(MarkerError::Collinear { ratio: sigma[1] / sigma[0] });
-        }
+        let sigma = constellation::spreads(points);
+        let scale = sigma.norm();
         let planar = sigma[2] < PLANAR_RATIO * sigma[0];
         if planar {
             columns.push(newell(&columns, &Vector3::zeros()) * scale);
@@ -155,6 +142,19 @@ impl Reference {
     /// No heap allocation: the per-pose work is a few 3×3 products.
     pub fn estimate(&self, points: &[Vector3<f64>], method: Method) -> Result<PoseEstimate, MarkerError> {
         debug_assert_eq!(points.len(), self.markers());
+        // Markers of this pose that coincide within the noise: their labels, and so the rotation,
+        // are ambiguous (the reference's constellation was checked in full when it was factorised).
+        for i in 0..points.len() {
+            for k in (i + 1)..points.len() {
+                let d = (points[i] - points[k]).norm();
+                if d.is_nan() || d < constellation::SEPARATION_SIGMAS * MARKER_NOISE_M {
+                    let limit_mm = constellation::SEPARATION_SIGMAS * MARKER_NOISE_M * 1e3;
+                    let noise_mm = MARKER_NOISE_M * 1e3;
+                    let (first, second, distance_mm) = (i + 1, k + 1, d * 1e3);
+                    return Err(Degeneracy::Coincident { first, second, distance_mm, limit_mm, noise_mm }.into());
+                }
+            }
+        }
         let n = points.len() as f64;
         let centroid = points.iter().sum::<Vector3<f64>>() / n;
         // Qtᵀ P_jᵀ = Σ_i q_i (p_i − c)ᵀ; with the virtual normal of this pose when planar.
@@ -163,7 +163,7 @@ impl Reference {
             let normal = newell(points, &centroid) * self.scale;
             m += self.q_rows[self.q_rows.len() - 1] * normal.transpose();
         }
-        let x = self.r.solve_upper_triangular(&m).ok_or(MarkerError::Collinear { ratio: 0.0 })?;
+        let x = self.r.solve_upper_triangular(&m).ok_or(MarkerError::NoSolution)?;
         let putative = x.transpose();
         let det = putative.determinant();
         if det <= 0.0 {
@@ -196,7 +196,7 @@ impl Reference {
         if self.planar {
             h += newell(points, centroid) * self.scale * self.columns[self.columns.len() - 1].transpose();
         }
-        so3::nearest_rotation(&h).ok_or(MarkerError::Collinear { ratio: 0.0 })
+        so3::nearest_rotation(&h).ok_or(MarkerError::NoSolution)
     }
 }
 
