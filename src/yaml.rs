@@ -140,7 +140,7 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
                         let full = join(prefix, &name);
                         if !seen.insert(name.clone()) {
                             let first = lines.get(&full).map_or(String::new(), |l| format!(" (first at line {l})"));
-                            return Err(at(format!("duplicate key `{full}`{first}")).in_column(full));
+                            return Err(at(format!("duplicate key `{full}`{first}")));
                         }
                         lines.insert(full, line);
                         *key = Some(name);
@@ -227,5 +227,7 @@ mod tests {
             bomb.push_str(&format!("b{i}: [*a, *a]\n"));
         }
         assert!(scan(Path::new("t.yaml"), &bomb).unwrap_err().reason.contains("aliases"));
+        let huge = format!("# {}\n", "x".repeat(MAX_BYTES));
+        assert!(scan(Path::new("t.yaml"), &huge).unwrap_err().reason.contains("too large"));
     }
 }

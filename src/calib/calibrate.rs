@@ -25,6 +25,10 @@ pub enum CalibError {
     TooFewPoses { usable: usize, needed: usize, parameters: usize },
     #[error("the camera registration cannot be started: every pose rotates about one axis")]
     Registration,
+    #[error(
+        "the MP barely moves: the largest rotation the camera sees from the reference pose is {max_deg:.3}°, too little to calibrate from"
+    )]
+    NoMotion { max_deg: f64 },
     #[error("the data cannot identify {} direction(s) of parameter space: {}; freeze parameters or set `unidentifiable: regularise`", .0.len(), .0.join("; "))]
     Unidentifiable(Vec<String>),
     #[error("{stage}: {error}")]
@@ -134,6 +138,10 @@ pub struct Calibration {
     pub vision: SessionEstimate,
 }
 
+/// Below this largest rotation from the reference (degrees) the session holds no motion to
+/// calibrate from: a few camera noise levels (~0.05° per pose at the Agile Wrist's scale).
+pub const MIN_MOTION_DEG: f64 = 0.5;
+
 /// Calibrate `session` on `model`; `on_iteration` sees every iteration of the main fit.
 pub fn calibrate(
     session: &Session,
@@ -173,6 +181,11 @@ pub fn calibrate(
     let reference = fit_set.iter().position(|(_, (o, _))| o.pose == vision.reference_pose).unwrap_or(0);
     let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
     let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
+    // Nothing moving is its own problem, not "one axis": say which.
+    let max_deg = measured.iter().map(|q| q.angle().to_degrees()).fold(0.0, f64::max);
+    if max_deg < MIN_MOTION_DEG {
+        return Err(CalibError::NoMotion { max_deg });
+    }
     let (camera0, reference0) =
         initial_registration(&predicted, &measured, reference).ok_or(CalibError::Registration)?;
     let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);

@@ -319,7 +319,8 @@ fn iteration_limit(log: &[IterationLog], radius: f64) -> Result<Convergence, Fit
     let window = &log[log.len().saturating_sub(STALL_WINDOW)..];
     let (first, latest) = (window.first().map_or(0.0, |l| l.cost), last.map_or(0.0, |l| l.cost));
     let relative_decrease = if first > 0.0 { (first - latest) / first / window.len().max(1) as f64 } else { 0.0 };
-    if relative_decrease <= RELATIVE_COST_TOLERANCE {
+    // Too few iterations to judge a stall: the budget was simply too small.
+    if window.len() == STALL_WINDOW && relative_decrease <= RELATIVE_COST_TOLERANCE {
         return Ok(Convergence::StalledAtMinimum);
     }
     let (iterations, step) = (log.len() as u32, last.map_or(0.0, |l| l.step));

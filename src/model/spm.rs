@@ -86,7 +86,9 @@ pub enum FdaError {
     NotConverged { iterations: u32, residual: f64 },
     #[error("pose at or near a parallel singularity (conditioning index {conditioning:.3e})")]
     NearSingular { conditioning: f64 },
-    #[error("leg {leg} is at or beyond its serial singularity (branch margin {margin:.3e}): not the working mode")]
+    #[error(
+        "leg {leg} is off its working branch (branch margin {margin:.3e}, below the working mode's minimum): at a serial singularity or beyond it"
+    )]
     LeftWorkingMode { leg: usize, margin: f64 },
     #[error("tracking jumped {jump_deg:.2}° from the previous orientation: start too far from the solution")]
     JumpTooLarge { jump_deg: f64 },

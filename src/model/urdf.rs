@@ -87,8 +87,8 @@ pub struct RobotModel {
 pub enum ModelError {
     #[error("{path}: {reason}")]
     Unreadable { path: PathBuf, reason: String },
-    #[error("{path}:{line}: {reason}")]
-    Companion { path: PathBuf, line: usize, reason: String },
+    #[error(transparent)]
+    File(FileError),
     #[error("{path}: joint `{joint}` {reason}")]
     Joint { path: PathBuf, joint: String, reason: String },
     #[error("{path}: link `{link}` {reason}")]
@@ -163,7 +163,7 @@ impl RobotModel {
 }
 
 fn companion_error(e: FileError) -> ModelError {
-    ModelError::Companion { path: e.path.clone(), line: e.line.unwrap_or(0), reason: e.to_string() }
+    ModelError::File(e)
 }
 
 fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {

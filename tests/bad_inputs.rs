@@ -1,0 +1,100 @@
+//! The bad-input corpus (`tests/data/bad_inputs`, made by its `make_corpus.py`): every case runs
+//! the spmcal binary as a user would and must end with its expected message — a clear error that
+//! names the file (and line where there is one), never a panic — and must leave every existing
+//! output exactly as it was.
+
+use std::path::{Path, PathBuf};
+
+#[derive(serde::Deserialize)]
+struct Case {
+    args: Vec<String>,
+    expect: String,
+    status: String,
+}
+
+const SENTINELS: [&str; 3] = ["existing.yaml", "existing.csv", "existing.rrd"];
+const SENTINEL: &str = "an existing output that a failed run must not change\n";
+
+fn run_case(dir: &Path) -> Result<(), String> {
+    let case: Case = serde_yaml::from_str(&std::fs::read_to_string(dir.join("case.yaml")).unwrap()).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    for name in SENTINELS {
+        std::fs::write(tmp.path().join(name), SENTINEL).unwrap();
+    }
+    let fill =
+        |s: &str| s.replace("{case}", &dir.display().to_string()).replace("{tmp}", &tmp.path().display().to_string());
+    let args: Vec<String> = case.args.iter().map(|a| fill(a)).collect();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal")).args(&args).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let expect = fill(&case.expect);
+    let code = out.status.code();
+    if stderr.contains("panicked") || code == Some(101) || code.is_none() {
+        return Err(format!("panicked or was killed ({code:?}): {stderr}"));
+    }
+    let ok = case.status == "ok";
+    if ok != out.status.success() {
+        return Err(format!("exit {code:?}, expected {}: {stderr}", case.status));
+    }
+    let text = if ok { stdout.to_string() } else { stderr.to_string() };
+    if !text.contains(&expect) {
+        return Err(format!("expected `{expect}` in:\n{text}"));
+    }
+    if !ok {
+        if !text.starts_with("error: ") || text.lines().count() > 1 {
+            return Err(format!("not one `error:` line: {text}"));
+        }
+        for name in SENTINELS {
+            if std::fs::read_to_string(tmp.path().join(name)).unwrap() != SENTINEL {
+                return Err(format!("{name} was changed by a failed run"));
+            }
+        }
+    }
+    let leftovers: Vec<PathBuf> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with(".spmcal-"))
+        .collect();
+    if !leftovers.is_empty() {
+        return Err(format!("temporary files left behind: {leftovers:?}"));
+    }
+    Ok(())
+}
+
+#[test]
+fn every_bad_input_gets_its_message_no_panic_and_no_changed_output() {
+    let corpus = Path::new("tests/data/bad_inputs");
+    let mut dirs: Vec<PathBuf> =
+        std::fs::read_dir(corpus).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).collect();
+    dirs.sort();
+    let failures: Vec<String> =
+        dirs.iter().filter_map(|dir| run_case(dir).err().map(|e| format!("{}: {e}", dir.display()))).collect();
+    assert!(failures.is_empty(), "{} of {} cases failed:\n{}", failures.len(), dirs.len(), failures.join("\n"));
+    assert!(dirs.len() >= 60, "only {} cases", dirs.len());
+}
+
+#[test]
+fn a_closed_standard_output_ends_the_program_quietly() {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    // Far more than a pipe buffers (64 KiB), so that the writer meets the closed pipe.
+    let dir = tempfile::tempdir().unwrap();
+    let joints = dir.path().join("j.csv");
+    let mut text = String::from("pose,theta1_rad,theta2_rad,theta3_rad\n");
+    for p in 0..5000 {
+        text.push_str(&format!("{p},{},0.1,-0.1\n", 0.2 * (p as f64 * 0.01).sin()));
+    }
+    std::fs::write(&joints, text).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_spmcal"))
+        .args(["fda", "--joints", joints.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read one byte, then close the pipe, as `| head -c 1` would.
+    let mut byte = [0u8; 1];
+    child.stdout.take().unwrap().read_exact(&mut byte).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked") && !stderr.contains("error"), "{stderr}");
+    assert!(out.status.success(), "{:?}", out.status);
+}
