@@ -6,8 +6,8 @@ use std::path::Path;
 use nalgebra::{DVector, Rotation3};
 
 use spmcal::calib::{
-    CalibConfig, Calibration, FitSettings, Group, Loss, Observation, Parameterisation, TruthInGauge, Unidentifiable,
-    analyse, calibrate, evaluate, fit,
+    CalibConfig, Calibration, Convergence, FitSettings, Group, Loss, Observation, Parameterisation, TruthInGauge,
+    Unidentifiable, analyse, calibrate, evaluate, fit,
 };
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
@@ -364,4 +364,33 @@ fn too_few_usable_poses_are_an_error_not_a_panic() {
     let err = spmcal::compare::compare(&session, &sets, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
     assert!(err.contains("only 2 poses"), "{err}");
     assert!(spmcal::record::replay_scene(&session, &model, None).is_err());
+}
+
+/// Small sessions (the paper's 20 poses) under many draws of truth and noise, including the noisy
+/// stereo (σ 1 mm across, 3 mm along the line of sight) and sequential capture of an independent
+/// simulator: the fit must always end with a result, converged or stalled at a minimum — never a
+/// "did not converge" at its optimum — and the result must fit better than the nominal model.
+#[test]
+fn small_sessions_always_end_at_a_minimum() {
+    let base = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    let model = RobotModel::load(&base.model).unwrap();
+    let mut stalled = 0;
+    for seed in 0..24u64 {
+        let mut config = base.clone();
+        config.poses = 20;
+        config.seed = 1000 + seed;
+        if seed % 2 == 1 {
+            config.camera.lateral_sigma_m = 1e-3;
+            config.camera.depth_sigma_m = 3e-3;
+        }
+        config.capture.sequential = seed % 3 == 0;
+        let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+        let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {})
+            .unwrap_or_else(|e| panic!("seed {}: {e}", config.seed));
+        let report = &calibration.report;
+        assert!(report.after.fit.rms_deg <= report.before.fit.rms_deg, "seed {}", config.seed);
+        stalled += usize::from(report.convergence == Convergence::StalledAtMinimum);
+    }
+    // Most fits meet the step tolerance outright; stalls are the exception the rule is there for.
+    assert!(stalled <= 12, "{stalled} of 24 fits stalled");
 }

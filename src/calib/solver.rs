@@ -67,10 +67,12 @@ pub struct IterationLog {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Convergence {
-    /// The last steps moved no parameter by more than the step tolerance.
+    /// The last steps moved no parameter by more than the step tolerance, or the cost stopped
+    /// changing (relative change below [`RELATIVE_COST_TOLERANCE`] over a reweighting cycle, or
+    /// no predicted decrease the cost can resolve).
     Converged,
-    /// Steps stayed above the tolerance, but the trust radius collapsed or the cost stopped
-    /// changing (relative change below [`RELATIVE_COST_TOLERANCE`]): a minimum to working precision.
+    /// No step of useful size reduced the cost (the trust radius collapsed), or the iteration
+    /// budget ran out with the cost flat: a minimum to working precision, not a clean convergence.
     StalledAtMinimum,
 }
 
@@ -291,12 +293,10 @@ pub fn fit(
             let end_cost = weighting.cost(&eval.residuals);
             weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
             let moved = (&x - &start).amax();
-            if moved < settings.step_tolerance && stop == Convergence::Converged {
+            let cost_settled = (start_cost - end_cost).abs() <= RELATIVE_COST_TOLERANCE * start_cost;
+            if (moved < settings.step_tolerance && stop == Convergence::Converged) || cost_settled {
                 settled = Some(Convergence::Converged);
-            } else if moved < settings.step_tolerance
-                || (start_cost - end_cost).abs() <= RELATIVE_COST_TOLERANCE * start_cost
-                || log.len() as u32 >= settings.max_iterations
-            {
+            } else if moved < settings.step_tolerance || log.len() as u32 >= settings.max_iterations {
                 settled = Some(Convergence::StalledAtMinimum);
             }
             if settled.is_some() {
@@ -381,19 +381,15 @@ impl Problem<'_> {
             if ratio > 0.75 && step_norm > 0.9 * *radius {
                 *radius = (2.0 * *radius).min(0.5);
             }
-            if step.amax() < settings.step_tolerance {
-                Some(Convergence::Converged)
-            } else {
-                negligible.then_some(Convergence::StalledAtMinimum)
-            }
+            (step.amax() < settings.step_tolerance || negligible).then_some(Convergence::Converged)
         } else {
             *radius /= 4.0;
             // No step of useful size reduces the cost, or the reduction it promises is below what the
             // cost can resolve: x is a minimum to working precision.
-            if step.amax() < settings.step_tolerance {
+            if step.amax() < settings.step_tolerance || negligible {
                 Some(Convergence::Converged)
             } else {
-                (*radius < settings.step_tolerance || negligible).then_some(Convergence::StalledAtMinimum)
+                (*radius < settings.step_tolerance).then_some(Convergence::StalledAtMinimum)
             }
         };
         Ok((entry, done))
