@@ -34,6 +34,7 @@ pub struct SetComparison {
 
 /// Why a comparison could not be made.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CompareError {
     #[error("vision: {0}")]
     Vision(#[from] VisionError),

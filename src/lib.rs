@@ -40,6 +40,6 @@ pub mod record;
 pub mod report;
 pub mod sim;
 pub mod so3;
-pub mod table;
+pub(crate) mod table;
 pub mod vision;
 mod yaml;

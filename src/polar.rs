@@ -36,6 +36,7 @@ pub struct Polar {
 
 /// Why a matrix has no (unique) polar decomposition.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PolarError {
     #[error("matrix has non-finite entries")]
     NotFinite,

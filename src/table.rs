@@ -46,10 +46,6 @@ impl Table {
         Ok(Table { path: path.to_path_buf(), reader, columns, names })
     }
 
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The data rows, each with its line number; a malformed row is an error naming its line.
     pub fn rows(&mut self) -> impl Iterator<Item = Result<Row, FileError>> + '_ {
         let path = self.path.clone();

@@ -16,6 +16,7 @@ use crate::vision::{Method, SessionEstimate, Stats, VisionError, estimate_sessio
 
 /// Why a calibration could not be done.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CalibError {
     #[error("config `{key}`: {reason}")]
     Config { key: String, reason: String },

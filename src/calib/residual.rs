@@ -71,6 +71,7 @@ pub struct Evaluation {
 
 /// Why the model could not be evaluated.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum EvalError {
     #[error("the parameters do not make a valid manipulator: {0}")]
     Geometry(SpmError),

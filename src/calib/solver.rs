@@ -97,6 +97,7 @@ pub struct FitOutcome {
 
 /// Why a fit failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum FitError {
     #[error("cannot evaluate the model at the start point: {0}")]
     Start(EvalError),

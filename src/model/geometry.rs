@@ -27,6 +27,7 @@ pub struct LegGeometry {
 
 /// Why a geometry cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum GeometryError {
     #[error("leg {leg}: {what} is not finite")]
     NotFinite { leg: usize, what: &'static str },

@@ -61,6 +61,7 @@ impl Default for FdaSettings {
 
 /// Why an orientation has no working-mode joint solution.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum IkError {
     #[error("orientation outside the workspace: leg {leg} cannot reach it (needs |cos| = {ratio:.6} > 1)")]
     OutsideWorkspace { leg: usize, ratio: f64 },
@@ -79,6 +80,7 @@ pub const IK_SINGULAR_SINE: f64 = 1e-6;
 
 /// Why the forward displacement analysis gave no trustworthy working-mode orientation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum FdaError {
     #[error("joint readings are not finite")]
     NotFinite,
@@ -130,6 +132,7 @@ pub struct Spm {
 
 /// Why a geometry does not make a usable manipulator.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum SpmError {
     #[error(transparent)]
     Geometry(#[from] GeometryError),

@@ -84,6 +84,7 @@ pub struct RobotModel {
 
 /// Why a model could not be loaded. Every variant names the file.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ModelError {
     #[error("{path}: {reason}")]
     Unreadable { path: PathBuf, reason: String },

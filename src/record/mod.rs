@@ -70,6 +70,7 @@ pub struct RecordingSummary {
 
 /// Why a recording could not be written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum RecordError {
     #[error("{path}: cannot create the recording: {reason}")]
     Create { path: PathBuf, reason: String },

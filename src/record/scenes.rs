@@ -15,6 +15,7 @@ use crate::vision::{Method, SessionEstimate, VisionError, estimate_session};
 
 /// Why a scene could not be built.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SceneError {
     #[error("vision: {0}")]
     Vision(#[from] VisionError),

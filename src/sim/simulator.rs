@@ -37,6 +37,7 @@ pub struct SimSummary {
 
 /// Why a simulation could not be made.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SimError {
     #[error("the true geometry drawn is not a valid manipulator (spreads too large?): {0}")]
     Geometry(#[from] SpmError),

@@ -35,6 +35,7 @@ pub enum Method {
 pub const PLANAR_RATIO: f64 = 0.05;
 /// Why markers cannot give an orientation (the pose is named by the caller).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum MarkerError {
     #[error("{seen} markers seen in both this pose and the reference; at least 3 are needed")]
     TooFew { seen: usize },
