@@ -97,10 +97,38 @@ pub fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vecto
     Rotation3::from_matrix_unchecked(pair_frame(a2, b2) * pair_frame(a1, b1).transpose())
 }
 
+/// Iterations allowed to nalgebra's SVD and eigen solvers: they converge in tens; unbounded, they
+/// loop for ever on NaN or infinite input (found by fuzzing: a session with a 1e300 coordinate).
+pub const MAX_DECOMPOSITION_ITERATIONS: usize = 1000;
+
+/// The SVD of `m` with bounded work: `None` for non-finite input or no convergence.
+pub fn bounded_svd<R: nalgebra::Dim, C: nalgebra::Dim, S>(
+    m: &nalgebra::Matrix<f64, R, C, S>,
+    compute_u: bool,
+    compute_v: bool,
+) -> Option<nalgebra::SVD<f64, R, C>>
+where
+    S: nalgebra::Storage<f64, R, C>,
+    R: nalgebra::DimMin<C>,
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<R, C>
+        + nalgebra::allocator::Allocator<C>
+        + nalgebra::allocator::Allocator<R>
+        + nalgebra::allocator::Allocator<nalgebra::DimMinimum<R, C>>
+        + nalgebra::allocator::Allocator<nalgebra::DimMinimum<R, C>, C>
+        + nalgebra::allocator::Allocator<R, nalgebra::DimMinimum<R, C>>
+        + nalgebra::allocator::Allocator<nalgebra::DimDiff<nalgebra::DimMinimum<R, C>, nalgebra::U1>>,
+    nalgebra::DimMinimum<R, C>: nalgebra::DimSub<nalgebra::U1>,
+{
+    if !m.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    m.clone_owned().try_svd(compute_u, compute_v, f64::EPSILON, MAX_DECOMPOSITION_ITERATIONS)
+}
+
 /// The proper rotation nearest to `m` in the Frobenius norm (via SVD), or `None` when
 /// `m` is rank-deficient (no unique nearest rotation).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
-    let svd = m.svd(true, true);
+    let svd = bounded_svd(m, true, true)?;
     let (u, vt) = (svd.u?, svd.v_t?);
     if svd.singular_values.min() <= f64::EPSILON * svd.singular_values.max() * 8.0 {
         return None;

@@ -209,3 +209,20 @@ proptest! {
         let _ = spmcal::calib::calibrate(&session, &model, &config, &mut |_| {});
     }
 }
+
+/// Found by a long fuzz run: a marker coordinate of 1e300 made the centre of rotation's SVD loop
+/// for ever (nalgebra's SVD does not converge on non-finite input). Every decomposition is now
+/// bounded (`so3::bounded_svd`); this returns at once.
+#[test]
+fn a_huge_marker_coordinate_does_not_hang_the_estimator() {
+    let (mut session, _) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();
+    session.poses[3].markers[0] = Some(nalgebra::Vector3::new(1e300, 0.0, 0.7));
+    session.poses[5].markers[1] = Some(nalgebra::Vector3::new(0.1, -1e300, 0.7));
+    for method in [Method::Paper, Method::Kabsch] {
+        let estimate = estimate_session(&session, method).unwrap();
+        assert!(
+            estimate.skipped.iter().any(|s| s.pose == 3)
+                || estimate.poses.iter().all(|(_, e)| e.rotation.matrix().iter().all(|x| x.is_finite()))
+        );
+    }
+}

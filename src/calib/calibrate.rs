@@ -323,7 +323,11 @@ fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMatrix<f64>>)
         .map(|(j, r)| w.weights[j] * w.whiten(j, r).norm_squared())
         .sum();
     let dof = (3 * m).saturating_sub(idx.len()).max(1) as f64;
-    let inv = h.clone().pseudo_inverse(1e-14 * h.amax()).unwrap_or_else(|_| DMatrix::zeros(idx.len(), idx.len()));
+    let inv = if h.iter().all(|x| x.is_finite()) {
+        h.clone().pseudo_inverse(1e-14 * h.amax()).unwrap_or_else(|_| DMatrix::zeros(idx.len(), idx.len()))
+    } else {
+        DMatrix::from_element(idx.len(), idx.len(), f64::NAN)
+    };
     let mut full = DMatrix::zeros(n, n);
     for (a, &i) in idx.iter().enumerate() {
         for (b, &k) in idx.iter().enumerate() {

@@ -68,7 +68,19 @@ pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String
             column_norms,
         };
     }
-    let svd = scaled.svd(false, true);
+    // Non-finite Jacobians never reach here (the fit stops on a non-finite cost); bounded all the same.
+    let Some(svd) = crate::so3::bounded_svd(&scaled, false, true) else {
+        return Identifiability {
+            parameters: free.len(),
+            rank: 0,
+            condition: f64::INFINITY,
+            weakest: Vec::new(),
+            unidentifiable: Vec::new(),
+            null_vectors: Vec::new(),
+            scale: 0.0,
+            column_norms,
+        };
+    };
     let v_t = svd.v_t.expect("asked for V");
     let s = &svd.singular_values;
     let s_max = s.max().max(f64::MIN_POSITIVE);

@@ -19,7 +19,7 @@ pub fn initial_registration(
     let r_ref = predicted[reference];
     let h: Matrix3<f64> =
         predicted.iter().zip(measured).map(|(r, q)| so3::log(q) * so3::log(&(r * r_ref.inverse())).transpose()).sum();
-    let svd = h.svd(false, false);
+    let svd = so3::bounded_svd(&h, false, false)?;
     let mut s = svd.singular_values.as_slice().to_vec();
     s.sort_by(|a, b| b.total_cmp(a));
     if s[1] < 1e-6 * s[0].max(f64::MIN_POSITIVE) {
@@ -27,7 +27,7 @@ pub fn initial_registration(
     }
     let x = so3::nearest_rotation(&h).or_else(|| {
         // Rank 2 (rotations in one plane of axes): the SVD route still has a unique proper answer.
-        let svd = h.svd(true, true);
+        let svd = so3::bounded_svd(&h, true, true)?;
         let (u, vt) = (svd.u?, svd.v_t?);
         let mut d = Matrix3::identity();
         d[(2, 2)] = (u * vt).determinant().signum();

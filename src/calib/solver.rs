@@ -139,7 +139,14 @@ fn weighted_covariance(residuals: &[Vector3<f64>], members: &[usize], weights: &
 
 /// `Σ^{-1/2}`, with the spectrum floored so that noise-free data (zero residuals) stays defined.
 fn inverse_root(covariance: &Matrix3<f64>) -> Matrix3<f64> {
-    let eig = covariance.symmetric_eigen();
+    let Some(eig) = covariance
+        .iter()
+        .all(|x| x.is_finite())
+        .then(|| covariance.try_symmetric_eigen(f64::EPSILON, crate::so3::MAX_DECOMPOSITION_ITERATIONS))
+        .flatten()
+    else {
+        return Matrix3::identity();
+    };
     let floor = (eig.eigenvalues.max() * 1e-8).max(1e-30);
     let inv_root = Matrix3::from_diagonal(&eig.eigenvalues.map(|l| 1.0 / l.max(floor).sqrt()));
     eig.eigenvectors * inv_root * eig.eigenvectors.transpose()

@@ -34,7 +34,7 @@ pub fn centre_of_rotation(estimates: &[PoseEstimate]) -> Option<CentreOfRotation
         a.view_mut((3 * k, 0), (3, 3)).copy_from(&(Matrix3::identity() - q));
         b.rows_mut(3 * k, 3).copy_from(&(e.centroid - q * e.reference_centroid));
     }
-    let svd = a.svd(true, true);
+    let svd = crate::so3::bounded_svd(&a, true, true)?;
     let conditioning = svd.singular_values.min() / svd.singular_values.max().max(f64::MIN_POSITIVE);
     if n < 2 || conditioning < 1e-3 {
         return None;
