@@ -102,7 +102,7 @@ pub fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vecto
 pub const MAX_DECOMPOSITION_ITERATIONS: usize = 1000;
 
 /// The SVD of `m` with bounded work: `None` for non-finite input or no convergence.
-pub fn bounded_svd<R: nalgebra::Dim, C: nalgebra::Dim, S>(
+pub fn bounded_svd<R, C, S>(
     m: &nalgebra::Matrix<f64, R, C, S>,
     compute_u: bool,
     compute_v: bool,
@@ -110,6 +110,7 @@ pub fn bounded_svd<R: nalgebra::Dim, C: nalgebra::Dim, S>(
 where
     S: nalgebra::Storage<f64, R, C>,
     R: nalgebra::DimMin<C>,
+    C: nalgebra::Dim,
     nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<R, C>
         + nalgebra::allocator::Allocator<C>
         + nalgebra::allocator::Allocator<R>
