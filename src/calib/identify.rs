@@ -57,29 +57,11 @@ pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String
     }
     if free.is_empty() || scaled.nrows() == 0 {
         // Nothing free (or no data): no direction to analyse.
-        return Identifiability {
-            parameters: free.len(),
-            rank: 0,
-            condition: f64::INFINITY,
-            weakest: Vec::new(),
-            unidentifiable: Vec::new(),
-            null_vectors: Vec::new(),
-            scale: 0.0,
-            column_norms,
-        };
+        return Identifiability::nothing(free.len(), column_norms);
     }
     // Non-finite Jacobians never reach here (the fit stops on a non-finite cost); bounded all the same.
     let Some(svd) = crate::so3::bounded_svd(&scaled, false, true) else {
-        return Identifiability {
-            parameters: free.len(),
-            rank: 0,
-            condition: f64::INFINITY,
-            weakest: Vec::new(),
-            unidentifiable: Vec::new(),
-            null_vectors: Vec::new(),
-            scale: 0.0,
-            column_norms,
-        };
+        return Identifiability::nothing(free.len(), column_norms);
     };
     let v_t = svd.v_t.expect("asked for V");
     let s = &svd.singular_values;
@@ -113,6 +95,20 @@ pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String
 }
 
 impl Identifiability {
+    /// The analysis of nothing (no free parameter, no data, or a Jacobian that cannot be decomposed).
+    fn nothing(parameters: usize, column_norms: DVector<f64>) -> Self {
+        Identifiability {
+            parameters,
+            rank: 0,
+            condition: f64::INFINITY,
+            weakest: Vec::new(),
+            unidentifiable: Vec::new(),
+            null_vectors: Vec::new(),
+            scale: 0.0,
+            column_norms,
+        }
+    }
+
     /// A weak prior `Λ` that pins the unidentifiable directions: strong against their (near-zero)
     /// information, negligible against any identified direction's.
     pub fn prior(&self, n: usize) -> Option<DMatrix<f64>> {
