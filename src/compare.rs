@@ -20,13 +20,17 @@ use crate::vision::{Method, VisionError, estimate_session};
 /// The comparison of one parameter set.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SetComparison {
+    /// Name of the parameter set (`nominal`, `calibrated`, a file name).
     pub label: String,
     /// How the camera registration was obtained.
     pub registration: &'static str,
     /// `(pose, angle in degrees)`.
     pub per_pose: Vec<(u64, f64)>,
+    /// RMS angle, degrees.
     pub rms_deg: f64,
+    /// Median angle, degrees.
     pub median_deg: f64,
+    /// Largest angle, degrees.
     pub max_deg: f64,
     /// Poses whose forward kinematics failed with this set, and why.
     pub excluded: Vec<String>,
@@ -37,12 +41,22 @@ pub struct SetComparison {
 #[non_exhaustive]
 pub enum CompareError {
     #[error("vision: {0}")]
+    /// The vision estimate failed.
     Vision(#[from] VisionError),
     #[error("{label}: {reason}")]
-    Set { label: String, reason: String },
+    /// One parameter set cannot be compared.
+    Set {
+        /// Its label.
+        label: String,
+        /// Why.
+        reason: String,
+    },
 }
 
 /// Compare each `(label, parameters)` set with the camera on `session`.
+///
+/// # Errors
+/// A [`CompareError`] when the vision estimate fails or a parameter set cannot be registered or predicts no pose.
 pub fn compare(
     session: &Session,
     sets: &[(String, Parameters)],
@@ -70,7 +84,6 @@ fn compare_one(
         )));
     }
     let reference = observations.iter().position(|o| o.pose == vision.reference_pose).unwrap_or(0);
-    let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
     let (camera0, reference0, registration, groups): (_, _, _, &[Group]) = match params.camera {
         Some(c) => (
             c.rotation,
@@ -79,7 +92,7 @@ fn compare_one(
             &[Group::ReferenceRotation],
         ),
         None => {
-            let (c, a) = initial_registration(&predicted, &measured, reference)
+            let (c, a) = initial_registration(&observations, &predicted, vision.reference_pose)
                 .ok_or_else(|| fail("every pose rotates about one axis: no registration".into()))?;
             (c, a, "best fit to this session", &[Group::CameraRotation, Group::ReferenceRotation])
         }
@@ -87,15 +100,8 @@ fn compare_one(
     let legs: [LegGeometry; 3] = *spm.geometry();
     let defaults = CalibConfig::default();
     let p = Parameterisation::new(legs, camera0, reference0, &defaults.bounds);
-    let settings = FitSettings {
-        max_iterations: defaults.max_iterations,
-        initial_radius: defaults.initial_radius_deg.to_radians(),
-        step_tolerance: defaults.step_tolerance_deg.to_radians(),
-        loss: Loss::LeastSquares,
-        huber_threshold: defaults.huber_threshold,
-        free: p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect(),
-        prior: None,
-    };
+    let free = p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect();
+    let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(&defaults, free) };
     let outcome = fit(&p, &DVector::zeros(p.len()), &observations, &settings, &mut |_| {})
         .map_err(|e: FitError| fail(e.to_string()))?;
     let summary = ErrorSummary::of(&outcome.evaluation.residuals);

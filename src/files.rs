@@ -6,11 +6,13 @@ use std::path::{Path, PathBuf};
 /// An error in an input file, located as precisely as the format allows.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub struct FileError {
+    /// The file.
     pub path: PathBuf,
     /// 1-based line, when known.
     pub line: Option<usize>,
     /// Column name (CSV) or field (YAML), when known.
     pub column: Option<String>,
+    /// What is wrong.
     pub reason: String,
 }
 
@@ -28,15 +30,18 @@ impl fmt::Display for FileError {
 }
 
 impl FileError {
+    /// An error about `path` as a whole.
     pub fn new(path: &Path, reason: impl Into<String>) -> Self {
         FileError { path: path.to_path_buf(), line: None, column: None, reason: reason.into() }
     }
 
+    /// Locate it at a 1-based line.
     pub fn at_line(mut self, line: usize) -> Self {
         self.line = Some(line);
         self
     }
 
+    /// Locate it in a column (CSV) or field (YAML).
     pub fn in_column(mut self, column: impl Into<String>) -> Self {
         self.column = Some(column.into());
         self
@@ -54,6 +59,9 @@ impl FileError {
 
 /// Write `contents` to `path` atomically: a temporary file in the same folder, then a rename,
 /// so that a reader never sees a half-written file and a failure leaves the old one intact.
+///
+/// # Errors
+/// A [`FileError`] when the temporary file cannot be created, written or renamed.
 pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(path)?;
@@ -155,6 +163,9 @@ pub fn parent_folder(path: &Path) -> &Path {
 }
 
 /// Read a whole text file, naming it in the error.
+///
+/// # Errors
+/// A [`FileError`] when the file cannot be read or is not UTF-8.
 pub fn read_text(path: &Path) -> Result<String, FileError> {
     std::fs::read_to_string(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))
 }
@@ -167,6 +178,9 @@ pub fn number(x: f64) -> String {
 }
 
 /// The path of `target` relative to the folder `from` (both must exist), e.g. `../../models/a.urdf`.
+///
+/// # Errors
+/// A [`FileError`] when either path cannot be resolved.
 pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
     let canon = |p: &Path| p.canonicalize().map_err(|e| FileError::new(p, format!("cannot resolve: {e}")));
     let (from, target) = (canon(from)?, canon(target)?);

@@ -1,7 +1,14 @@
+#![deny(missing_docs, unreachable_pub)]
+#![warn(clippy::missing_errors_doc, clippy::missing_panics_doc)]
 //! spmcal — calibration of spherical parallel manipulators (first of all the Agile Wrist)
 //! from joint readings and stereo-camera marker positions.
 //!
 //! Data flows one way: dataset → vision → calib (uses model) → compare / record.
+//!
+//! Leg numbering: in the API a leg is an index 0, 1, 2 — into `[LegGeometry; 3]`, in
+//! [`model::Spm::ik_leg`], [`model::Body::Proximal`], and in the `leg` field of every error; what
+//! a person reads numbers them 1, 2, 3 — messages (`leg 2: …`), parameter names (`alpha1_2`),
+//! recording entities (`world/legs/leg2`).
 //!
 //! Using a (calibrated) model at run time, e.g. in a 1 kHz haptic loop:
 //!

@@ -39,13 +39,21 @@ pub struct Polar {
 #[non_exhaustive]
 pub enum PolarError {
     #[error("matrix has non-finite entries")]
+    /// The matrix has non-finite entries.
     NotFinite,
     #[error("matrix is singular (smallest singular value {smallest:.3e}): no unique orthogonal factor")]
-    Singular { smallest: f64 },
+    /// The matrix is singular.
+    Singular {
+        /// Its smallest singular value.
+        smallest: f64,
+    },
 }
 
 /// Polar decomposition by Higham's scaled Newton iteration, falling back to the SVD when the
 /// input is singular to working precision or Newton does not settle.
+///
+/// # Errors
+/// A [`PolarError`] when `a` is not finite or is singular.
 pub fn polar(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
     if !a.iter().all(|x| x.is_finite()) {
         return Err(PolarError::NotFinite);
@@ -67,6 +75,12 @@ pub fn polar(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
 }
 
 /// Polar decomposition from the SVD `A = U Σ Vᵀ`: `Q = U Vᵀ`, `T = V Σ Vᵀ`.
+///
+/// # Errors
+/// A [`PolarError`] when `a` is not finite or is singular.
+///
+/// # Panics
+/// Never: the SVD is asked for both factors.
 pub fn polar_svd(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
     if !a.iter().all(|x| x.is_finite()) {
         return Err(PolarError::NotFinite);

@@ -41,6 +41,9 @@ impl<T: Serialize> Envelope<T> {
     }
 
     /// The JSON text.
+    ///
+    /// # Panics
+    /// Never in practice: reports serialise to JSON.
     pub fn to_json(&self) -> String {
         serde_json::to_string(self).expect("reports serialise to JSON")
     }
@@ -105,6 +108,9 @@ pub type PoseFailure = (usize, u64, FdaError);
 ///
 /// # Errors
 /// `(line, pose, error)` of that pose.
+///
+/// # Panics
+/// If a stored mode quaternion is not a rotation (never for files read by spmcal).
 pub fn fda(
     spm: &Spm,
     readings: &[JointReading],

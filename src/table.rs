@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::files::FileError;
 
 /// A CSV file opened for reading columns by name.
-pub struct Table {
+pub(crate) struct Table {
     path: PathBuf,
     reader: csv::Reader<std::fs::File>,
     /// Column index of each requested name; `None` for an optional column the file lacks.
@@ -16,19 +16,19 @@ pub struct Table {
 
 /// One data row: its 1-based line in the file and the requested fields, in the order asked
 /// (an absent optional column reads as an empty field).
-pub struct Row {
-    pub line: usize,
-    pub fields: Vec<String>,
+pub(crate) struct Row {
+    pub(crate) line: usize,
+    pub(crate) fields: Vec<String>,
 }
 
 impl Table {
     /// Open `path` and locate the `required` columns in its header.
-    pub fn open(path: &Path, required: &[&str]) -> Result<Self, FileError> {
+    pub(crate) fn open(path: &Path, required: &[&str]) -> Result<Self, FileError> {
         Self::open_with_optional(path, required, &[])
     }
 
     /// Open `path`, locate the `required` columns, then the `optional` ones (which may be absent).
-    pub fn open_with_optional(path: &Path, required: &[&str], optional: &[&str]) -> Result<Self, FileError> {
+    pub(crate) fn open_with_optional(path: &Path, required: &[&str], optional: &[&str]) -> Result<Self, FileError> {
         let file = std::fs::File::open(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))?;
         let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(file);
         let header = reader.headers().map_err(|e| FileError::new(path, format!("bad header: {e}")).at_line(1))?.clone();
@@ -47,7 +47,7 @@ impl Table {
     }
 
     /// The data rows, each with its line number; a malformed row is an error naming its line.
-    pub fn rows(&mut self) -> impl Iterator<Item = Result<Row, FileError>> + '_ {
+    pub(crate) fn rows(&mut self) -> impl Iterator<Item = Result<Row, FileError>> + '_ {
         let path = self.path.clone();
         let columns = self.columns.clone();
         self.reader.records().map(move |record| {
@@ -65,17 +65,17 @@ impl Table {
     }
 
     /// All data rows, or the first malformed one's error.
-    pub fn all_rows(&mut self) -> Result<Vec<Row>, FileError> {
+    pub(crate) fn all_rows(&mut self) -> Result<Vec<Row>, FileError> {
         self.rows().collect()
     }
 
     /// An error at `row`, in the `k`-th requested column.
-    pub fn error(&self, row: &Row, k: usize, reason: impl Into<String>) -> FileError {
+    pub(crate) fn error(&self, row: &Row, k: usize, reason: impl Into<String>) -> FileError {
         FileError::new(&self.path, reason).at_line(row.line).in_column(&self.names[k])
     }
 
     /// The `k`-th field of `row` as a finite number.
-    pub fn number(&self, row: &Row, k: usize) -> Result<f64, FileError> {
+    pub(crate) fn number(&self, row: &Row, k: usize) -> Result<f64, FileError> {
         let text = &row.fields[k];
         let value: f64 = text.parse().map_err(|_| self.error(row, k, format!("`{text}` is not a number")))?;
         if !value.is_finite() {
@@ -85,12 +85,12 @@ impl Table {
     }
 
     /// The `k`-th field as a finite number, or `None` when that optional column is absent.
-    pub fn optional_number(&self, row: &Row, k: usize) -> Result<Option<f64>, FileError> {
+    pub(crate) fn optional_number(&self, row: &Row, k: usize) -> Result<Option<f64>, FileError> {
         if self.columns[k].is_none() { Ok(None) } else { self.number(row, k).map(Some) }
     }
 
     /// The `k`-th field of `row` as a pose number (non-negative integer).
-    pub fn index(&self, row: &Row, k: usize) -> Result<u64, FileError> {
+    pub(crate) fn index(&self, row: &Row, k: usize) -> Result<u64, FileError> {
         let text = &row.fields[k];
         text.parse().map_err(|_| self.error(row, k, format!("`{text}` is not a pose number (a non-negative integer)")))
     }

@@ -241,7 +241,7 @@ fn ik_refuses_a_serial_singularity_instead_of_inventing_a_joint_angle() {
     let spm = general_geometry(90.0 * DEG, 90.0 * DEG);
     let g = spm.geometry()[0];
     let r = Rotation3::rotation_between(&g.v0, &g.u).unwrap();
-    assert!(matches!(spm.ik(&r), Err(IkError::SerialSingularity { leg: 1, .. })), "{:?}", spm.ik(&r));
+    assert!(matches!(spm.ik(&r), Err(IkError::SerialSingularity { leg: 0, .. })), "{:?}", spm.ik(&r));
     // Slightly away from it the answer is determined again.
     let off = Rotation3::from_axis_angle(&Vector3::x_axis(), 1e-3) * r;
     assert!(spm.ik(&off).is_ok() || matches!(spm.ik(&off), Err(IkError::OutsideWorkspace { .. })));

@@ -94,7 +94,7 @@ fn closure_link_off_the_platform_has_no_solution_at_home() {
     let marker = "<child link=\"platform_closure3\"/>\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0\"";
     let rotated = "<child link=\"platform_closure3\"/>\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0.05\"";
     let (err, text) = load_error((marker, rotated), NO_EDIT);
-    assert!(matches!(err, ModelError::Closure { leg: 3, .. }), "{text}");
+    assert!(matches!(err, ModelError::Closure { leg: 2, .. }), "{text}");
     assert!(text.contains("2.8648°"), "{text}");
 }
 

@@ -203,3 +203,47 @@ fn the_official_rerun_cli_verifies_the_recording() {
         String::from_utf8_lossy(&verify.stderr)
     );
 }
+
+/// `(origin, contents)` of every view in the recording's default blueprint.
+fn blueprint_views(path: &Path) -> Vec<String> {
+    let reader = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut origins = Vec::new();
+    for msg in DecoderApp::decode_lazy(reader) {
+        let LogMsg::ArrowMsg(store, arrow) = msg.unwrap() else { continue };
+        if store.is_recording() {
+            continue;
+        }
+        let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+        for component in chunk.components_identifiers() {
+            if component.as_str().contains("space_origin") {
+                origins.extend(chunk.iter_slices::<String>(component).flat_map(|s| s.into_iter().map(|s| s.to_string())));
+            }
+        }
+    }
+    origins
+}
+
+#[test]
+fn the_default_blueprint_shows_only_panels_with_data() {
+    let (session, _) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    for (name, scene) in [
+        ("replay", spmcal::record::replay_scene(&session, &model, None).unwrap()),
+        ("calibration", spmcal::record::calibration_scene(&session, &model, &calibration).unwrap()),
+    ] {
+        let path = dir.path().join(format!("{name}.rrd"));
+        spmcal::record::write_recording(&path, &scene).unwrap();
+        let found = entities(&chunks(&path));
+        let origins = blueprint_views(&path);
+        assert!(origins.iter().any(|o| o == "/world"), "{name}: no 3-D view in {origins:?}");
+        for origin in &origins {
+            let origin = origin.trim_start_matches('/');
+            // Every view looks at something the recording holds (no empty panel on opening).
+            assert!(found.iter().any(|e| e.starts_with(origin)), "{name}: view of `{origin}` has no data; {found:?}");
+        }
+        // The fit is shown as a static table, which needs no timeline; a replay has none.
+        assert_eq!(origins.iter().any(|o| o == "/fit/iterations"), name == "calibration", "{name}: {origins:?}");
+    }
+}

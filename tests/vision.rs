@@ -212,12 +212,16 @@ fn higham_agrees_with_the_svd_on_noisy_rotations() {
     }
 }
 
+/// The study behind the README's accuracy table (`examples/vision_accuracy`), on one small case.
+#[path = "../examples/vision_accuracy/study.rs"]
+mod study;
+
 #[test]
 fn accuracy_study_errors_scale_with_noise_and_kabsch_is_better() {
     let mut config = spmcal::sim::SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
     config.poses = 120;
     let model = spmcal::model::RobotModel::load(&config.model).unwrap();
-    let rows = spmcal::vision::accuracy_study(&config, &model, &[0.5, 1.0, 2.0]).unwrap();
+    let rows = study::accuracy_study(&config, &model, &[0.5, 1.0, 2.0]).unwrap();
     for pair in rows.windows(2) {
         // Same poses, twice the noise: twice the error (small-noise regime), within 5%.
         let ratio = pair[1].paper_rms_deg / pair[0].paper_rms_deg;

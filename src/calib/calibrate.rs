@@ -9,7 +9,7 @@ use super::identify::{Identifiability, analyse};
 use super::params::Parameterisation;
 use super::registration::initial_registration;
 use super::residual::{EvalError, Observation, evaluate, observations};
-use super::solver::{Convergence, FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit};
+use super::solver::{Convergence, FitError, FitOutcome, FitSettings, IterationLog, Weighting, fit, rms};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::{Method, SessionEstimate, Stats, VisionError, estimate_session};
@@ -19,103 +19,166 @@ use crate::vision::{Method, SessionEstimate, Stats, VisionError, estimate_sessio
 #[non_exhaustive]
 pub enum CalibError {
     #[error("config `{key}`: {reason}")]
-    Config { key: String, reason: String },
+    /// A calibration setting is invalid (checked before any work).
+    Config {
+        /// The config key, e.g. `bounds.axis_tilt_deg`.
+        key: String,
+        /// What is wrong with its value.
+        reason: String,
+    },
     #[error("vision: {0}")]
+    /// The vision estimate of the session failed.
     Vision(#[from] VisionError),
     #[error("only {usable} usable poses; at least {needed} are needed for {parameters} parameters")]
-    TooFewPoses { usable: usize, needed: usize, parameters: usize },
+    /// Too few usable poses for the number of free parameters.
+    TooFewPoses {
+        /// Poses left after vision and FDA exclusions.
+        usable: usize,
+        /// Poses needed (free parameters plus redundancy).
+        needed: usize,
+        /// Free parameters.
+        parameters: usize,
+    },
     #[error("the camera registration cannot be started: every pose rotates about one axis")]
+    /// No starting camera registration: the poses do not span two rotation axes.
     Registration,
     #[error(
         "the MP barely moves: the largest rotation the camera sees from the reference pose is {max_deg:.3}°, too little to calibrate from"
     )]
-    NoMotion { max_deg: f64 },
+    /// The MP barely moves over the session.
+    NoMotion {
+        /// Largest rotation from the reference pose, degrees.
+        max_deg: f64,
+    },
     #[error("the data cannot identify {} direction(s) of parameter space: {}; freeze parameters or set `unidentifiable: regularise`", .0.len(), .0.join("; "))]
+    /// The data leave some parameter directions undetermined (with `unidentifiable: refuse`).
     Unidentifiable(Vec<String>),
     #[error("{stage}: {error}")]
-    Fit { stage: &'static str, error: FitError },
+    /// A fit stage failed.
+    Fit {
+        /// `nominal` (registration only) or `calibration`.
+        stage: &'static str,
+        /// Why the fit failed.
+        error: FitError,
+    },
     #[error("held-out poses: {0}")]
+    /// The calibrated model cannot predict a held-out pose.
     HeldOut(EvalError),
 }
 
 /// RMS, median and maximum of per-pose angles.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ErrorSummary {
+    /// Poses summarised.
     pub poses: usize,
+    /// RMS angle, degrees.
     pub rms_deg: f64,
+    /// Median angle, degrees.
     pub median_deg: f64,
+    /// Largest angle, degrees.
     pub max_deg: f64,
 }
 
 impl ErrorSummary {
+    /// Summary of per-pose residual rotation vectors (angle = norm).
     pub fn of(residuals: &[Vector3<f64>]) -> ErrorSummary {
         let deg: Vec<f64> = residuals.iter().map(|r| r.norm().to_degrees()).collect();
         let stats = Stats::of(&deg).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
-        let rms = (deg.iter().map(|d| d * d).sum::<f64>() / deg.len().max(1) as f64).sqrt();
-        ErrorSummary { poses: deg.len(), rms_deg: rms, median_deg: stats.median, max_deg: stats.max }
+        ErrorSummary {
+            poses: deg.len(),
+            rms_deg: rms(residuals).to_degrees(),
+            median_deg: stats.median,
+            max_deg: stats.max,
+        }
     }
 }
 
 /// FDA-vs-vision errors of one parameter set, on the fitted and on the held-out poses.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Errors {
+    /// On the fitted poses.
     pub fit: ErrorSummary,
+    /// On the held-out poses, when some were held out.
     pub held_out: Option<ErrorSummary>,
 }
 
 /// One parameter of the report (angles in degrees; `change` is the departure from nominal).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ParameterReport {
+    /// Parameter name, e.g. `alpha1_2`.
     pub name: String,
+    /// Departure from nominal, degrees.
     pub change_deg: f64,
+    /// Standard error, degrees (`None` when frozen or regularised).
     pub std_error_deg: Option<f64>,
+    /// Held at its initial value.
     pub frozen: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
+/// A strong correlation between two fitted parameters.
 pub struct Correlation {
+    /// First parameter.
     pub a: String,
+    /// Second parameter.
     pub b: String,
+    /// Correlation coefficient.
     pub rho: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
+/// A pose the robust fit down-weighted.
 pub struct Outlier {
+    /// Pose id.
     pub pose: u64,
+    /// Its residual angle, degrees.
     pub residual_deg: f64,
+    /// Its Huber weight in (0, 1].
     pub weight: f64,
 }
 
 /// Everything a user needs to judge a calibration.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CalibrationReport {
+    /// Session name.
     pub session: String,
+    /// Vision estimator used for the measured orientations.
     pub vision_method: Method,
+    /// Loss of the fit.
     pub loss: Loss,
+    /// Poses in the session.
     pub poses: usize,
+    /// Poses fitted.
     pub fit_poses: usize,
+    /// Poses held out for validation.
     pub held_out_poses: usize,
     /// Poses left out, and why (vision or forward kinematics of the nominal model).
     pub excluded: Vec<String>,
     /// Nominal mechanism with its best-fit camera registration.
     pub before: Errors,
+    /// Calibrated mechanism with its registration.
     pub after: Errors,
+    /// The calibration fit, iteration by iteration.
     pub iterations: Vec<IterationLog>,
     /// How the fit ended: converged, or stalled at a minimum.
     pub convergence: Convergence,
+    /// Every parameter with its change and standard error.
     pub parameters: Vec<ParameterReport>,
+    /// Singular values and weakest directions of the scaled Jacobian.
     pub identifiability: Identifiability,
     /// Unidentifiable directions held by a weak prior.
     pub regularised: Vec<String>,
     /// Parameters whose change from nominal is smaller than twice its standard error: the data
     /// cannot tell them from nominal.
     pub not_significant: Vec<String>,
+    /// Parameter pairs with |ρ| above 0.9.
     pub high_correlations: Vec<Correlation>,
     /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance.
     pub orientation_uncertainty_deg: Option<Stats>,
     /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
     /// `(markers, poses, [σx, σy, σz])`.
     pub residual_sigma_deg: Vec<(usize, usize, [f64; 3])>,
+    /// Poses down-weighted by the robust loss.
     pub outliers: Vec<Outlier>,
     /// `t_CB` from the centre of rotation; `None` when the poses leave it undetermined.
     pub camera_translation_m: Option<[f64; 3]>,
@@ -126,16 +189,23 @@ pub struct CalibrationReport {
 /// A calibration: the parameters file and the report, plus what a recording needs.
 #[derive(Debug, Clone)]
 pub struct Calibration {
+    /// The parameters file to write.
     pub parameters: Parameters,
+    /// The report.
     pub report: CalibrationReport,
+    /// How the parameter vector maps to a geometry.
     pub parameterisation: Parameterisation,
     /// Fitted poses, then held-out poses.
     pub observations: Vec<Observation>,
+    /// Held-out poses.
     pub held_out: Vec<Observation>,
+    /// The nominal mechanism with its best registration.
     pub nominal: FitOutcome,
+    /// The calibration fit.
     pub calibrated: FitOutcome,
     /// Parameter covariance over the full vector (zero rows for frozen parameters).
     pub covariance: DMatrix<f64>,
+    /// The vision estimate the fit used.
     pub vision: SessionEstimate,
 }
 
@@ -144,6 +214,9 @@ pub struct Calibration {
 pub const MIN_MOTION_DEG: f64 = 0.5;
 
 /// Calibrate `session` on `model`; `on_iteration` sees every iteration of the main fit.
+///
+/// # Errors
+/// A [`CalibError`] for an invalid config, too few usable poses, no motion, no starting registration, unidentifiable directions (with `unidentifiable: refuse`), a failed fit or an unpredictable held-out pose.
 pub fn calibrate(
     session: &Session,
     model: &RobotModel,
@@ -179,7 +252,6 @@ pub fn calibrate(
             parameters: n_free,
         });
     }
-    let reference = fit_set.iter().position(|(_, (o, _))| o.pose == vision.reference_pose).unwrap_or(0);
     let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
     let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
     // Nothing moving is its own problem, not "one axis": say which.
@@ -188,17 +260,9 @@ pub fn calibrate(
         return Err(CalibError::NoMotion { max_deg });
     }
     let (camera0, reference0) =
-        initial_registration(&predicted, &measured, reference).ok_or(CalibError::Registration)?;
+        initial_registration(&observations, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;
     let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
-    let settings = |free: Vec<bool>, prior| FitSettings {
-        max_iterations: config.max_iterations,
-        initial_radius: config.initial_radius_deg.to_radians(),
-        step_tolerance: config.step_tolerance_deg.to_radians(),
-        loss: config.loss,
-        huber_threshold: config.huber_threshold,
-        free,
-        prior,
-    };
+    let settings = |free: Vec<bool>, prior| FitSettings { prior, ..FitSettings::from_config(config, free) };
     // The baseline: nominal mechanism, best-fit registration alone.
     let registration_only: Vec<bool> =
         p.entries.iter().map(|e| matches!(e.kind.group(), Group::CameraRotation | Group::ReferenceRotation)).collect();

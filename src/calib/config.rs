@@ -31,6 +31,7 @@ pub enum Group {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Loss {
+    /// Plain least squares on the whitened residuals.
     LeastSquares,
     /// Quadratic up to `huber_threshold` robust standard deviations, linear beyond.
     Huber,
@@ -52,6 +53,7 @@ pub enum Unidentifiable {
 pub struct CalibConfig {
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
+    /// Loss applied to each pose residual.
     pub loss: Loss,
     /// Huber threshold, in robust standard deviations of the residuals.
     pub huber_threshold: f64,
@@ -62,6 +64,7 @@ pub struct CalibConfig {
     pub freeze: Vec<Group>,
     /// Every `holdout_every`-th pose is held out of the fit for validation (0: none).
     pub holdout_every: usize,
+    /// Iteration budget of each fit.
     pub max_iterations: u32,
     /// Initial trust-region radius (the parameters are all angles).
     pub initial_radius_deg: f64,
@@ -69,6 +72,7 @@ pub struct CalibConfig {
     pub step_tolerance_deg: f64,
     /// Physical bounds on the departures from nominal.
     pub bounds: Bounds,
+    /// What to do with directions the data cannot identify.
     pub unidentifiable: Unidentifiable,
     /// A direction whose scaled singular value is below this fraction of the largest is unidentifiable.
     pub min_singular_ratio: f64,
@@ -78,8 +82,11 @@ pub struct CalibConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Bounds {
+    /// Tilt of any joint axis.
     pub axis_tilt_deg: f64,
+    /// Change of a link angle α1 or α2.
     pub link_angle_deg: f64,
+    /// Encoder offset δ.
     pub joint_offset_deg: f64,
 }
 
@@ -110,11 +117,17 @@ impl Default for CalibConfig {
 
 impl CalibConfig {
     /// Read and check a config file.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file, line and key for unreadable or malformed YAML, unknown keys or values [`CalibConfig::check`] refuses.
     pub fn read(path: &Path) -> Result<Self, FileError> {
         crate::yaml::read_checked(path, CalibConfig::check)
     }
 
     /// Values serde accepted but that make no sense, as `(key, reason)`.
+    ///
+    /// # Errors
+    /// `(key, reason)` for the first value out of its range.
     pub fn check(&self) -> Result<(), (String, String)> {
         let positive = [
             ("huber_threshold", self.huber_threshold),

@@ -14,6 +14,7 @@ pub struct Direction {
 }
 
 impl Direction {
+    /// One line for messages: the largest components and the singular-value ratio.
     pub fn describe(&self) -> String {
         let parts: Vec<String> = self.components.iter().map(|(n, c)| format!("{c:+.2}·{n}")).collect();
         format!("{} (σ/σmax = {:.1e})", parts.join(" "), self.singular_ratio)
@@ -45,6 +46,9 @@ pub struct Identifiability {
 }
 
 /// Analyse `W^½ J` (3n × N) over the `free` parameters.
+///
+/// # Panics
+/// If `free` or `names` index past the Jacobian's columns.
 pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String], min_ratio: f64) -> Identifiability {
     let n_all = weighted_jacobian.ncols();
     let mut column_norms = DVector::from_element(n_all, 1.0);

@@ -10,14 +10,14 @@ mod residual;
 mod solver;
 
 pub use calibrate::{
-    CalibError, Calibration, CalibrationReport, Correlation, ErrorSummary, Errors, Outlier, ParameterReport, calibrate,
+    CalibError, Calibration, CalibrationReport, Correlation, ErrorSummary, Errors, MIN_MOTION_DEG, Outlier,
+    ParameterReport, calibrate,
 };
 pub use config::{Bounds, CalibConfig, Group, Loss, Unidentifiable};
 pub use identify::{Direction, Identifiability, analyse};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
-pub use registration::initial_registration;
+pub(crate) use registration::initial_registration;
 pub use residual::{EvalError, Evaluation, Observation, Predicted, Unpredicted, evaluate, observations};
 pub use solver::{
     Convergence, FitError, FitOutcome, FitSettings, IterationLog, RELATIVE_COST_TOLERANCE, Weighting, fit, rms,
-    robust_weights,
 };

@@ -24,31 +24,47 @@ use crate::so3;
 pub enum Kind {
     /// Tilt `k` of the actuated axis of a leg (0-based legs).
     ActuatedTilt {
+        /// Leg index (0-based).
         leg: usize,
+        /// Which of the two tangent directions (0 or 1).
         k: usize,
     },
+    /// Proximal link angle α1 of a leg.
     Alpha1 {
+        /// Leg index (0-based).
         leg: usize,
     },
+    /// Distal link angle α2 of a leg.
     Alpha2 {
+        /// Leg index (0-based).
         leg: usize,
     },
+    /// Encoder offset δ of a leg.
     Offset {
+        /// Leg index (0-based).
         leg: usize,
     },
+    /// Tilt `k` of the platform axis `v0` of a leg.
     PlatformTilt {
+        /// Leg index (0-based).
         leg: usize,
+        /// Which of the two tangent directions (0 or 1).
         k: usize,
     },
+    /// Component `k` of the camera rotation `R_CB` (rotation vector).
     Camera {
+        /// Axis 0, 1 or 2.
         k: usize,
     },
+    /// Component `k` of the reference-pose orientation (rotation vector).
     Reference {
+        /// Axis 0, 1 or 2.
         k: usize,
     },
 }
 
 impl Kind {
+    /// The config group that freezes this parameter.
     pub fn group(self) -> Group {
         match self {
             Kind::ActuatedTilt { .. } => Group::ActuatedAxes,
@@ -77,20 +93,28 @@ impl Kind {
 /// One parameter: what it is, its name, and its physical bound (|value| ≤ bound, radians).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Entry {
+    /// What the entry is.
     pub kind: Kind,
+    /// Its name in reports, e.g. `u_1.t0`.
     pub name: String,
+    /// Its physical bound, radians.
     pub bound: Option<f64>,
 }
 
 /// The parameterisation around an initial geometry and registration.
 #[derive(Debug, Clone)]
 pub struct Parameterisation {
+    /// The geometry at `x = 0`.
     pub initial: [LegGeometry; 3],
+    /// Camera rotation at `x = 0`.
     pub camera0: Rotation3<f64>,
+    /// Reference-pose orientation at `x = 0`.
     pub reference0: Rotation3<f64>,
     /// Rotation directions that tilt `u_i` (0, 1 and 2 of them) and `v0_i`.
     pub actuated_dirs: [Vec<Vector3<f64>>; 3],
+    /// Rotation directions that tilt `v0_i` (0, 1 or 2 of them).
     pub platform_dirs: [Vec<Vector3<f64>>; 3],
+    /// One entry per parameter.
     pub entries: Vec<Entry>,
 }
 
@@ -101,6 +125,7 @@ fn tangent_basis(a: &Vector3<f64>, hint: &Vector3<f64>) -> [Vector3<f64>; 2] {
 }
 
 impl Parameterisation {
+    /// The parameterisation around `initial` geometry, camera and reference rotations, with the config's bounds.
     pub fn new(
         initial: [LegGeometry; 3],
         camera0: Rotation3<f64>,
@@ -145,10 +170,12 @@ impl Parameterisation {
         Parameterisation { initial, camera0, reference0, actuated_dirs, platform_dirs, entries }
     }
 
+    /// Number of parameters.
     pub fn len(&self) -> usize {
         self.entries.len()
     }
 
+    /// No parameters at all.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }
@@ -269,6 +296,7 @@ pub struct TruthInGauge {
     pub x: DVector<f64>,
     /// Base-frame change `G` (true B → fit's B) and platform-frame change `H` (true P → fit's P).
     pub base: Rotation3<f64>,
+    /// Platform-frame change `H` (true P → fit's P).
     pub platform: Rotation3<f64>,
 }
 

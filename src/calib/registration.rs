@@ -7,18 +7,24 @@
 
 use nalgebra::{Matrix3, Rotation3};
 
+use super::residual::Observation;
 use crate::so3;
 
-/// `(R_CB, A)` from the model's orientations and the measured rotations, `None` when the rotation
-/// vectors do not span two directions (every pose rotates about one axis).
-pub fn initial_registration(
+/// `(R_CB, A)` from the observations and the orientations the model predicts for them, `None`
+/// when the rotation vectors do not span two directions (every pose rotates about one axis).
+/// The reference is the observation of `reference_pose` (the first one if it was left out).
+pub(crate) fn initial_registration(
+    observations: &[Observation],
     predicted: &[Rotation3<f64>],
-    measured: &[Rotation3<f64>],
-    reference: usize,
+    reference_pose: u64,
 ) -> Option<(Rotation3<f64>, Rotation3<f64>)> {
-    let r_ref = predicted[reference];
-    let h: Matrix3<f64> =
-        predicted.iter().zip(measured).map(|(r, q)| so3::log(q) * so3::log(&(r * r_ref.inverse())).transpose()).sum();
+    let reference = observations.iter().position(|o| o.pose == reference_pose).unwrap_or(0);
+    let r_ref = *predicted.get(reference)?;
+    let h: Matrix3<f64> = predicted
+        .iter()
+        .zip(observations)
+        .map(|(r, o)| so3::log(&o.measured) * so3::log(&(r * r_ref.inverse())).transpose())
+        .sum();
     let svd = so3::bounded_svd(&h, false, false)?;
     let mut s = svd.singular_values.as_slice().to_vec();
     s.sort_by(|a, b| b.total_cmp(a));

@@ -25,7 +25,9 @@ use crate::vision::SessionEstimate;
 /// One pose of the fit: joint readings and the measured rotation from the reference pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Observation {
+    /// Pose id.
     pub pose: u64,
+    /// Joint readings.
     pub joints: Vector3<f64>,
     /// `Q_j`, camera frame.
     pub measured: Rotation3<f64>,
@@ -41,6 +43,9 @@ pub type Unpredicted = (u64, FdaError);
 
 /// The estimated poses of a session as observations, each with the orientation `spm` predicts
 /// from its joints; the poses whose forward kinematics fails, with the error.
+///
+/// # Panics
+/// If `vision` holds a pose that is not in `session` (an estimate of another session).
 pub fn observations(session: &Session, vision: &SessionEstimate, spm: &Spm) -> (Vec<Predicted>, Vec<Unpredicted>) {
     let (mut kept, mut failed) = (Vec::new(), Vec::new());
     for (pose, estimate) in &vision.poses {
@@ -59,6 +64,7 @@ pub fn observations(session: &Session, vision: &SessionEstimate, spm: &Spm) -> (
 /// Residuals (and optionally their Jacobian) at a parameter vector.
 #[derive(Debug, Clone)]
 pub struct Evaluation {
+    /// Per-pose residual rotation vectors (radians), camera frame.
     pub residuals: Vec<Vector3<f64>>,
     /// Predicted MP orientations `R_j` (P → B).
     pub orientations: Vec<Rotation3<f64>>,
@@ -74,13 +80,23 @@ pub struct Evaluation {
 #[non_exhaustive]
 pub enum EvalError {
     #[error("the parameters do not make a valid manipulator: {0}")]
+    /// The parameters make no valid manipulator.
     Geometry(SpmError),
     #[error("pose {pose}: forward kinematics failed: {error}")]
-    Fda { pose: u64, error: FdaError },
+    /// The forward kinematics of a pose failed.
+    Fda {
+        /// Pose id.
+        pose: u64,
+        /// Why.
+        error: FdaError,
+    },
 }
 
 /// Evaluate the residuals at `x`. The FDA of each pose starts from `warm` (the orientations of the
 /// previous evaluation) when given, else continues from home.
+///
+/// # Errors
+/// An [`EvalError`] when the parameters make no valid manipulator or a pose's FDA fails.
 pub fn evaluate(
     p: &Parameterisation,
     x: &DVector<f64>,

@@ -20,7 +20,7 @@ use clarabel::solver::{
 };
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::config::Loss;
+use super::config::{CalibConfig, Loss};
 use super::params::Parameterisation;
 use super::residual::{EvalError, Evaluation, Observation, evaluate};
 
@@ -31,11 +31,13 @@ const MAXWELL_MEDIAN: f64 = 1.5382;
 /// Numerical settings of one fit.
 #[derive(Debug, Clone)]
 pub struct FitSettings {
+    /// Iteration budget.
     pub max_iterations: u32,
     /// Initial trust-region radius, radians.
     pub initial_radius: f64,
     /// Converged when an accepted step moves no parameter by more than this (radians).
     pub step_tolerance: f64,
+    /// Loss on each pose residual.
     pub loss: Loss,
     /// Huber threshold in robust standard deviations.
     pub huber_threshold: f64,
@@ -45,9 +47,25 @@ pub struct FitSettings {
     pub prior: Option<(DMatrix<f64>, DVector<f64>)>,
 }
 
+impl FitSettings {
+    /// The settings `config` asks for, with `free` parameters and no prior.
+    pub fn from_config(config: &CalibConfig, free: Vec<bool>) -> Self {
+        FitSettings {
+            max_iterations: config.max_iterations,
+            initial_radius: config.initial_radius_deg.to_radians(),
+            step_tolerance: config.step_tolerance_deg.to_radians(),
+            loss: config.loss,
+            huber_threshold: config.huber_threshold,
+            free,
+            prior: None,
+        }
+    }
+}
+
 /// One iteration, for the log and the recording.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct IterationLog {
+    /// Iteration number, from 1.
     pub iteration: u32,
     /// Weighted cost `½ Σ w_j |r_j|²` before the step (rad²).
     pub cost: f64,
@@ -55,9 +73,11 @@ pub struct IterationLog {
     pub rms_deg: f64,
     /// Length of the proposed step (rad).
     pub step: f64,
+    /// Trust-region radius (rad).
     pub radius: f64,
     /// Actual over predicted reduction.
     pub ratio: f64,
+    /// Whether the step was taken.
     pub accepted: bool,
     /// Interior-point iterations clarabel needed.
     pub solver_iterations: u32,
@@ -77,7 +97,7 @@ pub enum Convergence {
 }
 
 /// A fit whose cost changes by less than this fraction in a whole reweighting cycle, or over the
-/// last [`STALL_WINDOW`] iterations, is at its minimum whatever its steps: the cost is a sum over
+/// last five iterations, is at its minimum whatever its steps: the cost is a sum over
 /// hundreds of residuals, so 1e-10 of it is far below anything the data can tell apart.
 pub const RELATIVE_COST_TOLERANCE: f64 = 1e-10;
 /// Iterations over which a stalled cost is judged.
@@ -88,10 +108,13 @@ const STALL_WINDOW: usize = 5;
 pub struct FitOutcome {
     /// How the fit ended.
     pub status: Convergence,
+    /// The parameter vector at the solution.
     pub x: DVector<f64>,
+    /// Residuals (and Jacobian) at the solution.
     pub evaluation: Evaluation,
     /// The weighting at the solution.
     pub weighting: Weighting,
+    /// Every iteration.
     pub log: Vec<IterationLog>,
 }
 
@@ -100,17 +123,44 @@ pub struct FitOutcome {
 #[non_exhaustive]
 pub enum FitError {
     #[error("cannot evaluate the model at the start point: {0}")]
+    /// The model cannot be evaluated at the start point.
     Start(EvalError),
     #[error("clarabel failed on the subproblem of iteration {iteration}: status {status}")]
-    Solver { iteration: u32, status: String },
+    /// clarabel failed on a trust-region subproblem.
+    Solver {
+        /// Iteration of the fit.
+        iteration: u32,
+        /// clarabel's status.
+        status: String,
+    },
     #[error(
         "the fit was still improving after `max_iterations` = {iterations} iterations (last step {step:.3e} rad, radius {radius:.3e} rad, cost still falling by {relative_decrease:.1e} per iteration): raise `max_iterations`"
     )]
-    IterationLimit { iterations: u32, step: f64, radius: f64, relative_decrease: f64 },
+    /// The iteration budget ran out while the cost was still falling.
+    IterationLimit {
+        /// Iterations done.
+        iterations: u32,
+        /// Last step length (rad).
+        step: f64,
+        /// Trust radius at the end (rad).
+        radius: f64,
+        /// Relative cost decrease per iteration at the end.
+        relative_decrease: f64,
+    },
     #[error("the robust (Huber) reweighting did not settle in {cycles} cycles: try `loss: least_squares`")]
-    ReweightingUnsettled { cycles: u32 },
+    /// The Huber weights kept changing.
+    ReweightingUnsettled {
+        /// Reweighting cycles done.
+        cycles: u32,
+    },
     #[error("the fit diverged at iteration {iteration}: {reason}")]
-    Diverged { iteration: u32, reason: String },
+    /// The cost or the step became non-finite.
+    Diverged {
+        /// Iteration where it happened.
+        iteration: u32,
+        /// What became non-finite.
+        reason: String,
+    },
 }
 
 /// How the residuals are weighted: each pose whitened by `S = Σ_r^{-1/2}`, the inverse root of the
@@ -122,6 +172,7 @@ pub enum FitError {
 pub struct Weighting {
     /// Per pose.
     pub whitening: Vec<Matrix3<f64>>,
+    /// Huber weight per pose, in (0, 1].
     pub weights: Vec<f64>,
     /// Robust scale of the whitened norms.
     pub sigma: f64,
@@ -164,6 +215,9 @@ impl Weighting {
     }
 
     /// Whiten each class of poses (by markers used) by its weighted residual covariance.
+    ///
+    /// # Panics
+    /// If `markers` is shorter than `residuals`.
     pub fn whiten_by_class(&mut self, residuals: &[Vector3<f64>], markers: &[usize]) {
         let everyone: Vec<usize> = (0..residuals.len()).collect();
         let pooled = weighted_covariance(residuals, &everyone, &self.weights);
@@ -189,18 +243,13 @@ impl Weighting {
 
     /// Robust scale of the whitened norms (Maxwell median).
     pub fn rescale(&mut self, residuals: &[Vector3<f64>]) {
-        let whitened: Vec<Vector3<f64>> = (0..residuals.len()).map(|j| self.whiten(j, &residuals[j])).collect();
-        self.sigma = robust_weights(&whitened, Loss::LeastSquares, 1.0).0;
+        self.sigma = robust_scale((0..residuals.len()).map(|j| self.whiten(j, &residuals[j]).norm()));
     }
 
     /// Huber weights of the whitened norms at the current scale.
     pub fn reweight(&mut self, residuals: &[Vector3<f64>], loss: Loss, threshold: f64) {
         for (j, w) in self.weights.iter_mut().enumerate() {
-            let norm = (self.whitening[j] * residuals[j]).norm();
-            *w = match loss {
-                Loss::Huber if norm > threshold * self.sigma => threshold * self.sigma / norm,
-                _ => 1.0,
-            };
+            *w = loss_weight(loss, (self.whitening[j] * residuals[j]).norm(), threshold * self.sigma);
         }
     }
 
@@ -214,22 +263,21 @@ impl Weighting {
     }
 }
 
-/// Robust scale and per-pose Huber weights of residual norms.
-pub fn robust_weights(residuals: &[Vector3<f64>], loss: Loss, threshold: f64) -> (f64, Vec<f64>) {
-    let mut norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
-    let sigma = {
-        let mut sorted = norms.clone();
-        sorted.sort_by(f64::total_cmp);
-        (sorted.get(sorted.len() / 2).copied().unwrap_or(0.0) / MAXWELL_MEDIAN).max(1e-15)
-    };
-    for n in norms.iter_mut() {
-        *n = match loss {
-            Loss::LeastSquares => 1.0,
-            Loss::Huber if *n <= threshold * sigma => 1.0,
-            Loss::Huber => threshold * sigma / *n,
-        };
+/// Robust scale of residual norms: their median over the Maxwell median (the norm of a 3-D
+/// standard normal), floored so that a perfect fit does not divide by zero.
+fn robust_scale(norms: impl Iterator<Item = f64>) -> f64 {
+    let mut sorted: Vec<f64> = norms.collect();
+    sorted.sort_by(f64::total_cmp);
+    (sorted.get(sorted.len() / 2).copied().unwrap_or(0.0) / MAXWELL_MEDIAN).max(1e-15)
+}
+
+/// The weight `loss` gives a residual of norm `norm` when the quadratic zone ends at `limit`:
+/// 1 inside, `limit / norm` beyond (Huber's IRLS weight).
+fn loss_weight(loss: Loss, norm: f64, limit: f64) -> f64 {
+    match loss {
+        Loss::Huber if norm > limit => limit / norm,
+        _ => 1.0,
     }
-    (sigma, norms)
 }
 
 fn prior_cost(settings: &FitSettings, x: &DVector<f64>) -> f64 {
@@ -261,6 +309,9 @@ const MAX_REWEIGHTINGS: u32 = 30;
 /// weights (IRLS, a monotone majorise–minimise scheme) while an inner trust-region loop minimises
 /// the cost with the weights fixed; a stage ends when a reweighting moves no parameter by more
 /// than the step tolerance.
+///
+/// # Errors
+/// A [`FitError`] when the start cannot be evaluated, clarabel fails, the budget runs out while the cost still falls, the reweighting does not settle or the fit diverges.
 pub fn fit(
     p: &Parameterisation,
     x0: &DVector<f64>,
@@ -410,7 +461,7 @@ pub fn rms(residuals: &[Vector3<f64>]) -> f64 {
 }
 
 /// `Jᵀ W J + Λ` and `Jᵀ W r + Λ (x − x_prior)` over the free parameters.
-pub fn normal_equations(
+pub(crate) fn normal_equations(
     eval: &Evaluation,
     weighting: &Weighting,
     free: &[usize],

@@ -13,9 +13,11 @@ use crate::table::Table;
 /// Joint readings of one pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointReading {
+    /// Pose id.
     pub pose: u64,
     /// Line of the file it came from (0 when not read from a file).
     pub line: usize,
+    /// Joint readings θ1, θ2, θ3 (rad).
     pub joints: Vector3<f64>,
     /// Capture time, when the file has a `time_s` column.
     pub time_s: Option<f64>,
@@ -24,6 +26,9 @@ pub struct JointReading {
 const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
 
 /// Read `joints.csv`; non-numbers, non-finite values and repeated poses are errors naming the line.
+///
+/// # Errors
+/// A [`FileError`] naming the line and column of the first bad value, missing column or repeated pose.
 pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
     let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s"])?;
     let mut seen = HashSet::new();
@@ -55,6 +60,9 @@ pub fn joints_csv(readings: &[JointReading]) -> String {
 }
 
 /// Write `joints.csv` atomically.
+///
+/// # Errors
+/// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
 pub fn write_joints(path: &Path, readings: &[JointReading]) -> Result<(), FileError> {
     write_atomic(path, joints_csv(readings).as_bytes())
 }

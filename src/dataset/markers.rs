@@ -13,15 +13,21 @@ use crate::table::Table;
 /// One marker measurement.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MarkerRow {
+    /// Pose id.
     pub pose: u64,
     /// Index of the marker in the session's marker list.
     pub marker: usize,
+    /// Marker centre in the camera frame (m).
     pub position: Vector3<f64>,
+    /// Line of the file it came from.
     pub line: usize,
 }
 
 /// Read `markers.csv`. Unknown marker names, non-numbers, non-finite coordinates and a repeated
 /// (pose, marker) pair are errors naming the line and column.
+///
+/// # Errors
+/// A [`FileError`] naming the line and column of the first bad value, unknown marker or repeated pair.
 pub fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, FileError> {
     let mut table = Table::open(path, &["pose", "marker", "x_m", "y_m", "z_m"])?;
     let mut seen = HashSet::new();
@@ -52,6 +58,9 @@ pub fn markers_csv(rows: &[MarkerRow], names: &[String]) -> String {
 }
 
 /// Write `markers.csv` atomically.
+///
+/// # Errors
+/// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
 pub fn write_markers(path: &Path, rows: &[MarkerRow], names: &[String]) -> Result<(), FileError> {
     write_atomic(path, markers_csv(rows, names).as_bytes())
 }

@@ -13,9 +13,11 @@ use crate::table::Table;
 /// One orientation of a table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OrientationRecord {
+    /// Pose id.
     pub pose: u64,
     /// Assembly mode index (FDA with all modes), if any.
     pub mode: Option<usize>,
+    /// MP orientation (P → B).
     pub rotation: Rotation3<f64>,
     /// Extra trailing columns, `(name, value)`, written after the quaternion.
     pub extra: Vec<(String, String)>,
@@ -24,6 +26,9 @@ pub struct OrientationRecord {
 }
 
 /// Read `pose,qw,qx,qy,qz`; a quaternion whose norm is not 1 (within 1e-6) is an error.
+///
+/// # Errors
+/// A [`FileError`] naming the line and column of the first bad value or non-unit quaternion.
 pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
     let mut table = Table::open(path, &["pose", "qw", "qx", "qy", "qz"])?;
     let rows: Vec<_> = table.rows().collect::<Result<_, _>>()?;

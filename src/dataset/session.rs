@@ -29,8 +29,11 @@ pub const MIN_MARKERS: usize = 3;
 /// One pose of a session.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SessionPose {
+    /// Pose id (the `pose` column).
     pub id: u64,
+    /// Joint readings θ1, θ2, θ3 (rad).
     pub joints: Vector3<f64>,
+    /// Capture time (s), when recorded.
     pub time_s: Option<f64>,
     /// Marker centres in the camera frame, indexed like `Session::markers`; `None` = not seen.
     pub markers: Vec<Option<Vector3<f64>>>,
@@ -48,6 +51,7 @@ impl SessionPose {
 /// The ground truth of a simulated session.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Truth {
+    /// The true parameters (with the true camera registration).
     pub parameters: Parameters,
     /// True MP orientation of each pose (P → B).
     pub orientations: BTreeMap<u64, Rotation3<f64>>,
@@ -56,22 +60,32 @@ pub struct Truth {
 /// A joint-plus-vision session.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Session {
+    /// Session name (`session.yaml`).
     pub name: String,
+    /// Free-text description.
     pub description: Option<String>,
     /// The model (URDF), resolved against the session folder or taken from `--model`.
     pub model: PathBuf,
+    /// Marker names, in the order of `SessionPose::markers`.
     pub markers: Vec<String>,
+    /// The pose the vision estimator measures rotations from.
     pub reference_pose: u64,
+    /// The poses, in file order.
     pub poses: Vec<SessionPose>,
+    /// Ground truth, for simulated sessions.
     pub truth: Option<Truth>,
 }
 
 /// A pose kept in the session but skipped by the vision estimator, and why.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
+    /// The file the pose came from.
     pub path: PathBuf,
+    /// Its line.
     pub line: usize,
+    /// Pose id.
     pub pose: u64,
+    /// What is wrong with it.
     pub message: String,
 }
 
@@ -96,11 +110,17 @@ struct SessionFile {
 
 impl Session {
     /// The reference pose.
+    ///
+    /// # Panics
+    /// If `reference_pose` is not one of the poses (never for a session from [`Session::load`] or the simulator).
     pub fn reference(&self) -> &SessionPose {
         self.poses.iter().find(|p| p.id == self.reference_pose).expect("validated on load")
     }
 
     /// Load and validate the session in `dir`; `model` overrides the one named in `session.yaml`.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file, line and column (or YAML key) of the first problem.
     pub fn load(dir: &Path, model: Option<&Path>) -> Result<(Session, Vec<Warning>), FileError> {
         let yaml_path = dir.join("session.yaml");
         let (file, keys) = crate::yaml::read::<SessionFile>(&yaml_path)?;
@@ -180,6 +200,12 @@ impl Session {
 
     /// Write the session into `dir` (created if needed). Every file is written atomically and
     /// `session.yaml` last, so a folder without it is an interrupted write, never a session.
+    ///
+    /// # Errors
+    /// A [`FileError`] when `dir` holds something that is not a session or a file cannot be written.
+    ///
+    /// # Panics
+    /// Never in practice: serialising the session's YAML cannot fail.
     pub fn write(&self, dir: &Path) -> Result<(), FileError> {
         Session::check_destination(dir)?;
         std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;

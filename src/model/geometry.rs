@@ -29,14 +29,42 @@ pub struct LegGeometry {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum GeometryError {
-    #[error("leg {leg}: {what} is not finite")]
-    NotFinite { leg: usize, what: &'static str },
-    #[error("leg {leg}: axis {what} has length {norm:.3e}; a joint axis must be a unit vector")]
-    NotUnit { leg: usize, what: &'static str, norm: f64 },
-    #[error("leg {leg}: zero direction z is not orthogonal to u (u·z = {dot:.3e})")]
-    ZeroDirectionNotOrthogonal { leg: usize, dot: f64 },
-    #[error("leg {leg}: {what} = {value_deg:.4}° is outside (0°, 180°)")]
-    LinkAngleOutOfRange { leg: usize, what: &'static str, value_deg: f64 },
+    #[error("leg {leg_number}: {what} is not finite", leg_number = .leg + 1)]
+    /// A number is NaN or infinite.
+    NotFinite {
+        /// Leg index (0-based).
+        leg: usize,
+        /// Which quantity.
+        what: &'static str,
+    },
+    #[error("leg {leg_number}: axis {what} has length {norm:.3e}; a joint axis must be a unit vector", leg_number = .leg + 1)]
+    /// A joint axis is not a unit vector.
+    NotUnit {
+        /// Leg index (0-based).
+        leg: usize,
+        /// Which axis (`u`, `z`, `v0`).
+        what: &'static str,
+        /// Its length.
+        norm: f64,
+    },
+    #[error("leg {leg_number}: zero direction z is not orthogonal to u (u·z = {dot:.3e})", leg_number = .leg + 1)]
+    /// The zero direction is not orthogonal to the actuated axis.
+    ZeroDirectionNotOrthogonal {
+        /// Leg index (0-based).
+        leg: usize,
+        /// `u · z`.
+        dot: f64,
+    },
+    #[error("leg {leg_number}: {what} = {value_deg:.4}° is outside (0°, 180°)", leg_number = .leg + 1)]
+    /// A link angle is outside (0°, 180°).
+    LinkAngleOutOfRange {
+        /// Leg index (0-based).
+        leg: usize,
+        /// `alpha1` or `alpha2`.
+        what: &'static str,
+        /// Its value, degrees.
+        value_deg: f64,
+    },
 }
 
 /// Tolerance on unit length and orthogonality of axes read from files: loose enough for
@@ -44,7 +72,7 @@ pub enum GeometryError {
 pub const AXIS_TOLERANCE: f64 = 1e-6;
 
 impl GeometryError {
-    /// The leg the error is about (1-based).
+    /// The leg the error is about (0-based index; messages print it 1-based).
     pub fn leg(&self) -> usize {
         match self {
             GeometryError::NotFinite { leg, .. }
@@ -70,7 +98,10 @@ impl LegGeometry {
         }
     }
 
-    /// Check the leg (`leg` is 1-based, for messages) and normalise its axes.
+    /// Check leg `leg` (0-based index) and normalise its axes.
+    ///
+    /// # Errors
+    /// A [`GeometryError`] for a non-finite value, a non-unit axis, a zero direction not orthogonal to `u`, or a link angle outside (0°, 180°).
     pub fn validated(mut self, leg: usize) -> Result<Self, GeometryError> {
         for (what, v) in [("u", self.u), ("z", self.z), ("v0", self.v0)] {
             if !v.iter().all(|c| c.is_finite()) {
@@ -119,7 +150,7 @@ pub(crate) struct Leg {
 }
 
 impl Leg {
-    pub fn new(g: &LegGeometry) -> Self {
+    pub(crate) fn new(g: &LegGeometry) -> Self {
         Leg {
             u: g.u,
             z: g.z,
@@ -135,7 +166,7 @@ impl Leg {
 
     /// Intermediate axis `w(θ)` in B.
     #[inline]
-    pub fn w(&self, theta: f64) -> Vector3<f64> {
+    pub(crate) fn w(&self, theta: f64) -> Vector3<f64> {
         let (s, c) = (theta + self.delta).sin_cos();
         self.u * self.cos_a1 + (self.z * c + self.y * s) * self.sin_a1
     }

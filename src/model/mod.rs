@@ -13,7 +13,9 @@ pub use assembly::AssemblyMode;
 pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};
 pub use params::{CameraRegistration, PARAMETERS_FORMAT, ParameterSource, Parameters};
 pub use perturb::{GeometrySpread, perturb, tilt};
-pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError, conditioning_index, wrap_angle};
+pub use spm::{
+    Branch, FdaError, FdaSettings, IK_SINGULAR_SINE, IkError, Jacobians, Spm, SpmError, conditioning_index, wrap_angle,
+};
 pub use urdf::{
     Body, BodyShape, CLOSURE_TOLERANCE_RAD, CONCURRENCY_TOLERANCE_M, Marker, ModelError, RobotModel, Shape,
     companion_path,

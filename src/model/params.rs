@@ -35,7 +35,9 @@ pub const PARAMETERS_FORMAT: &str = "spmcal-parameters/1";
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ParameterSource {
+    /// The model's nominal geometry.
     Nominal,
+    /// The result of a calibration.
     Calibrated,
     /// The true geometry of a simulated session.
     Truth,
@@ -44,7 +46,9 @@ pub enum ParameterSource {
 /// Camera registration `x_C = R_CB x_B + t_CB`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraRegistration {
+    /// `R_CB`.
     pub rotation: Rotation3<f64>,
+    /// `t_CB` (m).
     pub translation: Vector3<f64>,
 }
 
@@ -73,10 +77,13 @@ impl CameraRegistration {
 /// A complete parameter set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameters {
+    /// Where the parameters came from.
     pub source: ParameterSource,
     /// The model the parameters were derived from, as written in the file.
     pub model: Option<String>,
+    /// The geometry of the three legs.
     pub legs: [LegGeometry; 3],
+    /// The camera registration, when known.
     pub camera: Option<CameraRegistration>,
     /// Statistics of the fit that produced the file (informational).
     pub fit: Option<serde_yaml::Value>,
@@ -121,11 +128,17 @@ impl Parameters {
     }
 
     /// The manipulator these parameters describe (validated).
+    ///
+    /// # Errors
+    /// An [`SpmError`](super::SpmError) when the legs do not make a usable manipulator.
     pub fn spm(&self) -> Result<Spm, super::SpmError> {
         Spm::new(self.legs)
     }
 
     /// Read and validate a parameters file.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the line and key of the first problem.
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let (record, keys) = crate::yaml::read::<ParametersRecord>(path)?;
         if record.format != PARAMETERS_FORMAT {
@@ -146,7 +159,7 @@ impl Parameters {
         Spm::new(legs).map_err(|e| {
             // Locate the leg the error is about (leg numbers are 1-based, the file's list 0-based).
             let key = match &e {
-                super::SpmError::Geometry(g) => format!("legs[{}]", g.leg() - 1),
+                super::SpmError::Geometry(g) => format!("legs[{}]", g.leg()),
                 _ => "legs".to_string(),
             };
             keys.error(path, &key, e.to_string())
@@ -166,6 +179,9 @@ impl Parameters {
     }
 
     /// The file text, with a comment header.
+    ///
+    /// # Panics
+    /// Never in practice: serialising the parameters cannot fail.
     pub fn to_yaml(&self) -> String {
         let record = ParametersRecord {
             format: PARAMETERS_FORMAT.to_string(),
@@ -197,6 +213,9 @@ impl Parameters {
     }
 
     /// Write the file atomically.
+    ///
+    /// # Errors
+    /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
     pub fn write(&self, path: &Path) -> Result<(), FileError> {
         write_atomic(path, self.to_yaml().as_bytes())
     }

@@ -19,6 +19,9 @@ pub struct GeometrySpread {
 }
 
 /// Tilt the unit vector `a` by a random tangent vector with components of deviation `sigma`.
+///
+/// # Panics
+/// If `sigma` is NaN.
 pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vector3<f64> {
     let normal = Normal::new(0.0, sigma.max(0.0)).expect("finite, non-negative deviation");
     let e1 = a.cross(&if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
@@ -29,6 +32,9 @@ pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vecto
 
 /// A geometry drawn around `nominal`: axes tilted, link angles and offsets shifted. `z` is
 /// re-orthogonalised against the moved `u`, as the conventions require.
+///
+/// # Panics
+/// If a spread is NaN.
 pub fn perturb<R: Rng + ?Sized>(nominal: &[LegGeometry; 3], spread: &GeometrySpread, rng: &mut R) -> [LegGeometry; 3] {
     let angle = Normal::new(0.0, spread.link_angle.max(0.0)).expect("finite deviation");
     let offset = Normal::new(0.0, spread.joint_offset.max(0.0)).expect("finite deviation");

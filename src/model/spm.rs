@@ -63,14 +63,27 @@ impl Default for FdaSettings {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum IkError {
-    #[error("orientation outside the workspace: leg {leg} cannot reach it (needs |cos| = {ratio:.6} > 1)")]
-    OutsideWorkspace { leg: usize, ratio: f64 },
+    #[error("orientation outside the workspace: leg {leg_number} cannot reach it (needs |cos| = {ratio:.6} > 1)", leg_number = .leg + 1)]
+    /// A leg cannot reach the orientation.
+    OutsideWorkspace {
+        /// Leg index (0-based).
+        leg: usize,
+        /// |cos| the leg would need (> 1).
+        ratio: f64,
+    },
     #[error("orientation is not finite")]
+    /// The orientation has non-finite entries.
     NotFinite,
     #[error(
-        "leg {leg} is at a serial singularity: its platform axis lies {angle_deg:.2e}° from its actuated axis, so the joint angle is undetermined"
-    )]
-    SerialSingularity { leg: usize, angle_deg: f64 },
+        "leg {leg_number} is at a serial singularity: its platform axis lies {angle_deg:.2e}° from its actuated axis, so the joint angle is undetermined"
+    , leg_number = .leg + 1)]
+    /// A leg's platform axis lines up with its actuated axis.
+    SerialSingularity {
+        /// Leg index (0-based).
+        leg: usize,
+        /// Angle between the axes, degrees.
+        angle_deg: f64,
+    },
 }
 
 /// Below this sine of the angle between a leg's platform axis and its actuated axis, IK refuses:
@@ -83,23 +96,46 @@ pub const IK_SINGULAR_SINE: f64 = 1e-6;
 #[non_exhaustive]
 pub enum FdaError {
     #[error("joint readings are not finite")]
+    /// A joint reading is NaN or infinite.
     NotFinite,
     #[error("Newton did not converge in {iterations} iterations (closure residual {residual:.3e})")]
-    NotConverged { iterations: u32, residual: f64 },
+    /// Newton did not converge.
+    NotConverged {
+        /// Iterations done.
+        iterations: u32,
+        /// Closure residual at the end.
+        residual: f64,
+    },
     #[error("pose at or near a parallel singularity (conditioning index {conditioning:.3e})")]
-    NearSingular { conditioning: f64 },
+    /// The pose is at or near a parallel singularity.
+    NearSingular {
+        /// Conditioning index of `A` (0 = singular).
+        conditioning: f64,
+    },
     #[error(
-        "leg {leg} is off its working branch (branch margin {margin:.3e}, below the working mode's minimum): at a serial singularity or beyond it"
-    )]
-    LeftWorkingMode { leg: usize, margin: f64 },
+        "leg {leg_number} is off its working branch (branch margin {margin:.3e}, below the working mode's minimum): at a serial singularity or beyond it"
+    , leg_number = .leg + 1)]
+    /// The solution left the working mode.
+    LeftWorkingMode {
+        /// Leg index (0-based).
+        leg: usize,
+        /// Its branch margin.
+        margin: f64,
+    },
     #[error("tracking jumped {jump_deg:.2}° from the previous orientation: start too far from the solution")]
-    JumpTooLarge { jump_deg: f64 },
+    /// Tracking jumped further than a step can.
+    JumpTooLarge {
+        /// Angle of the jump, degrees.
+        jump_deg: f64,
+    },
 }
 
 /// Velocity relation `A ω = B θ̇` at a pose: `A` rows `(w_i × v_i)ᵀ`, `B = diag((u_i × w_i) · v_i)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Jacobians {
+    /// `A`, rows `(w_i × v_i)ᵀ`.
     pub a: Matrix3<f64>,
+    /// `B = diag((u_i × w_i) · v_i)`.
     pub b: Matrix3<f64>,
 }
 
@@ -127,6 +163,7 @@ pub struct Spm {
     pub(crate) legs: [Leg; 3],
     /// Joint readings at the home orientation `R = I` (working mode).
     home_joints: Vector3<f64>,
+    /// Settings of the forward displacement analysis.
     pub settings: FdaSettings,
 }
 
@@ -135,25 +172,32 @@ pub struct Spm {
 #[non_exhaustive]
 pub enum SpmError {
     #[error(transparent)]
+    /// A leg's geometry is invalid.
     Geometry(#[from] GeometryError),
     #[error("the loop closure has no solution at home (R = I): {0}")]
+    /// The mechanism cannot be assembled at home.
     NoHomeClosure(IkError),
     #[error("the home pose (R = I) is at or near a singularity: {0}")]
+    /// The home pose is singular.
     SingularHome(FdaError),
-    #[error("platform axes v0 of legs {0} and {1} are parallel")]
+    #[error("platform axes v0 of legs {} and {} are parallel", .0 + 1, .1 + 1)]
+    /// Two platform axes are parallel (leg indices, 0-based).
     ParallelPlatformAxes(usize, usize),
 }
 
 impl Spm {
     /// Validate the three legs and prepare them; the home pose must be assemblable and regular.
+    ///
+    /// # Errors
+    /// An [`SpmError`] for an invalid leg, parallel platform axes, or a home pose that cannot be assembled or is singular.
     pub fn new(geometry: [LegGeometry; 3]) -> Result<Self, SpmError> {
         let mut checked = geometry;
         for (i, g) in checked.iter_mut().enumerate() {
-            *g = g.validated(i + 1)?;
+            *g = g.validated(i)?;
         }
         for (i, j) in [(0, 1), (1, 2), (0, 2)] {
             if checked[i].v0.cross(&checked[j].v0).norm() < 1e-6 {
-                return Err(SpmError::ParallelPlatformAxes(i + 1, j + 1));
+                return Err(SpmError::ParallelPlatformAxes(i, j));
             }
         }
         let mut spm = Spm {
@@ -169,6 +213,9 @@ impl Spm {
     }
 
     /// The nominal Agile Wrist of DESIGN.md: α1 = α2 = 90°, b = p = arctan √2.
+    ///
+    /// # Panics
+    /// Never: the nominal geometry is valid (a test checks it).
     pub fn agile_wrist_nominal() -> Self {
         let cone = 2f64.sqrt().atan();
         let right = std::f64::consts::FRAC_PI_2;
@@ -205,6 +252,9 @@ impl Spm {
     // ----- inverse kinematics -------------------------------------------------------------
 
     /// Joint readings (rad, in `(−π, π]`) that put the MP at `r`, every leg in the working branch.
+    ///
+    /// # Errors
+    /// An [`IkError`] when a leg cannot reach `r`, `r` is not finite or a leg is at a serial singularity.
     pub fn ik(&self, r: &Rotation3<f64>) -> Result<Vector3<f64>, IkError> {
         let mut joints = Vector3::zeros();
         for i in 0..3 {
@@ -219,6 +269,9 @@ impl Spm {
     /// `A = sin α1 z·v`, `B = sin α1 (u×z)·v`, `C = cos α2 − cos α1 u·v`; writing
     /// `A = ρ cos ψ`, `B = ρ sin ψ` gives `φ = ψ ± acos(C/ρ)`. Since
     /// `(u×w)·v = ρ sin(ψ − φ)`, the working branch (negative sign) is `φ = ψ + acos(C/ρ)`.
+    ///
+    /// # Errors
+    /// An [`IkError`] as for [`Spm::ik`], for leg `i`.
     pub fn ik_leg(&self, i: usize, r: &Rotation3<f64>, branch: Branch) -> Result<f64, IkError> {
         let leg = &self.legs[i];
         let v = r * leg.v0;
@@ -232,12 +285,12 @@ impl Spm {
         let ratio = c / rho;
         // Beyond 1 by more than rounding: the cone of v around w does not meet the circle of w.
         if ratio.abs() > 1.0 + 1e-12 {
-            return Err(IkError::OutsideWorkspace { leg: i + 1, ratio: ratio.abs() });
+            return Err(IkError::OutsideWorkspace { leg: i, ratio: ratio.abs() });
         }
         // ρ = sin α1 · sin∠(u, v): zero when v lies along u, where every φ closes the loop alike.
         let sine = rho / leg.sin_a1;
         if sine.is_nan() || sine < IK_SINGULAR_SINE {
-            return Err(IkError::SerialSingularity { leg: i + 1, angle_deg: sine.asin().to_degrees() });
+            return Err(IkError::SerialSingularity { leg: i, angle_deg: sine.asin().to_degrees() });
         }
         let gamma = ratio.clamp(-1.0, 1.0).acos();
         let psi = b.atan2(a);
@@ -284,7 +337,7 @@ impl Spm {
         let margins = self.branch_margins(joints, r);
         for i in 0..3 {
             if margins[i] > -self.settings.min_branch_margin {
-                return Err(FdaError::LeftWorkingMode { leg: i + 1, margin: margins[i] });
+                return Err(FdaError::LeftWorkingMode { leg: i, margin: margins[i] });
             }
         }
         Ok(())
@@ -324,6 +377,9 @@ impl Spm {
 
     /// Tracking FDA, the haptic-loop path: Newton from the `previous` orientation, then checks
     /// that the result is near it, regular and in the working mode. No heap allocation.
+    ///
+    /// # Errors
+    /// An [`FdaError`] for non-finite readings, no convergence, a near-singular pose, a jump from `previous` or a solution off the working mode.
     pub fn track(&self, joints: &Vector3<f64>, previous: &Rotation3<f64>) -> Result<Rotation3<f64>, FdaError> {
         if !joints.iter().all(|j| j.is_finite()) {
             return Err(FdaError::NotFinite);
@@ -341,6 +397,9 @@ impl Spm {
     /// FDA in the working mode: the solution continuously connected to home, followed along the
     /// straight joint-space path from the home readings by predictor–corrector continuation with
     /// step halving. Fails with a typed error at or near a singularity.
+    ///
+    /// # Errors
+    /// An [`FdaError`] for non-finite readings, a path through or near a singularity, or a solution off the working mode.
     pub fn forward(&self, joints: &Vector3<f64>) -> Result<Rotation3<f64>, FdaError> {
         if !joints.iter().all(|j| j.is_finite()) {
             return Err(FdaError::NotFinite);

@@ -29,6 +29,7 @@ pub const CLOSURE_TOLERANCE_RAD: f64 = 1e-6;
 /// A named marker on the MP.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Marker {
+    /// Marker name (from the companion).
     pub name: String,
     /// Position in the MP frame P, metres.
     pub position: Vector3<f64>,
@@ -37,9 +38,13 @@ pub struct Marker {
 /// Which rigid body of the mechanism a collision shape belongs to (legs 0-based).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Body {
+    /// The fixed base.
     Base,
+    /// The proximal link of a leg (0-based index).
     Proximal(usize),
+    /// The distal link of a leg (0-based index).
     Distal(usize),
+    /// The moving platform.
     Platform,
 }
 
@@ -48,18 +53,26 @@ pub enum Body {
 pub enum Shape {
     /// Along the local z axis, centred.
     Cylinder {
+        /// Radius (m).
         radius: f64,
+        /// Length (m).
         length: f64,
     },
     /// Along the local z axis, centred; `length` excludes the caps.
     Capsule {
+        /// Radius (m).
         radius: f64,
+        /// Length of the straight part (m).
         length: f64,
     },
+    /// A box, centred.
     Cuboid {
+        /// Half the side lengths (m).
         half_extents: Vector3<f64>,
     },
+    /// A sphere, centred.
     Sphere {
+        /// Radius (m).
         radius: f64,
     },
 }
@@ -67,18 +80,26 @@ pub enum Shape {
 /// A collision shape with its pose in B at the home pose.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyShape {
+    /// The body it moves with.
     pub body: Body,
+    /// The primitive.
     pub shape: Shape,
+    /// Its pose in B at the home pose.
     pub pose_at_home: Isometry3<f64>,
 }
 
 /// The nominal model: geometry, markers and collision shapes.
 #[derive(Debug, Clone)]
 pub struct RobotModel {
+    /// Robot name (URDF).
     pub name: String,
+    /// The URDF file.
     pub urdf_path: PathBuf,
+    /// The nominal mechanism.
     pub spm: Spm,
+    /// Markers on the MP (companion).
     pub markers: Vec<Marker>,
+    /// Collision shapes.
     pub shapes: Vec<BodyShape>,
 }
 
@@ -87,21 +108,68 @@ pub struct RobotModel {
 #[non_exhaustive]
 pub enum ModelError {
     #[error("{path}: {reason}")]
-    Unreadable { path: PathBuf, reason: String },
+    /// The URDF cannot be read or parsed.
+    Unreadable {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
     #[error(transparent)]
+    /// The companion file is invalid.
     File(FileError),
     #[error("{path}: joint `{joint}` {reason}")]
-    Joint { path: PathBuf, joint: String, reason: String },
+    /// A joint is invalid.
+    Joint {
+        /// The file.
+        path: PathBuf,
+        /// Joint name.
+        joint: String,
+        /// Why.
+        reason: String,
+    },
     #[error("{path}: link `{link}` {reason}")]
-    Link { path: PathBuf, link: String, reason: String },
+    /// A link is invalid.
+    Link {
+        /// The file.
+        path: PathBuf,
+        /// Link name.
+        link: String,
+        /// Why.
+        reason: String,
+    },
     #[error(
         "{path}: axis of joint `{joint}` misses the centre of rotation O by {distance_mm:.4} mm (tolerance {tolerance_mm} mm)"
     )]
-    AxisMissesCentre { path: PathBuf, joint: String, distance_mm: f64, tolerance_mm: f64 },
-    #[error("{path}: the loop closure of leg {leg} has no solution at home: {reason}")]
-    Closure { path: PathBuf, leg: usize, reason: String },
+    /// A joint axis does not pass through the centre of rotation.
+    AxisMissesCentre {
+        /// The file.
+        path: PathBuf,
+        /// Joint name.
+        joint: String,
+        /// Distance from the centre (mm).
+        distance_mm: f64,
+        /// Allowed distance (mm).
+        tolerance_mm: f64,
+    },
+    #[error("{path}: the loop closure of leg {leg_number} has no solution at home: {reason}", leg_number = .leg + 1)]
+    /// A leg does not close on the MP at home.
+    Closure {
+        /// The file.
+        path: PathBuf,
+        /// Leg index (0-based).
+        leg: usize,
+        /// Why.
+        reason: String,
+    },
     #[error("{path}: {source}")]
-    Geometry { path: PathBuf, source: SpmError },
+    /// The geometry does not make a usable manipulator.
+    Geometry {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: SpmError,
+    },
 }
 
 #[derive(Debug, Deserialize)]
@@ -146,6 +214,9 @@ fn origin_isometry(pose: &urdf_rs::Pose) -> Isometry3<f64> {
 
 impl RobotModel {
     /// Load `urdf` and its companion, derive and validate the geometry.
+    ///
+    /// # Errors
+    /// A [`ModelError`] naming the file and the joint or link for anything `check_urdf` rejects, a missing or invalid companion, axes that miss the centre, or legs that do not close.
     pub fn load(urdf: &Path) -> Result<Self, ModelError> {
         let robot = urdf_rs::read_file(urdf)
             .map_err(|e| ModelError::Unreadable { path: urdf.to_path_buf(), reason: e.to_string() })?;
@@ -358,7 +429,7 @@ impl<'a> Loader<'a> {
             } else {
                 Err(ModelError::Closure {
                     path: self.path.to_path_buf(),
-                    leg: leg + 1,
+                    leg,
                     reason: "the companion gives no `closes_on` link".into(),
                 })
             };
@@ -370,7 +441,7 @@ impl<'a> Loader<'a> {
         if angle > CLOSURE_TOLERANCE_RAD || offset > CONCURRENCY_TOLERANCE_M {
             return Err(ModelError::Closure {
                 path: self.path.to_path_buf(),
-                leg: leg + 1,
+                leg,
                 reason: format!(
                     "at the zero configuration link `{link}` is {:.4}° and {:.4} mm away from the MP",
                     angle.to_degrees(),

@@ -74,7 +74,7 @@ impl Logger<'_> {
         RecordError::Log { path: self.path.to_path_buf(), entity: entity.to_string(), reason: e.to_string() }
     }
 
-    pub fn scene(&mut self, scene: &Scene) -> Result<(), RecordError> {
+    pub(crate) fn scene(&mut self, scene: &Scene) -> Result<(), RecordError> {
         self.fixed(scene)?;
         self.poses(scene)?;
         self.iterations(scene)
@@ -184,9 +184,14 @@ impl Logger<'_> {
         Ok(())
     }
 
-    /// The fit, on the `iteration` timeline only.
+    /// The fit: a table (static, for the default layout) and plots on the `iteration` timeline.
     fn iterations(&self, scene: &Scene) -> Result<(), RecordError> {
         self.rec.reset_time();
+        if !scene.iterations.is_empty() {
+            let table =
+                TextDocument::new(iteration_table(&scene.iterations)).with_media_type(rerun::MediaType::markdown());
+            self.log_static(super::FIT_TABLE, &table)?;
+        }
         for it in &scene.iterations {
             self.rec.set_time_sequence("iteration", it.iteration as i64);
             self.log("fit/cost", &Scalars::single(it.cost))?;
@@ -195,4 +200,25 @@ impl Logger<'_> {
         }
         Ok(())
     }
+}
+
+/// The fit's iterations as a markdown table.
+fn iteration_table(iterations: &[crate::calib::IterationLog]) -> String {
+    let mut s = String::from(
+        "# The fit, iteration by iteration\n\nPlots of these columns are on the `iteration` timeline.\n\n\
+         | iteration | cost (rad²) | RMS (°) | step (rad) | radius (rad) | ratio | accepted |\n|---|---|---|---|---|---|---|\n",
+    );
+    for it in iterations {
+        s += &format!(
+            "| {} | {:.6e} | {:.5} | {:.3e} | {:.3e} | {:.3} | {} |\n",
+            it.iteration,
+            it.cost,
+            it.rms_deg,
+            it.step,
+            it.radius,
+            it.ratio,
+            if it.accepted { "yes" } else { "no" }
+        );
+    }
+    s
 }

@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Rotation3;
 use rerun::blueprint::{
-    Blueprint, BlueprintActivation, Horizontal, Spatial3DView, Tabs, TextDocumentView, TimePanel, TimeSeriesView,
-    Vertical,
+    Blueprint, BlueprintActivation, BlueprintPanel, Horizontal, SelectionPanel, Spatial3DView, Tabs, TextDocumentView,
+    TimePanel, TimeSeriesView, Vertical,
 };
 
 use crate::calib::IterationLog;
@@ -34,6 +34,7 @@ pub use scenes::{
 pub struct PoseFrames {
     /// Entity name under `world/mp/`.
     pub name: String,
+    /// Orientation (P → B) per pose.
     pub rotations: BTreeMap<u64, Rotation3<f64>>,
 }
 
@@ -42,19 +43,25 @@ pub struct PoseFrames {
 pub struct Series {
     /// Entity path under `errors/`.
     pub name: String,
+    /// Value per pose.
     pub values: BTreeMap<u64, f64>,
 }
 
 /// Everything one recording shows.
 pub struct Scene<'a> {
+    /// The session recorded.
     pub session: &'a Session,
+    /// Its model (markers, shapes).
     pub model: &'a RobotModel,
     /// The geometry that draws the legs and predicts the markers.
     pub mechanism: Spm,
     /// Camera registration, to put the measured markers in the base frame.
     pub registration: Option<CameraRegistration>,
+    /// MP orientations to draw (e.g. vision, nominal, calibrated).
     pub frames: Vec<PoseFrames>,
+    /// Per-pose scalars to plot.
     pub series: Vec<Series>,
+    /// The fit's iterations, on the `iteration` timeline.
     pub iterations: Vec<IterationLog>,
     /// `(entity under parameters/, markdown)`.
     pub documents: Vec<(String, String)>,
@@ -63,8 +70,11 @@ pub struct Scene<'a> {
 /// What was written.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RecordingSummary {
+    /// The `.rrd` file.
     pub path: PathBuf,
+    /// Poses recorded.
     pub poses: usize,
+    /// File size.
     pub bytes: u64,
 }
 
@@ -73,10 +83,27 @@ pub struct RecordingSummary {
 #[non_exhaustive]
 pub enum RecordError {
     #[error("{path}: cannot create the recording: {reason}")]
-    Create { path: PathBuf, reason: String },
+    /// The file cannot be created.
+    Create {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
     #[error("{path}: cannot log {entity}: {reason}")]
-    Log { path: PathBuf, entity: String, reason: String },
+    /// An entity cannot be logged.
+    Log {
+        /// The file.
+        path: PathBuf,
+        /// Entity path.
+        entity: String,
+        /// Why.
+        reason: String,
+    },
 }
+
+/// Entity of the fit's iteration table (a markdown document).
+const FIT_TABLE: &str = "fit/iterations";
 
 /// The Rerun application id of every recording.
 pub const APPLICATION: &str = "spmcal";
@@ -117,25 +144,43 @@ pub fn stage_recording(
 }
 
 /// The default layout: the 3-D scene beside the plots — FDA-vs-vision angles (degrees), `e_j`
-/// (dimensionless, so on its own axes), the fit — and one tab per parameters document (a text view
-/// shows one document). The `pose` timeline is selected: the `iteration` plots need `iteration`.
+/// (dimensionless, so on its own axes) — and tabs of documents: the fit's iterations and the
+/// parameter sets (a text view shows one document). Only panels with data are laid out, so the
+/// viewer opens with none empty; the fit's plots live on the `iteration` timeline (the time
+/// panel shows `pose`), so the layout shows the fit as a table, which needs no timeline. The 3-D
+/// view leaves out the camera (0.8 m away, it would shrink the wrist to a few pixels).
 fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::RecordingStreamResult<()> {
-    let mut plots: Vec<rerun::blueprint::ContainerLike> = vec![
-        TimeSeriesView::new("FDA vs vision (deg)").with_origin("errors/fda_vs_vision").into(),
-        TimeSeriesView::new("e_j").with_origin("errors/e_j").into(),
-        TimeSeriesView::new("fit (timeline: iteration)").with_origin("fit").into(),
-    ];
-    if !scene.documents.is_empty() {
-        let tabs = scene
+    let has = |prefix: &str| scene.series.iter().any(|s| s.name == prefix || s.name.starts_with(&format!("{prefix}/")));
+    let mut panels: Vec<rerun::blueprint::ContainerLike> = Vec::new();
+    if has("fda_vs_vision") {
+        panels.push(TimeSeriesView::new("FDA vs vision (deg)").with_origin("errors/fda_vs_vision").into());
+    }
+    if has("e_j") {
+        panels.push(TimeSeriesView::new("e_j").with_origin("errors/e_j").into());
+    }
+    let mut documents: Vec<rerun::blueprint::ContainerLike> = Vec::new();
+    if !scene.iterations.is_empty() {
+        documents.push(TextDocumentView::new("fit").with_origin(FIT_TABLE).into());
+    }
+    documents.extend(
+        scene
             .documents
             .iter()
-            .map(|(name, _)| TextDocumentView::new(name.as_str()).with_origin(format!("parameters/{name}")).into());
-        plots.push(Tabs::new(tabs).into());
+            .map(|(name, _)| TextDocumentView::new(name.as_str()).with_origin(format!("parameters/{name}")).into()),
+    );
+    if !documents.is_empty() {
+        panels.push(Tabs::new(documents).into());
     }
-    let blueprint = Blueprint::new(Horizontal::new([
-        Spatial3DView::new("mechanism").with_origin("world").into(),
-        Vertical::new(plots).into(),
-    ]))
-    .with_time_panel(TimePanel::new().with_timeline("pose"));
+    let mechanism = Spatial3DView::new("mechanism")
+        .with_origin("world")
+        .with_contents(["$origin/**", "- $origin/camera/**"])
+        .into();
+    let layout: rerun::blueprint::ContainerLike =
+        if panels.is_empty() { mechanism } else { Horizontal::new([mechanism, Vertical::new(panels).into()]).into() };
+    // The side panels start collapsed: the first look is at the data (a click opens them).
+    let blueprint = Blueprint::new(layout)
+        .with_blueprint_panel(BlueprintPanel::from_state(rerun::blueprint::components::PanelState::Collapsed))
+        .with_selection_panel(SelectionPanel::from_state(rerun::blueprint::components::PanelState::Collapsed))
+        .with_time_panel(TimePanel::new().with_timeline("pose"));
     blueprint.send(rec, BlueprintActivation::default())
 }

@@ -18,13 +18,22 @@ use crate::vision::{Method, SessionEstimate, VisionError, estimate_session};
 #[non_exhaustive]
 pub enum SceneError {
     #[error("vision: {0}")]
+    /// The vision estimate failed.
     Vision(#[from] VisionError),
     #[error("parameters: {0}")]
+    /// A parameter set makes no valid manipulator.
     Parameters(#[from] crate::model::SpmError),
     #[error("the camera registration cannot be estimated: too few poses, or every pose rotates about one axis")]
+    /// No camera registration can be estimated.
     Registration,
     #[error("reference pose {pose}: forward kinematics failed: {error}")]
-    ReferencePose { pose: u64, error: crate::model::FdaError },
+    /// The reference pose has no forward kinematics.
+    ReferencePose {
+        /// Pose id.
+        pose: u64,
+        /// Why.
+        error: crate::model::FdaError,
+    },
 }
 
 /// MP orientations by forward kinematics, pose by pose (poses whose FDA fails are left out).
@@ -72,10 +81,9 @@ fn registration(
     if kept.len() < 2 {
         return Err(SceneError::Registration);
     }
-    // The reference's place among the poses kept (not among all estimated ones).
-    let index = kept.iter().position(|(o, _)| o.pose == estimate.reference_pose).unwrap_or(0);
-    let (measured, predicted): (Vec<_>, Vec<_>) = kept.iter().map(|(o, r)| (o.measured, *r)).unzip();
-    let (rotation, a) = initial_registration(&predicted, &measured, index).ok_or(SceneError::Registration)?;
+    let (observed, predicted): (Vec<_>, Vec<_>) = kept.into_iter().unzip();
+    let (rotation, a) =
+        initial_registration(&observed, &predicted, estimate.reference_pose).ok_or(SceneError::Registration)?;
     let registration =
         estimate.centre.map(|c| CameraRegistration { rotation, translation: Vector3::from(c.position_m) });
     Ok(VisionPlacement { camera: rotation, reference: a, registration })
@@ -115,6 +123,9 @@ pub fn parameters_markdown(title: &str, p: &Parameters) -> String {
 
 /// `spmcal replay`: the mechanism from the joints (with `params`, else nominal), the markers from
 /// the camera, the MP frames from FDA and vision, and `e_j`.
+///
+/// # Errors
+/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
 pub fn replay_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,
@@ -126,6 +137,9 @@ pub fn replay_scene<'a>(
 
 /// `spmcal estimate --rrd`: a nominal replay whose vision frames and `e_j` are `estimate`'s, the
 /// ones the command computed (with the method it was asked for).
+///
+/// # Errors
+/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
 pub fn estimate_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,
@@ -167,6 +181,9 @@ fn vision_scene<'a>(
 }
 
 /// `spmcal simulate --rrd`: the true mechanism and camera, the true MP frames, the measured markers.
+///
+/// # Errors
+/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
 pub fn simulation_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
     let truth = session.truth.as_ref();
     let spm = match truth {
@@ -205,6 +222,9 @@ fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> S
 
 /// `spmcal calibrate --rrd`: nominal, calibrated and vision MP frames, the errors before and after,
 /// the fit's iterations, and the parameters before and after.
+///
+/// # Errors
+/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
 pub fn calibration_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,
@@ -244,6 +264,9 @@ pub fn calibration_scene<'a>(
 
 /// `spmcal compare --rrd`: each parameter set's MP frames and per-pose errors, with vision by the
 /// estimator the comparison used.
+///
+/// # Errors
+/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
 pub fn comparison_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,

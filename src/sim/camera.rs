@@ -26,12 +26,16 @@ pub fn lenses(registration: &CameraRegistration, baseline: f64) -> [Vector3<f64>
 pub struct Measurement {
     /// Marker centre in the camera frame, with noise.
     pub position: Vector3<f64>,
+    /// Drawn from the outlier distribution.
     pub outlier: bool,
 }
 
 /// Measure a point given in B: transform to the camera frame, then add stereo noise — lateral
 /// noise across the line of sight, depth noise along it growing with the squared distance
 /// (triangulation error ∝ z² / (f · baseline)) — and, rarely, an outlier.
+///
+/// # Panics
+/// If a noise deviation is negative or NaN (configs are checked when read).
 pub fn measure<R: Rng + ?Sized>(
     point_b: &Vector3<f64>,
     registration: &CameraRegistration,

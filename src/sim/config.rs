@@ -19,6 +19,7 @@ pub enum Trajectory {
 }
 
 impl Trajectory {
+    /// The name used in config files.
     pub fn name(self) -> &'static str {
         match self {
             Trajectory::Random => "random",
@@ -29,19 +30,29 @@ impl Trajectory {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+/// Settings of a simulated session; every field has a default (a partial file works).
 pub struct SimConfig {
+    /// Session name.
     pub name: String,
     /// The URDF model, relative to the config file (default: `models/agile_wrist.urdf` relative to
     /// the working directory, as on the command line).
     pub model: PathBuf,
+    /// Poses to simulate.
     pub poses: usize,
+    /// Random seed (same seed, same session).
     pub seed: u64,
     #[serde(default)]
+    /// Free-text description for `session.yaml`.
     pub description: Option<String>,
+    /// Spread of the true geometry.
     pub truth: TruthSpread,
+    /// Which orientations are visited.
     pub workspace: Workspace,
+    /// The stereo camera.
     pub camera: Camera,
+    /// The joint encoders.
     pub encoders: Encoders,
+    /// How markers are captured.
     pub capture: Capture,
 }
 
@@ -49,18 +60,27 @@ pub struct SimConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TruthSpread {
+    /// Tilt of each joint axis (deg).
     pub axis_tilt_deg: f64,
+    /// Link angles α1, α2 (deg).
     pub link_angle_deg: f64,
+    /// Encoder offsets δ (deg).
     pub joint_offset_deg: f64,
+    /// Camera position (m).
     pub camera_position_m: f64,
+    /// Camera rotation (deg).
     pub camera_rotation_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+/// The orientations a session visits.
 pub struct Workspace {
+    /// How they are drawn.
     pub trajectory: Trajectory,
+    /// Largest tilt of the MP from home (deg).
     pub max_tilt_deg: f64,
+    /// Largest yaw of the MP (deg).
     pub max_yaw_deg: f64,
     /// Poses whose conditioning index is below this are rejected (near a parallel singularity).
     pub min_conditioning: f64,
@@ -80,8 +100,11 @@ pub struct Camera {
     pub lateral_sigma_m: f64,
     /// Noise along the line of sight at `reference_distance_m`; grows with the distance squared.
     pub depth_sigma_m: f64,
+    /// Distance at which `depth_sigma_m` holds (m).
     pub reference_distance_m: f64,
+    /// Probability that a marker measurement is an outlier.
     pub outlier_probability: f64,
+    /// Standard deviation of an outlier measurement (m).
     pub outlier_sigma_m: f64,
     /// Radius of the spherical markers (the start of the line of sight for occlusion).
     pub marker_radius_m: f64,
@@ -89,13 +112,17 @@ pub struct Camera {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+/// Joint encoders.
 pub struct Encoders {
+    /// Encoder resolution (quantisation).
     pub counts_per_revolution: u32,
+    /// Reading noise (deg).
     pub noise_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+/// How markers are captured.
 pub struct Capture {
     /// One marker at a time, as in the paper, with a small motion of the MP between captures.
     pub sequential: bool,
@@ -179,6 +206,9 @@ pub const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
 
 impl SimConfig {
     /// Read and check a config; `model` is resolved against the config's folder.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the line and key of the first problem.
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let mut config: SimConfig = crate::yaml::read_checked(path, SimConfig::check)?;
         config.model = if config.model.as_os_str().is_empty() {
@@ -190,6 +220,9 @@ impl SimConfig {
     }
 
     /// Values serde accepted but that make no physical sense, as `(key, reason)`.
+    ///
+    /// # Errors
+    /// `(key, reason)` for the first value out of its range.
     pub fn check(&self) -> Result<(), (String, String)> {
         let non_negative = [
             ("truth.axis_tilt_deg", self.truth.axis_tilt_deg),

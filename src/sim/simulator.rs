@@ -22,16 +22,27 @@ use crate::so3;
 /// What a simulation did, for reports and `--json`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct SimSummary {
+    /// Session name.
     pub name: String,
+    /// Random seed.
     pub seed: u64,
+    /// Poses written.
     pub poses: usize,
+    /// Candidate orientations drawn.
     pub attempts: usize,
+    /// Candidates outside the workspace.
     pub rejected_unreachable: usize,
+    /// Candidates too near a singularity.
     pub rejected_singular: usize,
+    /// Candidates with colliding links.
     pub rejected_collision: usize,
+    /// Marker observations written.
     pub markers_seen: usize,
+    /// Markers hidden by the mechanism.
     pub markers_occluded: usize,
+    /// Outlier measurements drawn.
     pub outliers: usize,
+    /// Poses the per-pose estimator cannot use (fewer than 3 markers).
     pub poses_with_too_few_markers: usize,
 }
 
@@ -40,8 +51,10 @@ pub struct SimSummary {
 #[non_exhaustive]
 pub enum SimError {
     #[error("the true geometry drawn is not a valid manipulator (spreads too large?): {0}")]
+    /// The drawn true geometry is not a valid manipulator.
     Geometry(#[from] SpmError),
     #[error("only {found} of {wanted} poses survived {attempts} attempts: {cause}; loosen `{key}` in the config")]
+    /// Too few candidate orientations passed the checks.
     TooFewPoses {
         /// Poses accepted.
         found: usize,
@@ -75,6 +88,12 @@ struct Simulator<'a> {
 
 /// Simulate a session with `config` on `model`, with the counts of what was rejected, occluded
 /// and perturbed; `progress` is told the number of poses made so far. Deterministic for a seed.
+///
+/// # Errors
+/// A [`SimError`] when the drawn geometry is invalid or too few candidate poses pass the checks (naming the config key to loosen).
+///
+/// # Panics
+/// If `config` holds a negative or NaN deviation (configs are checked when read).
 pub fn simulate(
     config: &SimConfig,
     model: &RobotModel,

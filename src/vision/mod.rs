@@ -1,12 +1,10 @@
 //! Marker-based pose estimation: the paper's least squares and polar decomposition, the optimal
 //! (Kabsch) rotation, the error metric `e_j`, and the centre of rotation.
 
-mod accuracy;
 mod centre;
 mod pose;
 mod session;
 
-pub use accuracy::{AccuracyRow, accuracy_study};
 pub use centre::{CentreOfRotation, centre_of_rotation};
 pub use pose::{MarkerError, Method, PLANAR_RATIO, PoseEstimate, Reference, orthogonality_error};
 pub use session::{SessionEstimate, Stats, VisionError, estimate_session};

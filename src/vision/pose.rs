@@ -38,7 +38,11 @@ pub const PLANAR_RATIO: f64 = 0.05;
 #[non_exhaustive]
 pub enum MarkerError {
     #[error("{seen} markers seen in both this pose and the reference; at least 3 are needed")]
-    TooFew { seen: usize },
+    /// Fewer than 3 markers are seen in both poses.
+    TooFew {
+        /// Markers seen in both.
+        seen: usize,
+    },
     /// The markers cannot fix an orientation (judged against the marker noise).
     #[error(transparent)]
     Degenerate(#[from] Degeneracy),
@@ -48,8 +52,13 @@ pub enum MarkerError {
     #[error(
         "the putative rotation has determinant {det:.4} ≤ 0: the markers are mirrored (swapped labels?), not rotated"
     )]
-    Reflection { det: f64 },
+    /// The estimate is a reflection.
+    Reflection {
+        /// Its determinant.
+        det: f64,
+    },
     #[error("the putative rotation is singular: {0}")]
+    /// The estimate has no polar factor.
     Singular(crate::polar::PolarError),
 }
 
@@ -108,6 +117,9 @@ pub struct Reference {
 
 impl Reference {
     /// Factorise the reference positions of the markers to be used (in a fixed order).
+    ///
+    /// # Errors
+    /// A [`MarkerError`] when fewer than three markers are given or they are degenerate against the marker noise.
     pub fn new(points: &[Vector3<f64>]) -> Result<Self, MarkerError> {
         if points.len() < 3 {
             return Err(MarkerError::TooFew { seen: points.len() });
@@ -141,6 +153,9 @@ impl Reference {
 
     /// Estimate the rotation from this reference to `points` (the same markers, same order).
     /// No heap allocation: the per-pose work is a few 3×3 products.
+    ///
+    /// # Errors
+    /// A [`MarkerError`] when the markers are degenerate, give no unique or a mirrored rotation.
     pub fn estimate(&self, points: &[Vector3<f64>], method: Method) -> Result<PoseEstimate, MarkerError> {
         debug_assert_eq!(points.len(), self.markers());
         // Markers of this pose that coincide within the noise: their labels, and so the rotation,

@@ -15,19 +15,25 @@ use crate::so3;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("pose {pose}: {reason}")]
 pub struct VisionError {
+    /// Pose id.
     pub pose: u64,
+    /// Why it was skipped.
     pub reason: MarkerError,
 }
 
 /// Statistics of a column of numbers.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Stats {
+    /// Mean.
     pub mean: f64,
+    /// Median.
     pub median: f64,
+    /// Largest value.
     pub max: f64,
 }
 
 impl Stats {
+    /// `None` for an empty column.
     pub fn of(values: &[f64]) -> Option<Stats> {
         if values.is_empty() {
             return None;
@@ -43,18 +49,28 @@ impl Stats {
 /// The estimates of a session.
 #[derive(Debug, Clone)]
 pub struct SessionEstimate {
+    /// The estimator used.
     pub method: Method,
+    /// The pose rotations are measured from.
     pub reference_pose: u64,
     /// `(pose, estimate)` in session order; the reference pose is included (Q = I).
     pub poses: Vec<(u64, PoseEstimate)>,
     /// Angle (rad) between the paper's and Kabsch's rotation, per estimated pose.
     pub method_difference: Vec<f64>,
+    /// Poses skipped, and why.
     pub skipped: Vec<VisionError>,
+    /// Centre of rotation of the MP in the camera frame, when determined.
     pub centre: Option<CentreOfRotation>,
 }
 
 /// Estimate every pose of `session` against its reference pose. A reference pose whose markers
 /// are degenerate is an error; any other pose that fails is listed in `skipped`.
+///
+/// # Errors
+/// A [`VisionError`] when the reference pose's markers are too few or degenerate.
+///
+/// # Panics
+/// Never: only seen markers are used.
 pub fn estimate_session(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
     let reference = session.reference();
     let mut factors: HashMap<Vec<usize>, Reference> = HashMap::new();

@@ -1,26 +1,27 @@
 //! How accurate is each estimator? Simulated sessions at several camera noise levels, each pose's
 //! estimate compared with the true rotation from the reference pose (in the camera frame).
 
-use serde::Serialize;
-
-use super::pose::Method;
-use super::session::estimate_session;
-use crate::model::RobotModel;
-use crate::sim::{SimConfig, SimError, simulate};
-use crate::so3;
+use spmcal::model::RobotModel;
+use spmcal::sim::{SimConfig, SimError, simulate};
+use spmcal::so3;
+use spmcal::vision::{Method, estimate_session};
 
 /// One noise level of the study.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AccuracyRow {
     /// Multiple of the config's camera noise.
     pub noise_scale: f64,
+    /// Camera noise across the line of sight (mm).
     pub lateral_sigma_mm: f64,
+    /// Camera noise along the line of sight (mm).
     pub depth_sigma_mm: f64,
     /// RMS angle (degrees) between estimated and true rotations, per method.
     pub paper_rms_deg: f64,
+    /// The same for Kabsch's estimator.
     pub kabsch_rms_deg: f64,
     /// Mean `e_j`.
     pub mean_e: f64,
+    /// Poses estimated.
     pub poses: usize,
 }
 

@@ -1,18 +1,17 @@
 //! The vision accuracy study (not a timing): angular RMS error of the paper's estimator and of
 //! Kabsch's against the simulated truth, at several camera noise levels. Prints the README's table
-//! and writes `benches/vision_accuracy.svg`. Run: `cargo bench --bench vision_accuracy`.
+//! and writes `examples/vision_accuracy/vision_accuracy.svg`.
+//! Run: `cargo run --release --example vision_accuracy`.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
-use spmcal::vision::{AccuracyRow, accuracy_study};
+mod study;
+use study::{AccuracyRow, accuracy_study};
 
 fn main() {
-    if std::env::args().any(|a| a == "--list") {
-        return; // `cargo test --benches` lists benchmarks; this one has nothing to list.
-    }
     let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).expect("shipped config");
     config.poses = 400;
     let model = RobotModel::load(&config.model).expect("shipped model");
@@ -40,8 +39,8 @@ fn main() {
             );
         }
     }
-    std::fs::write("benches/vision_accuracy.svg", svg(&rows[0].1)).expect("write the figure");
-    println!("figure: benches/vision_accuracy.svg");
+    std::fs::write("examples/vision_accuracy/vision_accuracy.svg", svg(&rows[0].1)).expect("write the figure");
+    println!("figure: examples/vision_accuracy/vision_accuracy.svg");
 }
 
 /// A log–log plot of both methods' RMS error against the depth noise.
