@@ -48,7 +48,7 @@ impl FileError {
     }
 
     /// A YAML error: serde_yaml gives line and column except for a missing field.
-    pub fn from_yaml(path: &Path, e: &serde_yaml::Error) -> Self {
+    pub(crate) fn from_yaml(path: &Path, e: &serde_yaml::Error) -> Self {
         let err = FileError::new(path, e.to_string());
         match e.location() {
             Some(loc) => err.at_line(loc.line()),
@@ -62,7 +62,7 @@ impl FileError {
 ///
 /// # Errors
 /// A [`FileError`] when the temporary file cannot be created, written or renamed.
-pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
+pub(crate) fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(path)?;
     outputs.write(slot, contents)?;
@@ -155,7 +155,7 @@ impl Outputs {
 }
 
 /// The folder a file is written in (`.` for a bare file name).
-pub fn parent_folder(path: &Path) -> &Path {
+pub(crate) fn parent_folder(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -166,13 +166,13 @@ pub fn parent_folder(path: &Path) -> &Path {
 ///
 /// # Errors
 /// A [`FileError`] when the file cannot be read or is not UTF-8.
-pub fn read_text(path: &Path) -> Result<String, FileError> {
+pub(crate) fn read_text(path: &Path) -> Result<String, FileError> {
     std::fs::read_to_string(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))
 }
 
 /// A number for a text file: shortest text that reads back to the same `f64`, in plain
 /// notation where that is readable and in exponent notation for very small or large values.
-pub fn number(x: f64) -> String {
+pub(crate) fn number(x: f64) -> String {
     let a = x.abs();
     if a == 0.0 || (1e-4..1e7).contains(&a) { format!("{x}") } else { format!("{x:e}") }
 }
@@ -181,7 +181,7 @@ pub fn number(x: f64) -> String {
 ///
 /// # Errors
 /// A [`FileError`] when either path cannot be resolved.
-pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
+pub(crate) fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
     let canon = |p: &Path| p.canonicalize().map_err(|e| FileError::new(p, format!("cannot resolve: {e}")));
     let (from, target) = (canon(from)?, canon(target)?);
     let common = from.components().zip(target.components()).take_while(|(a, b)| a == b).count();
@@ -191,7 +191,7 @@ pub fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
 }
 
 /// `a/b/../c` → `a/c`, without touching the file system (for paths recorded in files).
-pub fn tidy_path(path: &Path) -> PathBuf {
+pub(crate) fn tidy_path(path: &Path) -> PathBuf {
     use std::path::Component;
     let mut out = PathBuf::new();
     for c in path.components() {

@@ -40,7 +40,7 @@ pub mod calib;
 pub mod compare;
 pub mod constellation;
 pub mod dataset;
-pub mod files;
+mod files;
 pub mod model;
 pub mod polar;
 pub mod record;
@@ -48,5 +48,7 @@ pub mod report;
 pub mod sim;
 pub mod so3;
 pub(crate) mod table;
+
+pub use files::{FileError, Outputs, Slot};
 pub mod vision;
 mod yaml;

@@ -9,13 +9,13 @@ use spmcal::calib::CalibConfig;
 use spmcal::dataset::{
     JointReading, OrientationRecord, Session, joints_csv, read_joints, read_orientations, write_orientations,
 };
-use spmcal::files::{Outputs, Slot};
 use spmcal::model::{Parameters, RobotModel};
 use spmcal::record::Scene;
 use spmcal::report::{self, Envelope};
 use spmcal::sim::SimConfig;
 use spmcal::so3;
 use spmcal::vision::{Method, estimate_session};
+use spmcal::{Outputs, Slot};
 
 mod cli {
     pub(crate) mod args;

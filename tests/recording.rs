@@ -216,7 +216,8 @@ fn blueprint_views(path: &Path) -> Vec<String> {
         let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
         for component in chunk.components_identifiers() {
             if component.as_str().contains("space_origin") {
-                origins.extend(chunk.iter_slices::<String>(component).flat_map(|s| s.into_iter().map(|s| s.to_string())));
+                origins
+                    .extend(chunk.iter_slices::<String>(component).flat_map(|s| s.into_iter().map(|s| s.to_string())));
             }
         }
     }
