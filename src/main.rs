@@ -97,7 +97,7 @@ fn ik(args: IkArgs) -> Result<()> {
     let mut readings = Vec::with_capacity(orientations.len());
     for o in &orientations {
         let joints = spm.ik(&o.rotation).with_context(|| format!("{source}:{}: pose {}", o.line, o.pose))?;
-        readings.push(JointReading { pose: o.pose, line: o.line, joints, time_s: None });
+        readings.push(JointReading { pose: o.pose, line: o.line, joints, time_s: None, station: None });
     }
     table_to(&mut outputs, slot, args.json, &joints_csv(&readings))?;
     outputs.commit()?;

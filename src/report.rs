@@ -6,7 +6,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::calib::{CalibrationReport, Convergence, ErrorSummary};
+use crate::calib::{CalibrationReport, Convergence, ErrorSummary, MarkerFitReport};
 use crate::compare::SetComparison;
 use crate::dataset::{JointReading, OrientationRecord};
 use crate::files::number;
@@ -324,12 +324,17 @@ impl fmt::Display for CalibrationReport {
         if r.excluded.len() > LISTED {
             writeln!(f, "  … and {} more (all are listed by --json)", r.excluded.len() - LISTED)?;
         }
-        writeln!(f, "FDA vs vision (deg)          RMS      median   max")?;
-        error_line(f, "nominal, fitted poses", &r.before.fit)?;
-        error_line(f, "calibrated, fitted poses", &r.after.fit)?;
-        if let (Some(b), Some(a)) = (&r.before.held_out, &r.after.held_out) {
-            error_line(f, "nominal, held out", b)?;
-            error_line(f, "calibrated, held out", a)?;
+        match &r.markers {
+            Some(m) => marker_summary(f, m)?,
+            None => {
+                writeln!(f, "FDA vs vision (deg)          RMS      median   max")?;
+                error_line(f, "nominal, fitted poses", &r.before.fit)?;
+                error_line(f, "calibrated, fitted poses", &r.after.fit)?;
+                if let (Some(b), Some(a)) = (&r.before.held_out, &r.after.held_out) {
+                    error_line(f, "nominal, held out", b)?;
+                    error_line(f, "calibrated, held out", a)?;
+                }
+            }
         }
         let iterations = r.iterations.len();
         match r.convergence {
@@ -399,8 +404,84 @@ impl fmt::Display for CalibrationReport {
                 "camera translation t_CB: undetermined (the poses do not fix the centre of rotation); no camera registration written"
             )?,
         }
+        if let Some(m) = &r.markers {
+            return marker_details(f, m);
+        }
         let outliers: Vec<String> =
             r.outliers.iter().map(|o| format!("{} ({:.3} deg)", o.pose, o.residual_deg)).collect();
         writeln!(f, "outlier poses: {}", if outliers.is_empty() { "none".to_string() } else { outliers.join(", ") })
     }
+}
+
+/// The verdict and the marker errors of a marker-level calibration (first, so it is read first).
+fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
+    writeln!(f, "marker-level fit: {} observations at {} poses", m.observations, m.poses)?;
+    if let Some(cv) = &m.cross_validation {
+        let verdict = if cv.clearly_better { "BETTER" } else { "NOT CLEARLY BETTER" };
+        writeln!(
+            f,
+            "verdict: {verdict}: on unseen poses ({}-fold cross-validation, {} observations) the calibrated model \
+             predicts the markers to {:.3} mm RMS against the nominal model's {:.3} mm",
+            cv.folds, cv.observations, cv.calibrated_rms_mm, cv.nominal_rms_mm
+        )?;
+    }
+    for w in &m.warnings {
+        writeln!(f, "WARNING: {w}")?;
+    }
+    writeln!(f, "FDA vs camera, markers (mm)  RMS      median   max")?;
+    for (label, e) in [("nominal", &m.before), ("calibrated", &m.after)] {
+        writeln!(f, "  {:<26} {:8.4} {:8.4} {:8.4}", label, e.rms_mm, e.median_mm, e.max_mm)?;
+    }
+    let per_marker: Vec<String> = m
+        .before
+        .per_marker
+        .iter()
+        .zip(&m.after.per_marker)
+        .map(|((name, n, b), (_, _, a))| format!("{name} {b:.3} → {a:.3} ({n})"))
+        .collect();
+    writeln!(f, "  per marker, mm RMS (observations): {}", per_marker.join(", "))
+}
+
+/// Fitted markers, stereo noise and flagged observations of a marker-level calibration.
+fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
+    if let Some(n) = &m.stereo_noise {
+        writeln!(
+            f,
+            "stereo noise at {:.3} m: across the line of sight {:.4} ± {:.4} mm, along it {:.4} ± {:.4} mm",
+            n.reference_distance_m,
+            n.lateral_m * 1e3,
+            n.lateral_std_error_m * 1e3,
+            n.depth_m * 1e3,
+            n.depth_std_error_m * 1e3
+        )?;
+    }
+    writeln!(f, "marker   fitted position in P (m)          change from the model (mm)         std error (mm)")?;
+    for k in &m.markers {
+        let se = k
+            .std_error_mm
+            .map_or("held at the model".to_string(), |s| format!("[{:.3}, {:.3}, {:.3}]", s[0], s[1], s[2]));
+        writeln!(
+            f,
+            "  {:<6} [{:+.5}, {:+.5}, {:+.5}]   [{:+7.3}, {:+7.3}, {:+7.3}]   {se}",
+            k.name, k.fitted_m[0], k.fitted_m[1], k.fitted_m[2], k.change_mm[0], k.change_mm[1], k.change_mm[2]
+        )?;
+    }
+    let excluded = m.flagged.iter().filter(|o| o.excluded).count();
+    writeln!(f, "flagged observations: {} ({excluded} excluded as gross errors)", m.flagged.len())?;
+    for o in m.flagged.iter().take(LISTED) {
+        writeln!(
+            f,
+            "  pose {} marker {} (markers.csv line {}): {:.3} mm, {:.1} sigma{}",
+            o.pose,
+            o.marker,
+            o.line,
+            o.residual_mm,
+            o.sigmas,
+            if o.excluded { ", excluded" } else { "" }
+        )?;
+    }
+    if m.flagged.len() > LISTED {
+        writeln!(f, "  … and {} more (all are listed by --json)", m.flagged.len() - LISTED)?;
+    }
+    Ok(())
 }

@@ -113,11 +113,32 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     let run = spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap()]);
     let report = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    assert!(report.contains("calibrated, held out") && report.contains("identifiability: 21 of 21"), "{report}");
+    // The marker-level fit (the default): 18 mechanism and camera-rotation parameters, t_CB, and
+    // four markers, all identifiable; the verdict first.
+    assert!(report.contains("verdict:") && report.contains("identifiability: 33 of 33"), "{report}");
     let written = spmcal::model::Parameters::read(&params).unwrap();
     assert_eq!(written.source, spmcal::model::ParameterSource::Calibrated);
     assert!(written.camera.is_some());
+    assert_eq!(written.markers.len(), 4);
+    assert!(written.markers.iter().all(|m| m.std_error.is_some()));
     let fit = written.fit.expect("the fit statistics are in the header");
+    assert!(fit["markers_rms_after_mm"].as_f64().unwrap() < fit["markers_rms_before_mm"].as_f64().unwrap());
+    // The orientation-level fit on request.
+    let config = dir.path().join("orientations.yaml");
+    std::fs::write(&config, "fit: orientations\n").unwrap();
+    let orientations = dir.path().join("orientations_params.yaml");
+    let run = spmcal(&[
+        "calibrate",
+        "--dataset",
+        "datasets/agile_wrist_sim_20",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        orientations.to_str().unwrap(),
+    ]);
+    let report = String::from_utf8_lossy(&run.stdout);
+    assert!(report.contains("calibrated, held out") && report.contains("identifiability: 21 of 21"), "{report}");
+    let fit = spmcal::model::Parameters::read(&orientations).unwrap().fit.unwrap();
     assert!(fit["rms_after_deg"].as_f64().unwrap() < fit["rms_before_deg"].as_f64().unwrap());
 
     let json = spmcal(&[
@@ -149,8 +170,12 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
         spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
     let report = &v["results"];
-    assert_eq!(report["parameters"].as_array().unwrap().len(), 21);
-    assert!(report["after"]["held_out"]["rms_deg"].as_f64().is_some());
+    // Angles in `parameters` (18: mechanism and camera rotation); t_CB and the markers (metres) in
+    // their own fields.
+    assert_eq!(report["parameters"].as_array().unwrap().len(), 18);
+    assert_eq!(report["markers"]["markers"].as_array().unwrap().len(), 4);
+    assert!(report["markers"]["cross_validation"]["calibrated_rms_mm"].as_f64().is_some());
+    assert!(report["markers"]["stereo_noise"]["depth_m"].as_f64().is_some());
 }
 
 #[test]
@@ -173,6 +198,13 @@ fn calibrate_reports_a_bad_config_with_its_line() {
         out.to_str().unwrap(),
     ]);
     let err = String::from_utf8_lossy(&run.stderr);
-    assert!(!run.status.success() && err.contains("c.yaml:4") && err.contains("cauchy"), "{err}");
+    // The line of `loss:` in the shipped config (comments and all).
+    let line = std::fs::read_to_string("configs/calibrate.yaml")
+        .unwrap()
+        .lines()
+        .position(|l| l.starts_with("loss:"))
+        .unwrap()
+        + 1;
+    assert!(!run.status.success() && err.contains(&format!("c.yaml:{line}")) && err.contains("cauchy"), "{err}");
     assert!(!out.exists(), "no parameters file after a failure");
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
-use spmcal::calib::{CalibConfig, calibrate};
+use spmcal::calib::{CalibConfig, FitLevel, calibrate};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
 
@@ -46,7 +46,8 @@ fn entities(chunks: &[Chunk]) -> BTreeSet<String> {
 fn calibration_recording_has_the_entities_poses_and_values() {
     let (session, _) = Session::load(Path::new("datasets/agile_wrist_sim_400"), None).unwrap();
     let model = RobotModel::load(&session.model).unwrap();
-    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let config = CalibConfig { fit: FitLevel::Orientations, ..CalibConfig::default() };
+    let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("calibration.rrd");
     let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
@@ -86,8 +87,9 @@ fn calibration_recording_has_the_entities_poses_and_values() {
     assert!(chunks.iter().any(|c| c.timelines().contains_key(&"time".into())));
     // Logged values are the computed ones: e_j per pose, and the fit's cost per iteration.
     let e = scalars(&chunks, "errors/e_j", "pose");
-    assert_eq!(e.len(), calibration.vision.poses.len());
-    for (pose, estimate) in &calibration.vision.poses {
+    let vision = calibration.vision.as_ref().unwrap();
+    assert_eq!(e.len(), vision.poses.len());
+    for (pose, estimate) in &vision.poses {
         assert_eq!(e[&(*pose as i64)], estimate.error);
     }
     let cost = scalars(&chunks, "fit/cost", "iteration");
@@ -247,4 +249,29 @@ fn the_default_blueprint_shows_only_panels_with_data() {
         // The fit is shown as a static table, which needs no timeline; a replay has none.
         assert_eq!(origins.iter().any(|o| o == "/fit/iterations"), name == "calibration", "{name}: {origins:?}");
     }
+}
+
+#[test]
+fn marker_level_calibration_recording_shows_fitted_and_model_markers_and_per_pose_errors() {
+    let (session, _) = Session::load(Path::new("datasets/agile_wrist_sequential_200"), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("markers.rrd");
+    let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
+    spmcal::record::write_recording(&path, &scene).unwrap();
+    let chunks = chunks(&path);
+    let found = entities(&chunks);
+    for e in
+        ["world/markers/model", "world/markers/predicted", "world/markers/measured", "errors/markers_mm/calibrated"]
+    {
+        assert!(found.contains(e), "{e} missing; found {found:?}");
+    }
+    // The per-pose values are the fit's: their RMS over observations is the report's.
+    let after = scalars(&chunks, "errors/markers_mm/calibrated", "pose");
+    assert_eq!(after.len(), calibration.report.markers.as_ref().unwrap().poses);
+    // One marker per capture here, so each pose's value is its one residual.
+    let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
+    let report = calibration.report.markers.as_ref().unwrap().after.rms_mm;
+    assert!((rms - report).abs() < 1e-9, "{rms} vs {report}");
 }

@@ -190,7 +190,8 @@ fn session_errors_name_the_pose_and_poses_with_three_markers_say_so() {
     session.write(dir.path()).unwrap();
     let (session, warnings) =
         spmcal::dataset::Session::load(dir.path(), Some(Path::new("models/agile_wrist.urdf"))).unwrap();
-    assert!(warnings.iter().any(|w| w.pose == ids[0]), "{warnings:?}");
+    // Few markers are data (for the marker-level fit), not a load warning; the estimator skips them.
+    assert!(warnings.is_empty(), "{warnings:?}");
     let result = spmcal::vision::estimate_session(&session, Method::Paper).unwrap();
     let skipped: Vec<String> = result.skipped.iter().map(|s| s.to_string()).collect();
     assert_eq!(skipped.len(), 2, "{skipped:?}");

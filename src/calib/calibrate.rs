@@ -4,8 +4,10 @@
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use serde::Serialize;
 
-use super::config::{CalibConfig, Group, Loss, Unidentifiable};
+use super::config::{CalibConfig, FitLevel, Group, Loss, Unidentifiable};
 use super::identify::{Identifiability, analyse};
+use super::marker_calibration::{MarkerFitReport, calibrate_markers};
+use super::markers::MarkerObservation;
 use super::params::Parameterisation;
 use super::registration::initial_registration;
 use super::residual::{EvalError, Observation, evaluate, observations};
@@ -61,6 +63,9 @@ pub enum CalibError {
         /// Why the fit failed.
         error: FitError,
     },
+    #[error("{0}; not written (`if_not_better: refuse`)")]
+    /// The calibrated model does not predict unseen poses clearly better than the nominal one.
+    NotBetter(String),
     #[error("held-out poses: {0}")]
     /// The calibrated model cannot predict a held-out pose.
     HeldOut(EvalError),
@@ -142,6 +147,8 @@ pub struct Outlier {
 pub struct CalibrationReport {
     /// Session name.
     pub session: String,
+    /// What was fitted.
+    pub fit: FitLevel,
     /// Vision estimator used for the measured orientations.
     pub vision_method: Method,
     /// Loss of the fit.
@@ -184,6 +191,8 @@ pub struct CalibrationReport {
     pub camera_translation_m: Option<[f64; 3]>,
     /// Its standard errors.
     pub camera_translation_std_error_m: Option<[f64; 3]>,
+    /// The marker-level fit's own figures (`fit: markers`).
+    pub markers: Option<MarkerFitReport>,
 }
 
 /// A calibration: the parameters file and the report, plus what a recording needs.
@@ -199,14 +208,16 @@ pub struct Calibration {
     pub observations: Vec<Observation>,
     /// Held-out poses.
     pub held_out: Vec<Observation>,
+    /// The marker observations fitted (`fit: markers`; empty otherwise).
+    pub marker_observations: Vec<MarkerObservation>,
     /// The nominal mechanism with its best registration.
     pub nominal: FitOutcome,
     /// The calibration fit.
     pub calibrated: FitOutcome,
     /// Parameter covariance over the full vector (zero rows for frozen parameters).
     pub covariance: DMatrix<f64>,
-    /// The vision estimate the fit used.
-    pub vision: SessionEstimate,
+    /// The vision estimate the fit used (orientation-level fit).
+    pub vision: Option<SessionEstimate>,
 }
 
 /// Below this largest rotation from the reference (degrees) the session holds no motion to
@@ -224,6 +235,9 @@ pub fn calibrate(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
     config.check().map_err(|(key, reason)| CalibError::Config { key, reason })?;
+    if config.fit == FitLevel::Markers {
+        return calibrate_markers(session, model, config, on_iteration);
+    }
     let vision = estimate_session(session, config.vision_method)?;
     let nominal_spm = &model.spm;
     // Observations whose nominal FDA exists.
@@ -292,6 +306,7 @@ pub fn calibrate(
     // centre undetermined (all about one axis) no registration is written rather than a made-up t_CB.
     let centre = vision.centre;
     let mut parameters = Parameters {
+        markers: Vec::new(),
         source: ParameterSource::Calibrated,
         model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
         legs: p.legs(&calibrated.x),
@@ -304,6 +319,7 @@ pub fn calibrate(
     let reports = parameter_reports(&p, &calibrated.x, &covariance, &free);
     let report = CalibrationReport {
         session: session.name.clone(),
+        fit: FitLevel::Orientations,
         vision_method: config.vision_method,
         loss: config.loss,
         poses: session.poses.len(),
@@ -328,6 +344,7 @@ pub fn calibrate(
         outliers: outliers(&observations, &calibrated, config.outlier_threshold),
         camera_translation_m: centre.map(|c| c.position_m),
         camera_translation_std_error_m: centre.map(|c| c.std_error_m),
+        markers: None,
     };
     parameters.fit = Some(fit_header(&report));
     Ok(Calibration {
@@ -336,10 +353,11 @@ pub fn calibrate(
         parameterisation: p,
         observations,
         held_out,
+        marker_observations: Vec::new(),
         nominal,
         calibrated,
         covariance,
-        vision,
+        vision: Some(vision),
     })
 }
 
@@ -354,7 +372,7 @@ fn weighted_jacobian(outcome: &FitOutcome) -> DMatrix<f64> {
     jac
 }
 
-fn identifiability_at(
+pub(super) fn identifiability_at(
     p: &Parameterisation,
     start: &FitOutcome,
     free: &[bool],
@@ -367,7 +385,7 @@ fn identifiability_at(
 
 /// `σ̂² (J̃ᵀ W J̃ + Λ)⁻¹` over the free parameters, embedded in the full vector; `σ̂²` is the weighted
 /// whitened residual variance per degree of freedom (≈ 1 when the whitening fits the noise).
-fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMatrix<f64>>) -> DMatrix<f64> {
+pub(super) fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMatrix<f64>>) -> DMatrix<f64> {
     let n = free.len();
     let idx: Vec<usize> = (0..n).filter(|&i| free[i]).collect();
     let jac = weighted_jacobian(outcome);
@@ -401,7 +419,7 @@ fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMatrix<f64>>)
     full
 }
 
-fn parameter_reports(
+pub(super) fn parameter_reports(
     p: &Parameterisation,
     x: &DVector<f64>,
     cov: &DMatrix<f64>,
@@ -419,7 +437,7 @@ fn parameter_reports(
         .collect()
 }
 
-fn correlations(p: &Parameterisation, cov: &DMatrix<f64>, threshold: f64) -> Vec<Correlation> {
+pub(super) fn correlations(p: &Parameterisation, cov: &DMatrix<f64>, threshold: f64) -> Vec<Correlation> {
     let mut out = Vec::new();
     for i in 0..p.len() {
         for k in (i + 1)..p.len() {
@@ -470,7 +488,7 @@ fn outliers(observations: &[Observation], outcome: &FitOutcome, threshold: f64) 
 }
 
 /// The `fit:` header of the parameters file.
-fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
+pub(super) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
     #[derive(Serialize)]
     struct Header<'a> {
         session: &'a str,
@@ -488,7 +506,16 @@ fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         condition_number: f64,
         std_errors_deg: Vec<(&'a str, f64)>,
         camera_translation_std_error_m: Option<[f64; 3]>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        markers_rms_before_mm: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        markers_rms_after_mm: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        cross_validated_rms_mm: Option<[f64; 2]>,
+        #[serde(skip_serializing_if = "Vec::is_empty")]
+        warnings: Vec<&'a str>,
     }
+    let markers = report.markers.as_ref();
     let header = Header {
         session: &report.session,
         vision_method: report.vision_method,
@@ -509,6 +536,12 @@ fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
             .filter_map(|p| p.std_error_deg.map(|s| (p.name.as_str(), s)))
             .collect(),
         camera_translation_std_error_m: report.camera_translation_std_error_m,
+        markers_rms_before_mm: markers.map(|m| m.before.rms_mm),
+        markers_rms_after_mm: markers.map(|m| m.after.rms_mm),
+        cross_validated_rms_mm: markers
+            .and_then(|m| m.cross_validation.as_ref())
+            .map(|cv| [cv.nominal_rms_mm, cv.calibrated_rms_mm]),
+        warnings: markers.map(|m| m.warnings.iter().map(String::as_str).collect()).unwrap_or_default(),
     };
     serde_yaml::to_value(header).expect("the header serialises")
 }

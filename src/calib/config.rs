@@ -23,8 +23,37 @@ pub enum Group {
     JointOffsets,
     /// Camera rotation `R_CB`.
     CameraRotation,
-    /// Orientation of the reference pose's markers in the camera (a property of the session).
+    /// Orientation of the reference pose's markers in the camera (a property of the session;
+    /// orientation-level fit only).
     ReferenceRotation,
+    /// Camera translation `t_CB` (marker-level fit).
+    CameraTranslation,
+    /// The markers' positions on the MP (marker-level fit).
+    MarkerPositions,
+}
+
+/// What the calibration fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FitLevel {
+    /// Every marker observation with its capture's encoder reading, under the stereo noise model
+    /// (maximum likelihood); the markers' positions and `t_CB` are fitted too.
+    #[default]
+    Markers,
+    /// Per-pose orientation estimates of the vision estimator (needs three markers per pose).
+    Orientations,
+}
+
+/// What `calibrate` does when the calibrated model does not predict unseen data clearly better
+/// than the nominal one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IfNotBetter {
+    /// Write the parameters, with the warning in the report and in the file's header.
+    #[default]
+    Warn,
+    /// Write nothing: the calibration fails with the reason.
+    Refuse,
 }
 
 /// The loss applied to each pose's residual norm.
@@ -51,6 +80,13 @@ pub enum Unidentifiable {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CalibConfig {
+    /// What to fit: marker observations (default) or per-pose orientations.
+    pub fit: FitLevel,
+    /// Folds of the cross-validation that measures the error on unseen poses (marker-level fit;
+    /// stations kept together). 0 or 1: none.
+    pub folds: usize,
+    /// What to do when the calibrated model does not predict unseen data clearly better.
+    pub if_not_better: IfNotBetter,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
     /// Loss applied to each pose residual.
@@ -88,17 +124,22 @@ pub struct Bounds {
     pub link_angle_deg: f64,
     /// Encoder offset δ.
     pub joint_offset_deg: f64,
+    /// Departure of a marker's position from the model's, per axis (m; marker-level fit).
+    pub marker_position_m: f64,
 }
 
 impl Default for Bounds {
     fn default() -> Self {
-        Bounds { axis_tilt_deg: 10.0, link_angle_deg: 5.0, joint_offset_deg: 30.0 }
+        Bounds { axis_tilt_deg: 10.0, link_angle_deg: 5.0, joint_offset_deg: 30.0, marker_position_m: 0.03 }
     }
 }
 
 impl Default for CalibConfig {
     fn default() -> Self {
         CalibConfig {
+            fit: FitLevel::Markers,
+            folds: 5,
+            if_not_better: IfNotBetter::Warn,
             vision_method: Method::Kabsch,
             loss: Loss::Huber,
             huber_threshold: 3.0,
@@ -137,6 +178,7 @@ impl CalibConfig {
             ("bounds.axis_tilt_deg", self.bounds.axis_tilt_deg),
             ("bounds.link_angle_deg", self.bounds.link_angle_deg),
             ("bounds.joint_offset_deg", self.bounds.joint_offset_deg),
+            ("bounds.marker_position_m", self.bounds.marker_position_m),
             ("min_singular_ratio", self.min_singular_ratio),
         ];
         for (key, value) in positive {

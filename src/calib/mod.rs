@@ -4,6 +4,8 @@
 mod calibrate;
 mod config;
 mod identify;
+mod marker_calibration;
+mod markers;
 mod params;
 mod registration;
 mod residual;
@@ -13,11 +15,14 @@ pub use calibrate::{
     CalibError, Calibration, CalibrationReport, Correlation, ErrorSummary, Errors, MIN_MOTION_DEG, Outlier,
     ParameterReport, calibrate,
 };
-pub use config::{Bounds, CalibConfig, Group, Loss, Unidentifiable};
+pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 pub use identify::{Direction, Identifiability, analyse};
+pub use marker_calibration::{CrossValidation, FlaggedObservation, MarkerErrors, MarkerFitReport, MarkerReport};
+pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub(crate) use registration::initial_registration;
 pub use residual::{EvalError, Evaluation, Observation, Predicted, Unpredicted, evaluate, observations};
 pub use solver::{
-    Convergence, FitError, FitOutcome, FitSettings, IterationLog, RELATIVE_COST_TOLERANCE, Weighting, fit, rms,
+    Convergence, FitError, FitOutcome, FitSettings, IterationLog, Model, Orientations, RELATIVE_COST_TOLERANCE,
+    Weighting, fit, fit_model, rms,
 };

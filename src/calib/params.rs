@@ -61,6 +61,18 @@ pub enum Kind {
         /// Axis 0, 1 or 2.
         k: usize,
     },
+    /// Component `k` of the camera translation `t_CB` (m).
+    Translation {
+        /// Axis 0, 1 or 2.
+        k: usize,
+    },
+    /// Component `k` of marker `marker`'s position in P (m).
+    Marker {
+        /// Marker index (as in the session's `markers`).
+        marker: usize,
+        /// Axis 0, 1 or 2.
+        k: usize,
+    },
 }
 
 impl Kind {
@@ -74,6 +86,8 @@ impl Kind {
             Kind::PlatformTilt { .. } => Group::PlatformAxes,
             Kind::Camera { .. } => Group::CameraRotation,
             Kind::Reference { .. } => Group::ReferenceRotation,
+            Kind::Translation { .. } => Group::CameraTranslation,
+            Kind::Marker { .. } => Group::MarkerPositions,
         }
     }
 
@@ -85,7 +99,7 @@ impl Kind {
             | Kind::Alpha2 { leg }
             | Kind::Offset { leg }
             | Kind::PlatformTilt { leg, .. } => Some(leg),
-            Kind::Camera { .. } | Kind::Reference { .. } => None,
+            Kind::Camera { .. } | Kind::Reference { .. } | Kind::Translation { .. } | Kind::Marker { .. } => None,
         }
     }
 }
@@ -114,6 +128,10 @@ pub struct Parameterisation {
     pub actuated_dirs: [Vec<Vector3<f64>>; 3],
     /// Rotation directions that tilt `v0_i` (0, 1 or 2 of them).
     pub platform_dirs: [Vec<Vector3<f64>>; 3],
+    /// Camera translation `t_CB` at `x = 0` (marker level; zero otherwise).
+    pub translation0: Vector3<f64>,
+    /// Marker positions in P at `x = 0` (marker level; empty otherwise).
+    pub markers0: Vec<Vector3<f64>>,
     /// One entry per parameter.
     pub entries: Vec<Entry>,
 }
@@ -167,7 +185,54 @@ impl Parameterisation {
         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
             push(Kind::Reference { k }, format!("reference.rotation_{axis}"), None);
         }
-        Parameterisation { initial, camera0, reference0, actuated_dirs, platform_dirs, entries }
+        Parameterisation {
+            initial,
+            camera0,
+            reference0,
+            actuated_dirs,
+            platform_dirs,
+            translation0: Vector3::zeros(),
+            markers0: Vec::new(),
+            entries,
+        }
+    }
+
+    /// The marker-level parameterisation: the mechanism (gauge-fixed as in [`Self::new`]), the
+    /// camera registration `R_CB = exp(c) R_CB⁰`, `t_CB = t⁰ + Δt`, and every marker's position
+    /// `p_k = p_k⁰ + Δp_k` in P (named after `names`). No reference rotation: every observation
+    /// is compared with the model directly.
+    pub fn for_markers(
+        initial: [LegGeometry; 3],
+        camera0: &crate::model::CameraRegistration,
+        markers0: &[Vector3<f64>],
+        names: &[String],
+        bounds: &Bounds,
+    ) -> Self {
+        let mut p = Parameterisation::new(initial, camera0.rotation, Rotation3::identity(), bounds);
+        p.entries.retain(|e| !matches!(e.kind, Kind::Reference { .. }));
+        p.translation0 = camera0.translation;
+        p.markers0 = markers0.to_vec();
+        let bound = Some(bounds.marker_position_m);
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            p.entries.push(Entry { kind: Kind::Translation { k }, name: format!("camera.t_{axis}"), bound: None });
+        }
+        for (marker, name) in names.iter().enumerate() {
+            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+                let entry = Entry { kind: Kind::Marker { marker, k }, name: format!("{name}.{axis}"), bound };
+                p.entries.push(entry);
+            }
+        }
+        p
+    }
+
+    /// `t_CB` at `x`.
+    pub fn translation(&self, x: &DVector<f64>) -> Vector3<f64> {
+        self.translation0 + Vector3::from_fn(|k, _| self.value(x, Kind::Translation { k }))
+    }
+
+    /// The position of marker `marker` in P at `x`.
+    pub fn marker(&self, x: &DVector<f64>, marker: usize) -> Vector3<f64> {
+        self.markers0[marker] + Vector3::from_fn(|k, _| self.value(x, Kind::Marker { marker, k }))
     }
 
     /// Number of parameters.
@@ -272,6 +337,8 @@ impl Parameterisation {
                 }
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
+                // Marker-level entries are set by `TruthInGauge::for_markers`.
+                Kind::Translation { .. } | Kind::Marker { .. } => 0.0,
             };
         }
         x
@@ -316,6 +383,27 @@ impl TruthInGauge {
         // A = R_CB R_0 (P → C at the reference pose); in the new frames R_0' = G R_0 Hᵀ.
         let reference = camera * (base * reference_pose * platform.inverse());
         TruthInGauge { x: p.coordinates(&moved, &camera, &reference), base, platform }
+    }
+
+    /// A true marker-level parameter set (legs, camera registration, marker positions in the true
+    /// P) expressed in `p`'s gauge (a [`Parameterisation::for_markers`]): `R_CB Gᵀ`, `t_CB`, `H p_k`.
+    pub fn for_markers(
+        p: &Parameterisation,
+        legs: &[LegGeometry; 3],
+        camera: &crate::model::CameraRegistration,
+        markers: &[Vector3<f64>],
+    ) -> Self {
+        let mut truth = TruthInGauge::new(p, legs, &camera.rotation, &Rotation3::identity());
+        for (i, e) in p.entries.iter().enumerate() {
+            match e.kind {
+                Kind::Translation { k } => truth.x[i] = camera.translation[k] - p.translation0[k],
+                Kind::Marker { marker, k } => {
+                    truth.x[i] = (truth.platform * markers[marker])[k] - p.markers0[marker][k]
+                }
+                _ => {}
+            }
+        }
+        truth
     }
 
     /// A true orientation `R` (true P → true B) in the fit's frames: `G R Hᵀ`.

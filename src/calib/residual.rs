@@ -147,7 +147,7 @@ pub fn evaluate(
 }
 
 /// Per-leg quantities of the parameterisation at `x` that every pose's derivative uses.
-struct Frames<'a> {
+pub(crate) struct Frames<'a> {
     p: &'a Parameterisation,
     /// Per leg: `J_l(φ_u) e_k` and `J_l(φ_v0) e_k` for each tilt direction.
     actuated: [Vec<Vector3<f64>>; 3],
@@ -155,7 +155,7 @@ struct Frames<'a> {
 }
 
 impl<'a> Frames<'a> {
-    fn new(p: &'a Parameterisation, x: &DVector<f64>) -> Self {
+    pub(crate) fn new(p: &'a Parameterisation, x: &DVector<f64>) -> Self {
         let actuated = std::array::from_fn(|leg| {
             let jl = so3::left_jacobian(&p.tilts(x, leg).0);
             p.actuated_dirs[leg].iter().map(|d| jl * d).collect()
@@ -168,7 +168,7 @@ impl<'a> Frames<'a> {
     }
 
     /// `∂ω/∂x = −Ã⁻¹ F_x` (3 × N; zero columns for the registration).
-    fn orientation_sensitivity(
+    pub(crate) fn orientation_sensitivity(
         &self,
         spm: &Spm,
         legs: &[LegGeometry; 3],
@@ -217,7 +217,7 @@ impl<'a> Frames<'a> {
                 let dy = du.cross(&g.z) + g.u.cross(&dz);
                 (du * ca + (dz * cp + dy * sp) * sa).dot(v)
             }
-            Kind::Camera { .. } | Kind::Reference { .. } => 0.0,
+            Kind::Camera { .. } | Kind::Reference { .. } | Kind::Translation { .. } | Kind::Marker { .. } => 0.0,
         }
     }
 }

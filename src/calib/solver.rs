@@ -18,7 +18,7 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SecondOrderConeT, SolverStatus, SupportedConeT,
 };
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 use super::config::{CalibConfig, Loss};
 use super::params::Parameterisation;
@@ -178,6 +178,8 @@ pub struct Weighting {
     pub sigma: f64,
     /// `(markers used, poses, Σ_r)` per class (rad²); empty while unwhitened.
     pub classes: Vec<(usize, usize, Matrix3<f64>)>,
+    /// The stereo noise model of a marker-level fit, once estimated.
+    pub stereo: Option<super::markers::StereoNoise>,
 }
 
 /// Classes with fewer poses than this share the pooled covariance.
@@ -211,6 +213,7 @@ impl Weighting {
             weights: vec![1.0; poses],
             sigma: 1.0,
             classes: Vec::new(),
+            stereo: None,
         }
     }
 
@@ -287,10 +290,60 @@ fn prior_cost(settings: &FitSettings, x: &DVector<f64>) -> f64 {
     })
 }
 
+/// What a fit fits: residuals (3-vectors: a pose's rotation, a marker's position) of a
+/// parameterisation, and the noise model that whitens them.
+pub trait Model {
+    /// The parameters.
+    fn parameterisation(&self) -> &Parameterisation;
+
+    /// Residuals (and optionally their Jacobian) at `x`; each pose's FDA starts from `warm` (the
+    /// orientations of the previous evaluation) when given.
+    ///
+    /// # Errors
+    /// An [`EvalError`] when the parameters make no valid manipulator or a pose's FDA fails.
+    fn evaluate(
+        &self,
+        x: &DVector<f64>,
+        warm: Option<&[Rotation3<f64>]>,
+        with_jacobian: bool,
+    ) -> Result<Evaluation, EvalError>;
+
+    /// Re-estimate the noise model from the residuals (feasible GLS): set `weighting.whitening`.
+    fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]);
+}
+
+/// The orientation-level model: one rotation residual per pose, poses whitened by the covariance
+/// of their class (markers the vision estimate used).
+pub struct Orientations<'a> {
+    /// The parameters.
+    pub p: &'a Parameterisation,
+    /// The poses.
+    pub observations: &'a [Observation],
+}
+
+impl Model for Orientations<'_> {
+    fn parameterisation(&self) -> &Parameterisation {
+        self.p
+    }
+
+    fn evaluate(
+        &self,
+        x: &DVector<f64>,
+        warm: Option<&[Rotation3<f64>]>,
+        with_jacobian: bool,
+    ) -> Result<Evaluation, EvalError> {
+        evaluate(self.p, x, self.observations, warm, with_jacobian)
+    }
+
+    fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]) {
+        let markers: Vec<usize> = self.observations.iter().map(|o| o.markers).collect();
+        weighting.whiten_by_class(residuals, &markers);
+    }
+}
+
 /// What stays fixed during a fit.
 struct Problem<'a> {
-    p: &'a Parameterisation,
-    observations: &'a [Observation],
+    model: &'a dyn Model,
     settings: &'a FitSettings,
     /// Indices of the free parameters.
     free: Vec<usize>,
@@ -319,17 +372,30 @@ pub fn fit(
     settings: &FitSettings,
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<FitOutcome, FitError> {
-    let problem = Problem { p, observations, settings, free: (0..p.len()).filter(|&i| settings.free[i]).collect() };
-    let markers: Vec<usize> = observations.iter().map(|o| o.markers).collect();
+    fit_model(&Orientations { p, observations }, x0, settings, on_iteration)
+}
+
+/// [`fit`] for any [`Model`].
+///
+/// # Errors
+/// As [`fit`].
+pub fn fit_model(
+    model: &dyn Model,
+    x0: &DVector<f64>,
+    settings: &FitSettings,
+    on_iteration: &mut dyn FnMut(&IterationLog),
+) -> Result<FitOutcome, FitError> {
+    let n = model.parameterisation().len();
+    let problem = Problem { model, settings, free: (0..n).filter(|&i| settings.free[i]).collect() };
     let mut x = x0.clone();
-    let mut eval = evaluate(p, &x, observations, None, true).map_err(FitError::Start)?;
+    let mut eval = model.evaluate(&x, None, true).map_err(FitError::Start)?;
     let mut radius = settings.initial_radius;
     let mut log: Vec<IterationLog> = Vec::new();
-    let mut weighting = Weighting::isotropic(observations.len());
+    let mut weighting = Weighting::isotropic(eval.residuals.len());
     let mut status = Convergence::Converged;
     for whitened in [false, true] {
         if whitened {
-            weighting.whiten_by_class(&eval.residuals, &markers);
+            model.whiten(&mut weighting, &eval.residuals);
         }
         weighting.rescale(&eval.residuals);
         weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
@@ -398,7 +464,8 @@ impl Problem<'_> {
         radius: &mut f64,
         iteration: u32,
     ) -> Result<(IterationLog, Option<Convergence>), FitError> {
-        let (p, observations, settings, free) = (self.p, self.observations, self.settings, &self.free);
+        let (model, settings, free) = (self.model, self.settings, &self.free);
+        let p = model.parameterisation();
         let cost = weighting.cost(&eval.residuals) + prior_cost(settings, x);
         if !cost.is_finite() {
             return Err(FitError::Diverged { iteration, reason: format!("the cost is {cost}") });
@@ -411,7 +478,7 @@ impl Problem<'_> {
         for (k, &i) in free.iter().enumerate() {
             trial_x[i] += step[k];
         }
-        let trial = evaluate(p, &trial_x, observations, Some(&eval.orientations), false);
+        let trial = model.evaluate(&trial_x, Some(&eval.orientations), false);
         let actual = match &trial {
             Ok(t) => cost - weighting.cost(&t.residuals) - prior_cost(settings, &trial_x),
             Err(_) => f64::NEG_INFINITY,
@@ -436,7 +503,7 @@ impl Problem<'_> {
         let done = if accepted {
             let orientations = trial.expect("accepted steps evaluated").orientations;
             *x = trial_x;
-            *eval = evaluate(p, x, observations, Some(&orientations), true).map_err(FitError::Start)?;
+            *eval = model.evaluate(x, Some(&orientations), true).map_err(FitError::Start)?;
             if ratio > 0.75 && step_norm > 0.9 * *radius {
                 *radius = (2.0 * *radius).min(0.5);
             }

@@ -1,5 +1,5 @@
-//! `joints.csv`: `pose,theta1_rad,theta2_rad,theta3_rad`, optional `time_s`; other extra columns
-//! are allowed and ignored.
+//! `joints.csv`: `pose,theta1_rad,theta2_rad,theta3_rad`, optional `time_s` and `station`; other
+//! extra columns are allowed and ignored.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -21,6 +21,9 @@ pub struct JointReading {
     pub joints: Vector3<f64>,
     /// Capture time, when the file has a `time_s` column.
     pub time_s: Option<f64>,
+    /// The station the capture belongs to (captures meant as one pose), when the file has a
+    /// `station` column.
+    pub station: Option<u64>,
 }
 
 const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
@@ -30,7 +33,7 @@ const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
 /// # Errors
 /// A [`FileError`] naming the line and column of the first bad value, missing column or repeated pose.
 pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
-    let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s"])?;
+    let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s", "station"])?;
     let mut seen = HashSet::new();
     let mut out = Vec::new();
     for row in table.all_rows()? {
@@ -40,19 +43,27 @@ pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
         }
         let joints = Vector3::new(table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?);
         let time_s = table.optional_number(&row, 4)?;
-        out.push(JointReading { pose, line: row.line, joints, time_s });
+        let station = if row.fields[5].trim().is_empty() { None } else { Some(table.index(&row, 5)?) };
+        out.push(JointReading { pose, line: row.line, joints, time_s, station });
     }
     Ok(out)
 }
 
-/// `joints.csv` text, with full precision; `time_s` is written when every reading has a time.
+/// `joints.csv` text, with full precision; `time_s` (`station`) is written when every reading
+/// has one.
 pub fn joints_csv(readings: &[JointReading]) -> String {
-    let timed = !readings.is_empty() && readings.iter().all(|r| r.time_s.is_some());
-    let mut text = COLUMNS.join(",") + if timed { ",time_s\n" } else { "\n" };
+    let all = |f: fn(&JointReading) -> bool| !readings.is_empty() && readings.iter().all(f);
+    let (timed, stations) = (all(|r| r.time_s.is_some()), all(|r| r.station.is_some()));
+    let mut text = COLUMNS.join(",");
+    text += if timed { ",time_s" } else { "" };
+    text += if stations { ",station\n" } else { "\n" };
     for r in readings {
         let _ = write!(text, "{},{},{},{}", r.pose, number(r.joints[0]), number(r.joints[1]), number(r.joints[2]));
         if let (true, Some(t)) = (timed, r.time_s) {
             let _ = write!(text, ",{}", number(t));
+        }
+        if let (true, Some(s)) = (stations, r.station) {
+            let _ = write!(text, ",{s}");
         }
         text.push('\n');
     }

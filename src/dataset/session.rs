@@ -39,6 +39,10 @@ pub struct SessionPose {
     pub markers: Vec<Option<Vector3<f64>>>,
     /// Line of `joints.csv` (0 when not read from a file).
     pub line: usize,
+    /// Line of `markers.csv` of each seen marker (0 when unseen or not read from a file).
+    pub marker_lines: Vec<usize>,
+    /// The station (captures the operator meant as one pose), when recorded.
+    pub station: Option<u64>,
 }
 
 impl SessionPose {
@@ -139,34 +143,14 @@ impl Session {
         let markers_path = dir.join("markers.csv");
         let rows = read_markers(&markers_path, &file.markers)?;
         let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
-        let reference_pose = file.reference_pose.unwrap_or(poses[0].id);
-        let reference = poses
-            .iter()
-            .find(|p| p.id == reference_pose)
-            .ok_or_else(|| at("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")))?;
-        if reference.seen() < MIN_MARKERS {
-            return Err(at(
-                "reference_pose",
-                format!(
-                    "reference pose {reference_pose} has {} markers seen; at least {MIN_MARKERS} needed",
-                    reference.seen()
-                ),
-            ));
+        // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
+        // Default: the first pose that sees enough markers for the estimator, else the first.
+        let default_reference = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
+        let reference_pose = file.reference_pose.unwrap_or(default_reference);
+        if !poses.iter().any(|p| p.id == reference_pose) {
+            return Err(at("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")));
         }
-        let warnings = poses
-            .iter()
-            .filter(|p| p.seen() < MIN_MARKERS)
-            .map(|p| Warning {
-                path: joints_path.clone(),
-                line: p.line,
-                pose: p.id,
-                message: format!(
-                    "{} of {} markers seen (fewer than {MIN_MARKERS}): skipped by the vision estimator",
-                    p.seen(),
-                    file.markers.len()
-                ),
-            })
-            .collect();
+        let warnings = Vec::new();
         let truth = read_truth(dir)?;
         let session = Session {
             name: file.name,
@@ -212,7 +196,7 @@ impl Session {
         let readings: Vec<_> = self
             .poses
             .iter()
-            .map(|p| JointReading { pose: p.id, line: 0, joints: p.joints, time_s: p.time_s })
+            .map(|p| JointReading { pose: p.id, line: 0, joints: p.joints, time_s: p.time_s, station: p.station })
             .collect();
         write_joints(&dir.join("joints.csv"), &readings)?;
         let rows: Vec<_> =
@@ -276,6 +260,8 @@ fn assemble_poses(
             time_s: r.time_s,
             markers: vec![None; markers],
             line: r.line,
+            marker_lines: vec![0; markers],
+            station: r.station,
         })
         .collect();
     let index: HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
@@ -286,6 +272,7 @@ fn assemble_poses(
                 .in_column("pose")
         })?;
         poses[*k].markers[row.marker] = Some(row.position);
+        poses[*k].marker_lines[row.marker] = row.line;
     }
     Ok(poses)
 }

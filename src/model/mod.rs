@@ -11,7 +11,7 @@ mod urdf_check;
 
 pub use assembly::AssemblyMode;
 pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};
-pub use params::{CameraRegistration, PARAMETERS_FORMAT, ParameterSource, Parameters};
+pub use params::{CameraRegistration, MarkerPosition, PARAMETERS_FORMAT, ParameterSource, Parameters};
 pub use perturb::{GeometrySpread, perturb, tilt};
 pub use spm::{
     Branch, FdaError, FdaSettings, IK_SINGULAR_SINE, IkError, Jacobians, Spm, SpmError, conditioning_index, wrap_angle,

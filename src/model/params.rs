@@ -85,8 +85,31 @@ pub struct Parameters {
     pub legs: [LegGeometry; 3],
     /// The camera registration, when known.
     pub camera: Option<CameraRegistration>,
+    /// The markers' positions in P, when a fit estimated them (or a simulation drew them);
+    /// empty: the model's companion holds them.
+    pub markers: Vec<MarkerPosition>,
     /// Statistics of the fit that produced the file (informational).
     pub fit: Option<serde_yaml::Value>,
+}
+
+/// A marker's position on the MP, as fitted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MarkerPosition {
+    /// Marker name (as in the companion and the sessions).
+    pub name: String,
+    /// Position in P (m).
+    pub position: Vector3<f64>,
+    /// Standard errors per axis (m), when fitted.
+    pub std_error: Option<Vector3<f64>>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MarkerRecord {
+    name: String,
+    position_m: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    std_error_m: Option<[f64; 3]>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -117,6 +140,8 @@ struct ParametersRecord {
     legs: Vec<LegRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     camera: Option<CameraRecord>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    markers: Vec<MarkerRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     fit: Option<serde_yaml::Value>,
 }
@@ -124,7 +149,14 @@ struct ParametersRecord {
 impl Parameters {
     /// Nominal parameters of a manipulator, without camera registration.
     pub fn nominal(spm: &Spm, model: Option<String>) -> Self {
-        Parameters { source: ParameterSource::Nominal, model, legs: *spm.geometry(), camera: None, fit: None }
+        Parameters {
+            source: ParameterSource::Nominal,
+            model,
+            legs: *spm.geometry(),
+            camera: None,
+            markers: Vec::new(),
+            fit: None,
+        }
     }
 
     /// The manipulator these parameters describe (validated).
@@ -175,7 +207,26 @@ impl Parameters {
                 Some(CameraRegistration { rotation, translation: Vector3::from(c.t_cb_m) })
             }
         };
-        Ok(Parameters { source: record.source, model: record.model, legs, camera, fit: record.fit })
+        let mut markers = Vec::with_capacity(record.markers.len());
+        for (k, m) in record.markers.into_iter().enumerate() {
+            let finite = m.position_m.iter().chain(m.std_error_m.iter().flatten()).all(|x| x.is_finite());
+            if !finite {
+                return Err(keys.error(path, &format!("markers[{k}]"), "marker position or its error is not finite"));
+            }
+            if m.name.is_empty() || markers.iter().any(|o: &MarkerPosition| o.name == m.name) {
+                return Err(keys.error(
+                    path,
+                    &format!("markers[{k}]"),
+                    format!("marker name `{}` is empty or repeated", m.name),
+                ));
+            }
+            markers.push(MarkerPosition {
+                name: m.name,
+                position: Vector3::from(m.position_m),
+                std_error: m.std_error_m.map(Vector3::from),
+            });
+        }
+        Ok(Parameters { source: record.source, model: record.model, legs, camera, markers, fit: record.fit })
     }
 
     /// The file text, with a comment header.
@@ -202,13 +253,23 @@ impl Parameters {
             camera: self
                 .camera
                 .map(|c| CameraRecord { r_cb_wxyz: so3::to_wxyz(&c.rotation), t_cb_m: c.translation.into() }),
+            markers: self
+                .markers
+                .iter()
+                .map(|m| MarkerRecord {
+                    name: m.name.clone(),
+                    position_m: m.position.into(),
+                    std_error_m: m.std_error.map(Into::into),
+                })
+                .collect(),
             fit: self.fit.clone(),
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");
         format!(
             "# spmcal parameters of a spherical parallel manipulator (conventions: shared/DESIGN.md).\n\
              # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
-             # axis v0 in P, encoder offset delta (phi = theta + delta). Camera: x_C = R_CB x_B + t_CB.\n{body}"
+             # axis v0 in P, encoder offset delta (phi = theta + delta). Camera: x_C = R_CB x_B + t_CB.\n\
+             # Markers (when fitted): positions in P, metres.\n{body}"
         )
     }
 

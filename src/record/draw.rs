@@ -131,7 +131,20 @@ impl Logger<'_> {
             if let Ok(r) = r {
                 previous = Some(r);
                 self.mechanism(spm, &pose.joints, &r)?;
-                let predicted: Vec<[f32; 3]> = scene.model.markers.iter().map(|m| f32x3(&(r * m.position))).collect();
+                let model_markers: Vec<[f32; 3]> =
+                    scene.model.markers.iter().map(|m| f32x3(&(r * m.position))).collect();
+                let predicted = match &scene.fitted_markers {
+                    Some(fitted) => {
+                        self.log(
+                            "world/markers/model",
+                            &Points3D::new(model_markers)
+                                .with_colors([Color::from_rgb(150, 150, 150)])
+                                .with_radii([0.003f32]),
+                        )?;
+                        fitted.iter().map(|p| f32x3(&(r * p))).collect()
+                    }
+                    None => model_markers,
+                };
                 self.log(
                     "world/markers/predicted",
                     &Points3D::new(predicted).with_colors([Color::from_rgb(40, 170, 80)]).with_radii([0.004f32]),

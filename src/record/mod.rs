@@ -65,6 +65,9 @@ pub struct Scene<'a> {
     pub iterations: Vec<IterationLog>,
     /// `(entity under parameters/, markdown)`.
     pub documents: Vec<(String, String)>,
+    /// The markers' fitted positions in P (marker-level calibration): the predicted markers use
+    /// them, and the model's positions are drawn beside them.
+    pub fitted_markers: Option<Vec<nalgebra::Vector3<f64>>>,
 }
 
 /// What was written.
@@ -154,6 +157,13 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
     let mut panels: Vec<rerun::blueprint::ContainerLike> = Vec::new();
     if has("fda_vs_vision") {
         panels.push(TimeSeriesView::new("FDA vs vision (deg)").with_origin("errors/fda_vs_vision").into());
+    }
+    if has("markers_mm") {
+        panels.push(
+            TimeSeriesView::new("FDA vs camera, per pose (mm RMS over its markers)")
+                .with_origin("errors/markers_mm")
+                .into(),
+        );
     }
     if has("e_j") {
         panels.push(TimeSeriesView::new("e_j").with_origin("errors/e_j").into());

@@ -177,6 +177,7 @@ fn vision_scene<'a>(
         series: vec![e_series(estimate)],
         iterations: Vec::new(),
         documents,
+        fitted_markers: None,
     })
 }
 
@@ -205,6 +206,7 @@ pub fn simulation_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Resu
         series: Vec::new(),
         iterations: Vec::new(),
         documents,
+        fitted_markers: None,
     })
 }
 
@@ -220,6 +222,23 @@ fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> S
     Series { name: format!("fda_vs_vision/{name}"), values }
 }
 
+/// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers, of a
+/// marker-level parameter vector.
+fn marker_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Series {
+    use crate::calib::Model as _;
+    let model = crate::calib::MarkerModel::new(&calibration.parameterisation, &calibration.marker_observations);
+    let mut sums: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
+    if let Ok(eval) = model.evaluate(x, None, false) {
+        for (o, r) in calibration.marker_observations.iter().zip(&eval.residuals) {
+            let e = sums.entry(o.pose).or_default();
+            e.0 += r.norm_squared() * 1e6;
+            e.1 += 1;
+        }
+    }
+    let values = sums.into_iter().map(|(pose, (sum, n))| (pose, (sum / n as f64).sqrt())).collect();
+    Series { name: format!("markers_mm/{name}"), values }
+}
+
 /// `spmcal calibrate --rrd`: nominal, calibrated and vision MP frames, the errors before and after,
 /// the fit's iterations, and the parameters before and after.
 ///
@@ -233,6 +252,19 @@ pub fn calibration_scene<'a>(
     let p = &calibration.parameterisation;
     let x = &calibration.calibrated.x;
     let spm = calibration.parameters.spm()?;
+    let mut frames = vec![fda_frames("fda_nominal", &model.spm, session), fda_frames("fda_calibrated", &spm, session)];
+    let mut series = Vec::new();
+    if let Some(vision) = &calibration.vision {
+        frames.push(vision_frames(vision, &p.camera(x), &p.reference(x)));
+        series.push(e_series(vision));
+        series.push(residual_series("nominal", calibration, &calibration.nominal.x));
+        series.push(residual_series("calibrated", calibration, x));
+    } else {
+        series.push(marker_series("nominal", calibration, &calibration.nominal.x));
+        series.push(marker_series("calibrated", calibration, x));
+    }
+    let fitted_markers =
+        (!calibration.marker_observations.is_empty()).then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
     let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
     after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
     for r in &calibration.report.parameters {
@@ -242,23 +274,16 @@ pub fn calibration_scene<'a>(
     Ok(Scene {
         session,
         model,
-        frames: vec![
-            fda_frames("fda_nominal", &model.spm, session),
-            fda_frames("fda_calibrated", &spm, session),
-            vision_frames(&calibration.vision, &p.camera(x), &p.reference(x)),
-        ],
+        frames,
         mechanism: spm,
         registration: calibration.parameters.camera,
-        series: vec![
-            e_series(&calibration.vision),
-            residual_series("nominal", calibration, &calibration.nominal.x),
-            residual_series("calibrated", calibration, x),
-        ],
+        series,
         iterations: calibration.calibrated.log.clone(),
         documents: vec![
             ("before".to_string(), parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None))),
             ("after".to_string(), after),
         ],
+        fitted_markers,
     })
 }
 

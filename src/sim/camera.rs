@@ -31,8 +31,9 @@ pub struct Measurement {
 }
 
 /// Measure a point given in B: transform to the camera frame, then add stereo noise — lateral
-/// noise across the line of sight, depth noise along it growing with the squared distance
-/// (triangulation error ∝ z² / (f · baseline)) — and, rarely, an outlier.
+/// noise across the line of sight growing with the distance (a pixel subtends `z / f`), depth noise
+/// along it growing with the squared distance (triangulation error ∝ z² / (f · baseline)) — and,
+/// rarely, an outlier.
 ///
 /// # Panics
 /// If a noise deviation is negative or NaN (configs are checked when read).
@@ -49,11 +50,12 @@ pub fn measure<R: Rng + ?Sized>(
         along.cross(&Vector3::x()).try_normalize(1e-9).unwrap_or_else(|| along.cross(&Vector3::y()).normalize());
     let across2 = along.cross(&across1);
     let gauss = |sigma: f64, rng: &mut R| Normal::new(0.0, sigma).expect("validated deviation").sample(rng);
-    let depth_sigma = camera.depth_sigma_m * (distance / camera.reference_distance_m).powi(2);
+    let scale = distance / camera.reference_distance_m;
+    let (depth_sigma, lateral_sigma) = (camera.depth_sigma_m * scale * scale, camera.lateral_sigma_m * scale);
     let mut position = exact
         + along * gauss(depth_sigma, rng)
-        + across1 * gauss(camera.lateral_sigma_m, rng)
-        + across2 * gauss(camera.lateral_sigma_m, rng);
+        + across1 * gauss(lateral_sigma, rng)
+        + across2 * gauss(lateral_sigma, rng);
     let outlier = rng.random_bool(camera.outlier_probability);
     if outlier {
         position += Vector3::from_fn(|_, _| gauss(camera.outlier_sigma_m, rng));

@@ -70,6 +70,8 @@ pub struct TruthSpread {
     pub camera_position_m: f64,
     /// Camera rotation (deg).
     pub camera_rotation_deg: f64,
+    /// Misplacement of each marker on the MP, per axis (m): markers are glued by hand.
+    pub marker_position_m: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -96,11 +98,11 @@ pub struct Camera {
     pub height_m: f64,
     /// Distance between the two lenses (a marker must be visible from both).
     pub baseline_m: f64,
-    /// Noise across the line of sight.
+    /// Noise across the line of sight at `reference_distance_m`; grows with the distance.
     pub lateral_sigma_m: f64,
     /// Noise along the line of sight at `reference_distance_m`; grows with the distance squared.
     pub depth_sigma_m: f64,
-    /// Distance at which `depth_sigma_m` holds (m).
+    /// Distance at which `lateral_sigma_m` and `depth_sigma_m` hold (m).
     pub reference_distance_m: f64,
     /// Probability that a marker measurement is an outlier.
     pub outlier_probability: f64,
@@ -124,11 +126,12 @@ pub struct Encoders {
 #[serde(deny_unknown_fields, default)]
 /// How markers are captured.
 pub struct Capture {
-    /// One marker at a time, as in the paper, with a small motion of the MP between captures.
+    /// One marker at a time, as in the paper: each capture is its own pose, with the encoder
+    /// reading of its instant, and the captures of one station share its `station` number.
     pub sequential: bool,
-    /// Standard deviation of that motion (per axis).
+    /// Drift of the hand-held MP between sequential captures (a random walk; deg per axis).
     pub motion_deg: f64,
-    /// Time between poses (the `time_s` column).
+    /// Time between captures (the `time_s` column).
     pub interval_s: f64,
 }
 
@@ -158,6 +161,7 @@ impl Default for TruthSpread {
             joint_offset_deg: 1.0,
             camera_position_m: 0.01,
             camera_rotation_deg: 1.0,
+            marker_position_m: 0.003,
         }
     }
 }
@@ -230,6 +234,7 @@ impl SimConfig {
             ("truth.joint_offset_deg", self.truth.joint_offset_deg),
             ("truth.camera_position_m", self.truth.camera_position_m),
             ("truth.camera_rotation_deg", self.truth.camera_rotation_deg),
+            ("truth.marker_position_m", self.truth.marker_position_m),
             ("workspace.max_tilt_deg", self.workspace.max_tilt_deg),
             ("workspace.max_yaw_deg", self.workspace.max_yaw_deg),
             ("workspace.min_conditioning", self.workspace.min_conditioning),

@@ -14,8 +14,8 @@ use super::config::{SimConfig, Trajectory};
 use super::scene::Scene;
 use crate::dataset::{MIN_MARKERS, Session, SessionPose, Truth};
 use crate::model::{
-    CameraRegistration, GeometrySpread, ParameterSource, Parameters, RobotModel, Spm, SpmError, conditioning_index,
-    perturb,
+    CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
+    conditioning_index, perturb,
 };
 use crate::so3;
 
@@ -81,6 +81,8 @@ struct Simulator<'a> {
     model: &'a RobotModel,
     spm: Spm,
     camera: CameraRegistration,
+    /// True marker positions in P.
+    markers: Vec<Vector3<f64>>,
     scene: Scene,
     rng: ChaCha8Rng,
     summary: SimSummary,
@@ -113,8 +115,11 @@ pub fn simulate(
         Vector3::new(0.0, 0.0, config.camera.height_m) + Vector3::from_fn(|_, _| position.sample(&mut rng));
     let rotation = so3::exp(&random_rotation_vector(t.camera_rotation_deg.to_radians(), &mut rng)) * nominal.rotation;
     let camera = CameraRegistration::from_centre(rotation, &camera_centre);
+    let misplacement = Normal::new(0.0, t.marker_position_m).expect("validated deviation");
+    let markers =
+        model.markers.iter().map(|m| m.position + Vector3::from_fn(|_, _| misplacement.sample(&mut rng))).collect();
     let summary = SimSummary { name: config.name.clone(), seed: config.seed, ..Default::default() };
-    let mut sim = Simulator { config, model, spm, camera, scene: Scene::new(model), rng, summary };
+    let mut sim = Simulator { config, model, spm, camera, markers, scene: Scene::new(model), rng, summary };
     let session = sim.run(progress)?;
     Ok((session, sim.summary))
 }
@@ -154,7 +159,8 @@ impl Simulator<'_> {
         };
         let mut poses = Vec::with_capacity(wanted);
         let mut truth = BTreeMap::new();
-        while poses.len() < wanted && self.summary.attempts < max_attempts {
+        let mut stations = 0;
+        while stations < wanted && self.summary.attempts < max_attempts {
             // The first candidate is home: a level MP makes the natural reference pose.
             let r = if self.summary.attempts == 0 {
                 Rotation3::identity()
@@ -164,10 +170,18 @@ impl Simulator<'_> {
             self.summary.attempts += 1;
             match self.accept(&r) {
                 Ok(joints) => {
-                    let pose = self.record(poses.len() as u64, &r, &joints);
-                    truth.insert(pose.id, r);
-                    poses.push(pose);
-                    progress(poses.len());
+                    let station = stations as u64;
+                    stations += 1;
+                    let captures = if self.config.capture.sequential {
+                        self.record_sequential(poses.len() as u64, station, &r)
+                    } else {
+                        vec![(self.record(poses.len() as u64, &r, &joints, &self.all_markers()), r)]
+                    };
+                    for (pose, r) in captures {
+                        truth.insert(pose.id, r);
+                        poses.push(pose);
+                    }
+                    progress(stations);
                 }
                 Err(Rejection::Unreachable) => self.summary.rejected_unreachable += 1,
                 Err(Rejection::Singular) => self.summary.rejected_singular += 1,
@@ -175,18 +189,14 @@ impl Simulator<'_> {
             }
         }
         let enough = match self.config.workspace.trajectory {
-            Trajectory::Random => poses.len() == wanted,
-            Trajectory::Spiral => poses.len() >= wanted.min(MIN_MARKERS),
+            Trajectory::Random => stations == wanted,
+            Trajectory::Spiral => stations >= wanted.min(MIN_MARKERS),
         };
-        if !enough || poses.is_empty() || poses[0].seen() < MIN_MARKERS {
+        // Simultaneous capture makes home the per-pose estimator's reference: it must see enough.
+        let reference_blind = !self.config.capture.sequential && poses.first().is_some_and(|p| p.seen() < MIN_MARKERS);
+        if !enough || poses.is_empty() || reference_blind {
             let (cause, key) = self.dominant_rejection(poses.first());
-            return Err(SimError::TooFewPoses {
-                found: poses.len(),
-                wanted,
-                attempts: self.summary.attempts,
-                cause,
-                key,
-            });
+            return Err(SimError::TooFewPoses { found: stations, wanted, attempts: self.summary.attempts, cause, key });
         }
         self.summary.poses = poses.len();
         self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();
@@ -195,6 +205,13 @@ impl Simulator<'_> {
             model: Some(crate::files::tidy_path(&self.model.urdf_path).display().to_string()),
             legs: *self.spm.geometry(),
             camera: Some(self.camera),
+            markers: self
+                .model
+                .markers
+                .iter()
+                .zip(&self.markers)
+                .map(|(m, p)| MarkerPosition { name: m.name.clone(), position: *p, std_error: None })
+                .collect(),
             fit: None,
         };
         let description = self.config.description.clone().unwrap_or_else(|| {
@@ -254,32 +271,70 @@ impl Simulator<'_> {
         Ok(joints)
     }
 
-    /// Encoder readings and camera measurements of an accepted pose.
-    fn record(&mut self, id: u64, r: &Rotation3<f64>, joints: &Vector3<f64>) -> SessionPose {
+    fn all_markers(&self) -> Vec<usize> {
+        (0..self.markers.len()).collect()
+    }
+
+    /// Encoder readings of the true `joints`: noise, then quantisation.
+    fn read_encoders(&mut self, joints: &Vector3<f64>) -> Vector3<f64> {
         let step = std::f64::consts::TAU / self.config.encoders.counts_per_revolution as f64;
         let noise = Normal::new(0.0, self.config.encoders.noise_deg.to_radians()).expect("validated deviation");
-        let readings = joints.map(|theta| ((theta + noise.sample(&mut self.rng)) / step).round() * step);
+        joints.map(|theta| ((theta + noise.sample(&mut self.rng)) / step).round() * step)
+    }
+
+    /// A station captured one marker at a time: the hand-held MP drifts (a random walk) between
+    /// captures, and each capture is its own pose with the reading of its instant. A capture whose
+    /// marker is hidden, or that drifted out of the workspace, is not recorded.
+    fn record_sequential(
+        &mut self,
+        first_id: u64,
+        station: u64,
+        r: &Rotation3<f64>,
+    ) -> Vec<(SessionPose, Rotation3<f64>)> {
+        let mut at = *r;
+        let mut captures = Vec::new();
+        for k in 0..self.markers.len() {
+            if k > 0 {
+                at = so3::exp(&random_rotation_vector(self.config.capture.motion_deg.to_radians(), &mut self.rng)) * at;
+            }
+            let Ok(joints) = self.spm.ik(&at) else { continue };
+            let mut pose = self.record(first_id + captures.len() as u64, &at, &joints, &[k]);
+            if pose.seen() == 0 {
+                continue;
+            }
+            pose.station = Some(station);
+            captures.push((pose, at));
+        }
+        captures
+    }
+
+    /// Encoder readings and camera measurements of the markers `which` at a pose.
+    fn record(&mut self, id: u64, r: &Rotation3<f64>, joints: &Vector3<f64>, which: &[usize]) -> SessionPose {
+        let readings = self.read_encoders(joints);
         let rotations = self.scene.body_rotations(&self.spm, joints, r);
         let cam = &self.config.camera;
         let lens = lenses(&self.camera, cam.baseline_m);
-        let mut markers = Vec::with_capacity(self.model.markers.len());
-        for marker in &self.model.markers {
-            let at = if self.config.capture.sequential {
-                so3::exp(&random_rotation_vector(self.config.capture.motion_deg.to_radians(), &mut self.rng)) * r
-            } else {
-                *r
-            };
-            let point = at * marker.position;
+        let mut markers = vec![None; self.markers.len()];
+        for &k in which {
+            let point = r * self.markers[k];
             if lens.iter().any(|l| self.scene.occluder(&rotations, &point, l, cam.marker_radius_m).is_some()) {
                 self.summary.markers_occluded += 1;
-                markers.push(None);
                 continue;
             }
             let m = measure(&point, &self.camera, cam, &mut self.rng);
             self.summary.markers_seen += 1;
             self.summary.outliers += usize::from(m.outlier);
-            markers.push(Some(m.position));
+            markers[k] = Some(m.position);
         }
-        SessionPose { id, joints: readings, time_s: Some(id as f64 * self.config.capture.interval_s), markers, line: 0 }
+        let n = markers.len();
+        SessionPose {
+            id,
+            joints: readings,
+            time_s: Some(id as f64 * self.config.capture.interval_s),
+            markers,
+            line: 0,
+            marker_lines: vec![0; n],
+            station: None,
+        }
     }
 }

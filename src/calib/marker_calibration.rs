@@ -1,0 +1,537 @@
+//! The marker-level calibration (`fit: markers`, the default): maximum likelihood over every
+//! marker observation, with the stereo noise model estimated from the residuals, gross errors
+//! excluded after the robust fit, and the error on unseen poses measured by k-fold
+//! cross-validation while the parameters written come from every pose.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use serde::Serialize;
+
+use super::calibrate::{
+    CalibError, Calibration, CalibrationReport, ErrorSummary, Errors, MIN_MOTION_DEG, correlations, covariance,
+    fit_header, identifiability_at, parameter_reports,
+};
+use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Unidentifiable};
+use super::markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
+use super::params::{Kind, Parameterisation};
+use super::solver::{FitOutcome, FitSettings, IterationLog, fit_model};
+use crate::dataset::Session;
+use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
+use crate::so3;
+use crate::vision::{Method, Stats};
+
+/// RMS, median and largest distance (mm) between measured and predicted markers.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MarkerErrors {
+    /// Observations summarised.
+    pub observations: usize,
+    /// RMS distance, mm.
+    pub rms_mm: f64,
+    /// Median distance, mm.
+    pub median_mm: f64,
+    /// Largest distance, mm.
+    pub max_mm: f64,
+    /// `(marker, observations, RMS mm)` per marker.
+    pub per_marker: Vec<(String, usize, f64)>,
+}
+
+impl MarkerErrors {
+    fn of(residuals: &[Vector3<f64>], observations: &[MarkerObservation], names: &[String]) -> Self {
+        let mm: Vec<f64> = residuals.iter().map(|r| r.norm() * 1e3).collect();
+        let stats = Stats::of(&mm).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
+        let rms = |values: &mut dyn Iterator<Item = f64>| {
+            let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v * v, n + 1));
+            (sum / n.max(1) as f64).sqrt()
+        };
+        let per_marker = names
+            .iter()
+            .enumerate()
+            .map(|(k, name)| {
+                let of_k: Vec<f64> =
+                    observations.iter().zip(&mm).filter(|(o, _)| o.marker == k).map(|(_, d)| *d).collect();
+                (name.clone(), of_k.len(), rms(&mut of_k.iter().copied()))
+            })
+            .collect();
+        MarkerErrors {
+            observations: mm.len(),
+            rms_mm: rms(&mut mm.iter().copied()),
+            median_mm: stats.median,
+            max_mm: stats.max,
+            per_marker,
+        }
+    }
+}
+
+/// The error on unseen poses: k-fold cross-validation, stations kept together.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CrossValidation {
+    /// Folds.
+    pub folds: usize,
+    /// Held-out observations predicted.
+    pub observations: usize,
+    /// RMS held-out marker error of the nominal model with its best-fit registration, mm.
+    pub nominal_rms_mm: f64,
+    /// The same for the calibrated model, mm.
+    pub calibrated_rms_mm: f64,
+    /// Mean reduction of the squared held-out error per observation (mm²), and its standard error:
+    /// the calibration is clearly better when the reduction exceeds twice its standard error.
+    pub reduction_mm2: f64,
+    /// Standard error of `reduction_mm2`.
+    pub reduction_std_error_mm2: f64,
+    /// The calibrated model predicts unseen poses clearly better than the nominal one.
+    pub clearly_better: bool,
+}
+
+/// A marker's fitted position against the model's.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MarkerReport {
+    /// Marker name.
+    pub name: String,
+    /// Observations of it used in the fit.
+    pub observations: usize,
+    /// The model's position in P, m.
+    pub model_m: [f64; 3],
+    /// The fitted position in P, m.
+    pub fitted_m: [f64; 3],
+    /// Fitted minus model, mm.
+    pub change_mm: [f64; 3],
+    /// Standard errors, mm (`None` when held at the model's value).
+    pub std_error_mm: Option<[f64; 3]>,
+}
+
+/// An observation flagged by the robust fit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FlaggedObservation {
+    /// Pose (capture) id.
+    pub pose: u64,
+    /// Marker name.
+    pub marker: String,
+    /// Line of `markers.csv` (0 when not read from a file).
+    pub line: usize,
+    /// Its residual, mm.
+    pub residual_mm: f64,
+    /// Its residual in robust standard deviations.
+    pub sigmas: f64,
+    /// Left out of the final fit (a gross error).
+    pub excluded: bool,
+}
+
+/// What the marker-level calibration adds to the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MarkerFitReport {
+    /// Marker observations fitted.
+    pub observations: usize,
+    /// Distinct poses (encoder readings) among them.
+    pub poses: usize,
+    /// Nominal mechanism and markers with their best-fit registration.
+    pub before: MarkerErrors,
+    /// The calibrated model.
+    pub after: MarkerErrors,
+    /// The error on unseen poses, when cross-validated.
+    pub cross_validation: Option<CrossValidation>,
+    /// The stereo noise the residuals imply.
+    pub stereo_noise: Option<StereoNoise>,
+    /// Every marker's fitted position.
+    pub markers: Vec<MarkerReport>,
+    /// Observations the robust fit flagged (excluded ones first).
+    pub flagged: Vec<FlaggedObservation>,
+    /// Plain-language warnings: markers seen at too few poses, a calibration not clearly better.
+    pub warnings: Vec<String>,
+}
+
+/// The marker-level calibration of `session`.
+pub(super) fn calibrate_markers(
+    session: &Session,
+    model: &RobotModel,
+    config: &CalibConfig,
+    on_iteration: &mut dyn FnMut(&IterationLog),
+) -> Result<Calibration, CalibError> {
+    let spm = &model.spm;
+    let (mut observations, failed) = marker_observations(session, spm);
+    let mut excluded: Vec<String> =
+        failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")).collect();
+    let markers0 = model_markers(session, model)?;
+    let mut warnings = Vec::new();
+    // A marker seen at fewer than two poses cannot tell its position from the registration.
+    let poses_seeing: Vec<usize> = (0..session.markers.len())
+        .map(|k| {
+            let mut poses: Vec<u64> = observations.iter().filter(|o| o.marker == k).map(|o| o.pose).collect();
+            poses.dedup();
+            poses.len()
+        })
+        .collect();
+    let held_markers: Vec<usize> = (0..session.markers.len()).filter(|&k| poses_seeing[k] < 2).collect();
+    for &k in &held_markers {
+        warnings.push(format!(
+            "marker `{}` is seen at {} pose(s): its position is held at the model's value",
+            session.markers[k], poses_seeing[k]
+        ));
+    }
+    check_motion(&observations, spm)?;
+    let registration = initial_registration(&observations, spm, &markers0).ok_or(CalibError::Registration)?;
+    let p = Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
+    let free: Vec<bool> = p
+        .entries
+        .iter()
+        .map(|e| {
+            !config.freeze.contains(&e.kind.group())
+                && !matches!(e.kind, Kind::Marker { marker, .. } if held_markers.contains(&marker))
+        })
+        .collect();
+    let n_free = free.iter().filter(|&&f| f).count();
+    if n_free == 0 {
+        let reason = "every parameter is frozen: there is nothing to fit".to_string();
+        return Err(CalibError::Config { key: "freeze".into(), reason });
+    }
+    if 3 * observations.len() < n_free + 3 {
+        return Err(CalibError::TooFewPoses {
+            usable: observations.len(),
+            needed: n_free.div_ceil(3) + 1,
+            parameters: n_free,
+        });
+    }
+    let settings = |free: Vec<bool>, prior| FitSettings { prior, ..FitSettings::from_config(config, free) };
+    let registration_only = registration_mask(&p, &free);
+    let x0 = DVector::zeros(p.len());
+    let model_m = MarkerModel::new(&p, &observations);
+    let nominal = fit_model(&model_m, &x0, &settings(registration_only.clone(), None), &mut |_| {})
+        .map_err(|error| CalibError::Fit { stage: "nominal registration", error })?;
+    let identifiability = identifiability_at(&p, &nominal, &free, config);
+    let regularised: Vec<String> = identifiability.unidentifiable.iter().map(|d| d.describe()).collect();
+    if !regularised.is_empty() && config.unidentifiable == Unidentifiable::Refuse {
+        return Err(CalibError::Unidentifiable(regularised));
+    }
+    let prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+    let robust = fit_model(&model_m, &nominal.x, &settings(free.clone(), prior.clone()), on_iteration)
+        .map_err(|error| CalibError::Fit { stage: "calibration", error })?;
+    // Gross errors (centimetres) are removed, not only down-weighted: they would still pull.
+    let mut flagged = flag(&model_m, &robust, &session.markers, config.outlier_threshold);
+    let gross: Vec<usize> = flagged.iter().filter(|(_, f)| f.excluded).map(|(j, _)| *j).collect();
+    let calibrated = if gross.is_empty() {
+        robust
+    } else {
+        observations = observations.iter().enumerate().filter(|(j, _)| !gross.contains(j)).map(|(_, o)| *o).collect();
+        let refit = MarkerModel::new(&p, &observations);
+        let outcome = fit_model(&refit, &robust.x, &settings(free.clone(), prior.clone()), &mut |_| {})
+            .map_err(|error| CalibError::Fit { stage: "calibration without the gross errors", error })?;
+        flagged.retain(|(_, f)| f.excluded);
+        flagged.extend(flag(&refit, &outcome, &session.markers, config.outlier_threshold));
+        outcome
+    };
+    excluded.extend(
+        flagged
+            .iter()
+            .filter(|(_, f)| f.excluded)
+            .map(|(_, f)| format!("pose {} marker {} (markers.csv line {}): gross error", f.pose, f.marker, f.line)),
+    );
+    let model_m = MarkerModel::new(&p, &observations);
+    let before = MarkerErrors::of(&nominal.evaluation.residuals, model_m.observations, &session.markers);
+    let after = MarkerErrors::of(&calibrated.evaluation.residuals, &observations, &session.markers);
+    let covariance = covariance(&calibrated, &free, prior.as_ref().map(|(l, _)| l));
+    let cross_validation = cross_validate(&p, &observations, &calibrated.x, &free, &registration_only, config)?;
+    if let Some(cv) = cross_validation.as_ref().filter(|cv| !cv.clearly_better) {
+        let warning = not_better_warning(cv, &identifiability.unidentifiable, &model_m);
+        if config.if_not_better == IfNotBetter::Refuse {
+            return Err(CalibError::NotBetter(warning));
+        }
+        warnings.push(warning);
+    }
+    let x = &calibrated.x;
+    let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
+    let translation_se = index_of(&p, |k| matches!(k, Kind::Translation { .. }))
+        .filter(|i| i.iter().all(|&i| free[i]))
+        .map(|i| i.map(|i| covariance[(i, i)].max(0.0).sqrt()));
+    let marker_reports = marker_reports(&p, x, &covariance, &free, &observations, &session.markers);
+    let parameters_markers = marker_reports
+        .iter()
+        .map(|m| MarkerPosition {
+            name: m.name.clone(),
+            position: Vector3::from(m.fitted_m),
+            std_error: m.std_error_mm.map(|s| Vector3::from(s) * 1e-3),
+        })
+        .collect();
+    let reports: Vec<_> = parameter_reports(&p, x, &covariance, &free)
+        .into_iter()
+        .zip(&p.entries)
+        .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. }))
+        .map(|(r, _)| r)
+        .collect();
+    let empty = Errors { fit: ErrorSummary::of(&[]), held_out: None };
+    let report = CalibrationReport {
+        session: session.name.clone(),
+        fit: FitLevel::Markers,
+        vision_method: Method::Kabsch,
+        loss: config.loss,
+        poses: session.poses.len(),
+        fit_poses: model_m.poses(),
+        held_out_poses: 0,
+        excluded,
+        before: empty,
+        after: empty,
+        iterations: calibrated.log.clone(),
+        convergence: calibrated.status,
+        not_significant: reports
+            .iter()
+            .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
+            .map(|r| r.name.clone())
+            .collect(),
+        parameters: reports,
+        identifiability,
+        regularised,
+        high_correlations: correlations(&p, &covariance, 0.9),
+        orientation_uncertainty_deg: orientation_uncertainty(&calibrated, &covariance),
+        residual_sigma_deg: Vec::new(),
+        outliers: Vec::new(),
+        camera_translation_m: Some(camera.translation.into()),
+        camera_translation_std_error_m: translation_se,
+        markers: Some(MarkerFitReport {
+            observations: observations.len(),
+            poses: model_m.poses(),
+            before,
+            after,
+            cross_validation,
+            stereo_noise: calibrated.weighting.stereo,
+            markers: marker_reports,
+            flagged: flagged.into_iter().map(|(_, f)| f).collect(),
+            warnings,
+        }),
+    };
+    let mut parameters = Parameters {
+        source: ParameterSource::Calibrated,
+        model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
+        legs: p.legs(x),
+        camera: Some(camera),
+        markers: parameters_markers,
+        fit: None,
+    };
+    parameters.fit = Some(fit_header(&report));
+    Ok(Calibration {
+        parameters,
+        report,
+        parameterisation: p,
+        observations: Vec::new(),
+        held_out: Vec::new(),
+        marker_observations: observations,
+        nominal,
+        calibrated,
+        covariance,
+        vision: None,
+    })
+}
+
+/// The model's position of each of the session's markers.
+fn model_markers(session: &Session, model: &RobotModel) -> Result<Vec<Vector3<f64>>, CalibError> {
+    session
+        .markers
+        .iter()
+        .map(|name| {
+            model.markers.iter().find(|m| &m.name == name).map(|m| m.position).ok_or_else(|| CalibError::Config {
+                key: "markers".into(),
+                reason: format!("the session's marker `{name}` is not among the model's markers"),
+            })
+        })
+        .collect()
+}
+
+/// The session must rotate the MP: judged on the nominal FDA of its poses.
+fn check_motion(observations: &[MarkerObservation], spm: &crate::model::Spm) -> Result<(), CalibError> {
+    let rotations: Vec<Rotation3<f64>> = observations.iter().filter_map(|o| spm.forward(&o.joints).ok()).collect();
+    let first = rotations.first().copied().unwrap_or_else(Rotation3::identity);
+    let max_deg = rotations.iter().map(|r| so3::geodesic_angle(r, &first).to_degrees()).fold(0.0, f64::max);
+    if max_deg < MIN_MOTION_DEG { Err(CalibError::NoMotion { max_deg }) } else { Ok(()) }
+}
+
+/// The rigid motion that best carries the nominal model's markers (in B) onto the measured ones
+/// (in C): Kabsch over every observation. Needs no pose with three markers.
+fn initial_registration(
+    observations: &[MarkerObservation],
+    spm: &crate::model::Spm,
+    markers: &[Vector3<f64>],
+) -> Option<CameraRegistration> {
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = observations
+        .iter()
+        .filter_map(|o| spm.forward(&o.joints).ok().map(|r| (r * markers[o.marker], o.measured)))
+        .collect();
+    if pairs.len() < 3 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let cb = pairs.iter().map(|(b, _)| b).sum::<Vector3<f64>>() / n;
+    let cc = pairs.iter().map(|(_, c)| c).sum::<Vector3<f64>>() / n;
+    let h: Matrix3<f64> = pairs.iter().map(|(b, c)| (c - cc) * (b - cb).transpose()).sum();
+    let rotation = so3::nearest_rotation(&h)?;
+    Some(CameraRegistration { rotation, translation: cc - rotation * cb })
+}
+
+/// The registration parameters (camera rotation and translation) that are free.
+fn registration_mask(p: &Parameterisation, free: &[bool]) -> Vec<bool> {
+    p.entries
+        .iter()
+        .zip(free)
+        .map(|(e, &f)| f && matches!(e.kind.group(), Group::CameraRotation | Group::CameraTranslation))
+        .collect()
+}
+
+/// Observations beyond `threshold` robust standard deviations; beyond twice that, gross errors.
+fn flag(
+    model: &MarkerModel,
+    outcome: &FitOutcome,
+    names: &[String],
+    threshold: f64,
+) -> Vec<(usize, FlaggedObservation)> {
+    let w = &outcome.weighting;
+    let mut out: Vec<(usize, FlaggedObservation)> = outcome
+        .evaluation
+        .residuals
+        .iter()
+        .enumerate()
+        .filter_map(|(j, r)| {
+            let sigmas = w.whiten(j, r).norm() / w.sigma;
+            let o = &model.observations[j];
+            (sigmas > threshold).then(|| {
+                let f = FlaggedObservation {
+                    pose: o.pose,
+                    marker: names[o.marker].clone(),
+                    line: o.line,
+                    residual_mm: r.norm() * 1e3,
+                    sigmas,
+                    excluded: sigmas > 2.0 * threshold,
+                };
+                (j, f)
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| b.1.sigmas.total_cmp(&a.1.sigmas));
+    out
+}
+
+/// The fold of each observation: groups (stations, else poses) dealt out in order of appearance.
+fn folds(observations: &[MarkerObservation], k: usize) -> Vec<usize> {
+    let mut groups: Vec<(bool, u64)> = Vec::new();
+    observations
+        .iter()
+        .map(|o| {
+            let key = o.station.map_or((false, o.pose), |s| (true, s));
+            let g = groups.iter().position(|x| *x == key).unwrap_or_else(|| {
+                groups.push(key);
+                groups.len() - 1
+            });
+            g % k
+        })
+        .collect()
+}
+
+/// k-fold cross-validation: each fold's observations predicted by the model fitted without them,
+/// the nominal model (registration fitted without them) alongside.
+fn cross_validate(
+    p: &Parameterisation,
+    observations: &[MarkerObservation],
+    x_full: &DVector<f64>,
+    free: &[bool],
+    registration_only: &[bool],
+    config: &CalibConfig,
+) -> Result<Option<CrossValidation>, CalibError> {
+    if config.folds < 2 {
+        return Ok(None);
+    }
+    let fold_of = folds(observations, config.folds);
+    let settings = |free: &[bool]| FitSettings::from_config(config, free.to_vec());
+    let (mut nominal_sq, mut calibrated_sq) = (Vec::new(), Vec::new());
+    for fold in 0..config.folds {
+        let (mut train, mut test) = (Vec::new(), Vec::new());
+        for (o, &f) in observations.iter().zip(&fold_of) {
+            if f == fold { test.push(*o) } else { train.push(*o) }
+        }
+        if test.is_empty() || train.is_empty() {
+            continue;
+        }
+        let train_model = MarkerModel::new(p, &train);
+        let test_model = MarkerModel::new(p, &test);
+        let stage = "cross-validation";
+        let fail = |error| CalibError::Fit { stage, error };
+        let zero = DVector::zeros(p.len());
+        let nominal = fit_model(&train_model, &zero, &settings(registration_only), &mut |_| {}).map_err(fail)?;
+        let calibrated = fit_model(&train_model, x_full, &settings(free), &mut |_| {}).map_err(fail)?;
+        for (x, out) in [(&nominal.x, &mut nominal_sq), (&calibrated.x, &mut calibrated_sq)] {
+            use super::solver::Model as _;
+            let eval = test_model.evaluate(x, None, false).map_err(CalibError::HeldOut)?;
+            out.extend(eval.residuals.iter().map(|r| r.norm_squared() * 1e6));
+        }
+    }
+    let n = nominal_sq.len();
+    if n == 0 {
+        return Ok(None);
+    }
+    let d: Vec<f64> = nominal_sq.iter().zip(&calibrated_sq).map(|(a, b)| a - b).collect();
+    let mean = d.iter().sum::<f64>() / n as f64;
+    let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
+    let se = (var / n as f64).sqrt();
+    let rms = |v: &[f64]| (v.iter().sum::<f64>() / v.len() as f64).sqrt();
+    Ok(Some(CrossValidation {
+        folds: config.folds,
+        observations: n,
+        nominal_rms_mm: rms(&nominal_sq),
+        calibrated_rms_mm: rms(&calibrated_sq),
+        reduction_mm2: mean,
+        reduction_std_error_mm2: se,
+        clearly_better: mean > 2.0 * se,
+    }))
+}
+
+/// Why the calibrated model may not be better, in words.
+fn not_better_warning(cv: &CrossValidation, weak: &[super::identify::Direction], model: &MarkerModel) -> String {
+    let mut cause = if model.poses() < 40 {
+        format!("only {} poses: capture more, spread over the workspace", model.poses())
+    } else {
+        "the poses may be too similar: spread them over the workspace".to_string()
+    };
+    if let Some(d) = weak.first() {
+        cause += &format!("; weakest direction {}", d.describe());
+    }
+    format!(
+        "the calibrated model does not predict unseen poses clearly better than the nominal one \
+         ({:.3} mm against {:.3} mm RMS, {}-fold cross-validation): {cause}",
+        cv.calibrated_rms_mm, cv.nominal_rms_mm, cv.folds
+    )
+}
+
+fn index_of(p: &Parameterisation, matches: impl Fn(Kind) -> bool) -> Option<[usize; 3]> {
+    let idx: Vec<usize> = p.entries.iter().enumerate().filter(|(_, e)| matches(e.kind)).map(|(i, _)| i).collect();
+    (idx.len() == 3).then(|| [idx[0], idx[1], idx[2]])
+}
+
+fn marker_reports(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    cov: &DMatrix<f64>,
+    free: &[bool],
+    observations: &[MarkerObservation],
+    names: &[String],
+) -> Vec<MarkerReport> {
+    names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let idx = index_of(p, |kind| matches!(kind, Kind::Marker { marker, .. } if marker == k));
+            let fitted = p.marker(x, k);
+            let std_error_mm =
+                idx.filter(|i| i.iter().all(|&i| free[i])).map(|i| i.map(|i| cov[(i, i)].max(0.0).sqrt() * 1e3));
+            MarkerReport {
+                name: name.clone(),
+                observations: observations.iter().filter(|o| o.marker == k).count(),
+                model_m: p.markers0[k].into(),
+                fitted_m: fitted.into(),
+                change_mm: ((fitted - p.markers0[k]) * 1e3).into(),
+                std_error_mm,
+            }
+        })
+        .collect()
+}
+
+/// Uncertainty (1σ, RMS over the three axes, degrees) of each pose's predicted orientation in B:
+/// the parameter covariance propagated through `∂ω/∂x`.
+fn orientation_uncertainty(outcome: &FitOutcome, cov: &DMatrix<f64>) -> Option<Stats> {
+    let sens = outcome.evaluation.orientation_jacobians.as_ref()?;
+    let values: Vec<f64> =
+        sens.iter().map(|s| ((s * cov * s.transpose()).trace() / 3.0).max(0.0).sqrt().to_degrees()).collect();
+    Stats::of(&values)
+}

@@ -1,0 +1,257 @@
+//! The marker-level model: every marker observation with the encoder reading of its own capture.
+//!
+//! A marker `k` seen at a capture with joint readings `θ` is predicted at
+//! `x̂ = R_CB R(θ) p_k + t_CB` (camera frame), `R(θ)` the working-mode FDA; the residual is
+//! `r = x_C − x̂` (metres). Nothing is estimated per pose, so a capture may see one marker or all,
+//! and the markers' positions `p_k` on the MP are parameters like the mechanism's.
+//!
+//! Derivatives (perturbations on the left, `R ← exp(ε) R` in B): `dr = R_CB [R p_k]× dω` for the
+//! mechanism (`dω = −Ã⁻¹ F_x dx`, as in the orientation-level model), `dr = [R_CB R p_k]× J_l(c) dc`
+//! for `R_CB = exp(c) R_CB⁰`, `dr = −dt` for `t_CB` and `dr = −R_CB R dp_k` for the marker.
+//!
+//! Noise: a stereo camera triangulates depth worse than it measures across the line of sight. A
+//! pixel subtends `d / f`, so the lateral error grows with the distance `d`; the depth error
+//! grows with its square (`∝ d² / (f · baseline)`). The covariance of an observation along the
+//! unit line of sight `ℓ` is `σ_l² (d/d₀)² (I − ℓℓᵀ) + σ_d² (d/d₀)⁴ ℓℓᵀ`; `σ_l`, `σ_d` (at the
+//! reference distance `d₀`) are estimated from the residuals.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use serde::Serialize;
+
+use super::params::{Kind, Parameterisation};
+use super::residual::{EvalError, Evaluation, Frames};
+use super::solver::{Model, Weighting};
+use crate::dataset::Session;
+use crate::model::{FdaError, Spm};
+use crate::so3;
+
+/// One marker seen at one capture.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MarkerObservation {
+    /// Pose (capture) id.
+    pub pose: u64,
+    /// Marker index (as in the session's `markers`).
+    pub marker: usize,
+    /// The capture's joint readings.
+    pub joints: Vector3<f64>,
+    /// Measured position in the camera frame (m).
+    pub measured: Vector3<f64>,
+    /// Line of `markers.csv` (0 when not read from a file).
+    pub line: usize,
+    /// The capture's station, when recorded.
+    pub station: Option<u64>,
+}
+
+/// Every marker observation of `session`, pose by pose, and the poses whose FDA fails on `spm`
+/// (left out, with the error).
+pub fn marker_observations(session: &Session, spm: &Spm) -> (Vec<MarkerObservation>, Vec<(u64, FdaError)>) {
+    let (mut kept, mut failed) = (Vec::new(), Vec::new());
+    for pose in session.poses.iter().filter(|p| p.seen() > 0) {
+        if let Err(e) = spm.forward(&pose.joints) {
+            failed.push((pose.id, e));
+            continue;
+        }
+        for (marker, seen) in pose.markers.iter().enumerate() {
+            if let Some(measured) = seen {
+                kept.push(MarkerObservation {
+                    pose: pose.id,
+                    marker,
+                    joints: pose.joints,
+                    measured: *measured,
+                    line: pose.marker_lines[marker],
+                    station: pose.station,
+                });
+            }
+        }
+    }
+    (kept, failed)
+}
+
+/// The stereo noise model: standard deviations across and along the line of sight at the
+/// reference distance, with their standard errors.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StereoNoise {
+    /// Distance at which the σ's hold (the median distance of the observations), m.
+    pub reference_distance_m: f64,
+    /// σ across the line of sight (per axis), m.
+    pub lateral_m: f64,
+    /// Its standard error, m.
+    pub lateral_std_error_m: f64,
+    /// σ along the line of sight, m.
+    pub depth_m: f64,
+    /// Its standard error, m.
+    pub depth_std_error_m: f64,
+}
+
+/// Smallest σ the whitening uses (0.1 µm): noise-free data must not divide by zero.
+const SIGMA_FLOOR_M: f64 = 1e-7;
+
+/// The marker-level model over a set of observations.
+pub struct MarkerModel<'a> {
+    /// The parameters (a [`Parameterisation::for_markers`]).
+    pub p: &'a Parameterisation,
+    /// The observations, grouped by pose (consecutive).
+    pub observations: &'a [MarkerObservation],
+    /// Index of each observation's pose in `poses`.
+    pose_of: Vec<usize>,
+    /// Joint readings of each distinct pose.
+    poses: Vec<(u64, Vector3<f64>)>,
+    /// Median distance of the observations from the camera.
+    reference_distance: f64,
+}
+
+impl<'a> MarkerModel<'a> {
+    /// The model of `observations` (consecutive observations of a pose share its FDA).
+    pub fn new(p: &'a Parameterisation, observations: &'a [MarkerObservation]) -> Self {
+        let mut poses: Vec<(u64, Vector3<f64>)> = Vec::new();
+        let mut pose_of = Vec::with_capacity(observations.len());
+        for o in observations {
+            if poses.last().is_none_or(|(id, joints)| *id != o.pose || *joints != o.joints) {
+                poses.push((o.pose, o.joints));
+            }
+            pose_of.push(poses.len() - 1);
+        }
+        let mut distances: Vec<f64> = observations.iter().map(|o| o.measured.norm()).collect();
+        distances.sort_by(f64::total_cmp);
+        let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
+        MarkerModel { p, observations, pose_of, poses, reference_distance }
+    }
+
+    /// Distinct poses (FDA solutions) of the model.
+    pub fn poses(&self) -> usize {
+        self.poses.len()
+    }
+
+    /// Index into the evaluation's `orientations` of observation `j`'s pose.
+    pub fn pose_of(&self, j: usize) -> usize {
+        self.pose_of[j]
+    }
+
+    /// Unit line of sight and the distance ratio `d₀ / d` of observation `j`.
+    fn sight(&self, j: usize) -> (Vector3<f64>, f64) {
+        let m = self.observations[j].measured;
+        let d = m.norm().max(1e-6);
+        (m / d, self.reference_distance / d)
+    }
+
+    /// The stereo σ's that the (weighted) residuals imply.
+    pub fn stereo_noise(&self, residuals: &[Vector3<f64>], weights: &[f64]) -> StereoNoise {
+        let (mut depth, mut lateral, mut total) = (0.0, 0.0, 0.0);
+        for (j, r) in residuals.iter().enumerate() {
+            let (l, ratio) = self.sight(j);
+            let along = l.dot(r);
+            depth += weights[j] * (along * ratio * ratio).powi(2);
+            lateral += weights[j] * ((r - l * along) * ratio).norm_squared();
+            total += weights[j];
+        }
+        // Degrees of freedom: 3 per observation, less one per parameter (shared pro rata).
+        let n = residuals.len() as f64;
+        let dof = (1.0 - self.p.len() as f64 / (3.0 * n).max(1.0)).max(0.1);
+        let total = total.max(f64::MIN_POSITIVE) * dof;
+        let (depth_m, lateral_m) = ((depth / total).sqrt(), (lateral / (2.0 * total)).sqrt());
+        StereoNoise {
+            reference_distance_m: self.reference_distance,
+            lateral_m,
+            lateral_std_error_m: lateral_m / (4.0 * n).max(1.0).sqrt(),
+            depth_m,
+            depth_std_error_m: depth_m / (2.0 * n).max(1.0).sqrt(),
+        }
+    }
+
+    /// `Σ_j^{-1/2}` of observation `j` under `noise`.
+    pub fn whitening(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
+        let (l, ratio) = self.sight(j);
+        let along = l * l.transpose();
+        let across = Matrix3::identity() - along;
+        across * (ratio / noise.lateral_m.max(SIGMA_FLOOR_M))
+            + along * (ratio * ratio / noise.depth_m.max(SIGMA_FLOOR_M))
+    }
+}
+
+impl Model for MarkerModel<'_> {
+    fn parameterisation(&self) -> &Parameterisation {
+        self.p
+    }
+
+    fn evaluate(
+        &self,
+        x: &DVector<f64>,
+        warm: Option<&[Rotation3<f64>]>,
+        with_jacobian: bool,
+    ) -> Result<Evaluation, EvalError> {
+        let p = self.p;
+        let legs = p.legs(x);
+        let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
+        let (camera, translation) = (p.camera(x), p.translation(x));
+        let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
+        let mut orientations = Vec::with_capacity(self.poses.len());
+        for (k, (pose, joints)) in self.poses.iter().enumerate() {
+            let r = match warm {
+                Some(w) => spm.track(joints, &w[k]),
+                None => spm.forward(joints),
+            }
+            .map_err(|error| EvalError::Fda { pose: *pose, error })?;
+            orientations.push(r);
+        }
+        let residuals: Vec<Vector3<f64>> = self
+            .observations
+            .iter()
+            .zip(&self.pose_of)
+            .map(|(o, &k)| o.measured - (camera * (orientations[k] * markers[o.marker]) + translation))
+            .collect();
+        let mut eval = Evaluation { residuals, orientations, jacobian: None, orientation_jacobians: None };
+        if with_jacobian {
+            let frames = Frames::new(p, x);
+            let sensitivities: Vec<DMatrix<f64>> = self
+                .poses
+                .iter()
+                .zip(&eval.orientations)
+                .map(|((_, joints), r)| frames.orientation_sensitivity(&spm, &legs, joints, r))
+                .collect();
+            eval.jacobian = Some(self.jacobian(x, &camera, &markers, &eval.orientations, &sensitivities));
+            eval.orientation_jacobians = Some(sensitivities);
+        }
+        Ok(eval)
+    }
+
+    fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]) {
+        let noise = self.stereo_noise(residuals, &weighting.weights);
+        weighting.whitening = (0..residuals.len()).map(|j| self.whitening(j, &noise)).collect();
+        weighting.stereo = Some(noise);
+    }
+}
+
+impl MarkerModel<'_> {
+    /// `∂r/∂x`, `3n × N`.
+    fn jacobian(
+        &self,
+        x: &DVector<f64>,
+        camera: &Rotation3<f64>,
+        markers: &[Vector3<f64>],
+        orientations: &[Rotation3<f64>],
+        sensitivities: &[DMatrix<f64>],
+    ) -> DMatrix<f64> {
+        let p = self.p;
+        let jc = so3::left_jacobian(&p.registration_vectors(x).0);
+        let mut jac = DMatrix::zeros(3 * self.observations.len(), p.len());
+        for (j, o) in self.observations.iter().enumerate() {
+            let pose = self.pose_of[j];
+            let rp = orientations[pose] * markers[o.marker];
+            let mech = camera.matrix() * rp.cross_matrix();
+            let in_camera = (camera * rp).cross_matrix() * jc;
+            let rotation = camera.matrix() * orientations[pose].matrix();
+            let mut block = jac.view_mut((3 * j, 0), (3, p.len()));
+            for (i, e) in p.entries.iter().enumerate() {
+                let column: Vector3<f64> = match e.kind {
+                    Kind::Camera { k } => in_camera.column(k).into(),
+                    Kind::Translation { k } => -Vector3::ith(k, 1.0),
+                    Kind::Marker { marker, k } if marker == o.marker => -rotation.column(k),
+                    Kind::Marker { .. } | Kind::Reference { .. } => continue,
+                    _ => mech * sensitivities[pose].column(i),
+                };
+                block.set_column(i, &column);
+            }
+        }
+        jac
+    }
+}
