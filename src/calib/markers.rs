@@ -219,6 +219,7 @@ impl Model for MarkerModel<'_> {
         weighting.whitening = (0..residuals.len()).map(|j| self.whitening(j, &noise)).collect();
         weighting.stereo = Some(noise);
     }
+
 }
 
 impl MarkerModel<'_> {
