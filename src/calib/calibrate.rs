@@ -45,12 +45,18 @@ pub enum CalibError {
     /// No starting camera registration: the poses do not span two rotation axes.
     Registration,
     #[error(
-        "the MP barely moves: the largest rotation the camera sees from the reference pose is {max_deg:.3}°, too little to calibrate from"
+        "the MP barely moves: the largest rotation {}is {max_deg:.3}°, too little to calibrate from{}",
+        if unidentifiable.is_empty() { "the camera sees from the reference pose " } else { "between the session's poses " },
+        if unidentifiable.is_empty() { String::new() } else {
+            format!("; the data cannot identify {} direction(s), the weakest: {}", unidentifiable.len(), unidentifiable.iter().take(3).cloned().collect::<Vec<_>>().join("; "))
+        }
     )]
     /// The MP barely moves over the session.
     NoMotion {
-        /// Largest rotation from the reference pose, degrees.
+        /// Largest rotation, degrees.
         max_deg: f64,
+        /// The parameter directions the data leave undetermined (marker-level fit).
+        unidentifiable: Vec<String>,
     },
     #[error("the data cannot identify {} direction(s) of parameter space: {}; freeze parameters or set `unidentifiable: regularise`", .0.len(), .0.join("; "))]
     /// The data leave some parameter directions undetermined (with `unidentifiable: refuse`).
@@ -271,7 +277,7 @@ pub fn calibrate(
     // Nothing moving is its own problem, not "one axis": say which.
     let max_deg = measured.iter().map(|q| q.angle().to_degrees()).fold(0.0, f64::max);
     if max_deg < MIN_MOTION_DEG {
-        return Err(CalibError::NoMotion { max_deg });
+        return Err(CalibError::NoMotion { max_deg, unidentifiable: Vec::new() });
     }
     let (camera0, reference0) =
         initial_registration(&observations, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;

@@ -166,7 +166,7 @@ pub(super) fn calibrate_markers(
             session.markers[k], poses_seeing[k]
         ));
     }
-    check_motion(&observations, spm)?;
+    let max_deg = largest_rotation(&observations, spm);
     let registration = initial_registration(&observations, spm, &markers0).ok_or(CalibError::Registration)?;
     let p = Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
     let free: Vec<bool> = p
@@ -197,6 +197,14 @@ pub(super) fn calibrate_markers(
         .map_err(|error| CalibError::Fit { stage: "nominal registration", error })?;
     let identifiability = identifiability_at(&p, &nominal, &free, config);
     let regularised: Vec<String> = identifiability.unidentifiable.iter().map(|d| d.describe()).collect();
+    // A session that barely moves is refused, with what it cannot tell apart.
+    if max_deg < MIN_MOTION_DEG {
+        let mut unidentifiable = regularised.clone();
+        if unidentifiable.is_empty() {
+            unidentifiable = identifiability.weakest.iter().map(|d| d.describe()).collect();
+        }
+        return Err(CalibError::NoMotion { max_deg, unidentifiable });
+    }
     if !regularised.is_empty() && config.unidentifiable == Unidentifiable::Refuse {
         return Err(CalibError::Unidentifiable(regularised));
     }
@@ -234,13 +242,8 @@ pub(super) fn calibrate_markers(
     let before = MarkerErrors::of(&nominal.evaluation.residuals, &observations, &session.markers);
     let after = MarkerErrors::of(&calibrated.evaluation.residuals, &observations, &session.markers);
     let covariance = covariance(&calibrated, &free, prior.as_ref().map(|(l, _)| l));
-    let cross_validation = cross_validate(
-        &model_m,
-        [&nominal, &calibrated],
-        [&free, &registration_only],
-        prior.as_ref(),
-        config.folds,
-    )?;
+    let cross_validation =
+        cross_validate(&model_m, [&nominal, &calibrated], [&free, &registration_only], prior.as_ref(), config.folds)?;
     if let Some(cv) = cross_validation.as_ref().filter(|cv| !cv.clearly_better) {
         let warning = not_better_warning(cv, &identifiability.unidentifiable, &model_m);
         if config.if_not_better == IfNotBetter::Refuse {
@@ -345,12 +348,11 @@ fn model_markers(session: &Session, model: &RobotModel) -> Result<Vec<Vector3<f6
         .collect()
 }
 
-/// The session must rotate the MP: judged on the nominal FDA of its poses.
-fn check_motion(observations: &[MarkerObservation], spm: &crate::model::Spm) -> Result<(), CalibError> {
+/// The largest rotation (degrees) of the MP between the first pose and any other, by the nominal FDA.
+fn largest_rotation(observations: &[MarkerObservation], spm: &crate::model::Spm) -> f64 {
     let rotations: Vec<Rotation3<f64>> = observations.iter().filter_map(|o| spm.forward(&o.joints).ok()).collect();
     let first = rotations.first().copied().unwrap_or_else(Rotation3::identity);
-    let max_deg = rotations.iter().map(|r| so3::geodesic_angle(r, &first).to_degrees()).fold(0.0, f64::max);
-    if max_deg < MIN_MOTION_DEG { Err(CalibError::NoMotion { max_deg }) } else { Ok(()) }
+    rotations.iter().map(|r| so3::geodesic_angle(r, &first).to_degrees()).fold(0.0, f64::max)
 }
 
 /// The rigid motion that best carries the nominal model's markers (in B) onto the measured ones
@@ -461,10 +463,9 @@ fn cross_validate(
         }
         let test_observations: Vec<MarkerObservation> = test.iter().map(|&j| model.observations[j]).collect();
         let test_model = MarkerModel::new(model.p, &test_observations);
-        for (outcome, mask, prior, out) in [
-            (nominal, registration_only, None, &mut nominal_sq),
-            (calibrated, free, prior, &mut calibrated_sq),
-        ] {
+        for (outcome, mask, prior, out) in
+            [(nominal, registration_only, None, &mut nominal_sq), (calibrated, free, prior, &mut calibrated_sq)]
+        {
             let x = leave_out(outcome, mask, &test, prior);
             let eval = test_model.evaluate(&x, None, false).map_err(CalibError::HeldOut)?;
             out.extend(eval.residuals.iter().map(|r| r.norm_squared() * 1e6));

@@ -127,18 +127,19 @@ impl<'a> MarkerModel<'a> {
         self.pose_of[j]
     }
 
-    /// Unit line of sight and the distance ratio `d₀ / d` of observation `j`.
+    /// Unit line of sight and distance of observation `j`.
     fn sight(&self, j: usize) -> (Vector3<f64>, f64) {
         let m = self.observations[j].measured;
         let d = m.norm().max(1e-6);
-        (m / d, self.reference_distance / d)
+        (m / d, d)
     }
 
     /// The stereo σ's that the (weighted) residuals imply.
     pub fn stereo_noise(&self, residuals: &[Vector3<f64>], weights: &[f64]) -> StereoNoise {
         let (mut depth, mut lateral, mut total) = (0.0, 0.0, 0.0);
         for (j, r) in residuals.iter().enumerate() {
-            let (l, ratio) = self.sight(j);
+            let (l, d) = self.sight(j);
+            let ratio = self.reference_distance / d;
             let along = l.dot(r);
             depth += weights[j] * (along * ratio * ratio).powi(2);
             lateral += weights[j] * ((r - l * along) * ratio).norm_squared();
@@ -160,7 +161,8 @@ impl<'a> MarkerModel<'a> {
 
     /// `Σ_j^{-1/2}` of observation `j` under `noise`.
     pub fn whitening(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
-        let (l, ratio) = self.sight(j);
+        let (l, d) = self.sight(j);
+        let ratio = noise.reference_distance_m / d;
         let along = l * l.transpose();
         let across = Matrix3::identity() - along;
         across * (ratio / noise.lateral_m.max(SIGMA_FLOOR_M))
@@ -219,7 +221,6 @@ impl Model for MarkerModel<'_> {
         weighting.whitening = (0..residuals.len()).map(|j| self.whitening(j, &noise)).collect();
         weighting.stereo = Some(noise);
     }
-
 }
 
 impl MarkerModel<'_> {

@@ -121,6 +121,35 @@ impl Session {
         self.poses.iter().find(|p| p.id == self.reference_pose).expect("validated on load")
     }
 
+    /// The session with the captures of each station merged into one pose, as the per-pose
+    /// estimator needs (one marker at a time gives no pose with three): the station's first
+    /// capture's id, reading and time, and every marker it saw (the first sighting of each).
+    /// Poses without a station stay as they are. The motion between captures is then blamed on
+    /// the mechanism — the reason the marker-level fit uses every capture's own reading.
+    pub fn by_station(&self) -> Session {
+        let mut poses: Vec<SessionPose> = Vec::new();
+        for pose in &self.poses {
+            let merged = pose.station.and_then(|s| poses.iter_mut().find(|p| p.station == Some(s)));
+            match merged {
+                Some(into) => {
+                    for (k, m) in pose.markers.iter().enumerate() {
+                        if into.markers[k].is_none() && m.is_some() {
+                            into.markers[k] = *m;
+                            into.marker_lines[k] = pose.marker_lines[k];
+                        }
+                    }
+                }
+                None => poses.push(pose.clone()),
+            }
+        }
+        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
+        let truth = self.truth.as_ref().map(|t| Truth {
+            parameters: t.parameters.clone(),
+            orientations: poses.iter().filter_map(|p| t.orientations.get(&p.id).map(|r| (p.id, *r))).collect(),
+        });
+        Session { poses, reference_pose, truth, ..self.clone() }
+    }
+
     /// Load and validate the session in `dir`; `model` overrides the one named in `session.yaml`.
     ///
     /// # Errors

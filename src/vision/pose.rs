@@ -43,6 +43,14 @@ pub enum MarkerError {
         /// Markers seen in both.
         seen: usize,
     },
+    /// No pose of the session sees three markers (e.g. one marker at a time without stations).
+    #[error(
+        "no pose sees 3 markers (at most {most}): the per-pose estimator has nothing to work on; `calibrate` (the marker-level fit) uses every marker"
+    )]
+    NoPoseWithThree {
+        /// The most markers any pose sees.
+        most: usize,
+    },
     /// The markers cannot fix an orientation (judged against the marker noise).
     #[error(transparent)]
     Degenerate(#[from] Degeneracy),

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::centre::{CentreOfRotation, centre_of_rotation};
 use super::pose::{MarkerError, Method, PoseEstimate, Reference};
-use crate::dataset::Session;
+use crate::dataset::{MIN_MARKERS, Session};
 use crate::so3;
 
 /// A pose the estimator could not use, and why.
@@ -64,14 +64,27 @@ pub struct SessionEstimate {
 }
 
 /// Estimate every pose of `session` against its reference pose. A reference pose whose markers
-/// are degenerate is an error; any other pose that fails is listed in `skipped`.
+/// are degenerate is an error; any other pose that fails is listed in `skipped`. A session
+/// captured one marker at a time is estimated per station ([`Session::by_station`]): the pose ids
+/// are then the stations' first captures.
 ///
 /// # Errors
-/// A [`VisionError`] when the reference pose's markers are too few or degenerate.
+/// A [`VisionError`] when no pose (station) sees three markers, or the reference pose's markers
+/// are too few or degenerate.
 ///
 /// # Panics
 /// Never: only seen markers are used.
 pub fn estimate_session(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
+    if session.poses.iter().any(|p| p.station.is_some()) {
+        return estimate_poses(&session.by_station(), method);
+    }
+    estimate_poses(session, method)
+}
+
+fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
+    if let Some(best) = session.poses.iter().max_by_key(|p| p.seen()).filter(|p| p.seen() < MIN_MARKERS) {
+        return Err(VisionError { pose: best.id, reason: MarkerError::NoPoseWithThree { most: best.seen() } });
+    }
     let reference = session.reference();
     let mut factors: HashMap<Vec<usize>, Reference> = HashMap::new();
     let mut poses = Vec::with_capacity(session.poses.len());

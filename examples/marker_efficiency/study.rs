@@ -1,0 +1,170 @@
+//! How close does each fit come to the best any unbiased estimator can do? On a simulated session
+//! the fitted mechanism's orientation error is measured against the truth over fresh orientations
+//! of the workspace (not the session's), and compared with the Cramér–Rao prediction: the
+//! orientation variance that the Fisher information at the true parameters, under the true noise
+//! model, implies.
+
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use rand::{Rng, SeedableRng};
+use spmcal::calib::{
+    CalibConfig, Calibration, FitLevel, MarkerModel, Model, Parameterisation, StereoNoise, TruthInGauge, calibrate,
+    marker_observations,
+};
+use spmcal::dataset::Session;
+use spmcal::model::{LegGeometry, RobotModel, Spm};
+use spmcal::sim::{SimConfig, simulate};
+use spmcal::so3;
+
+/// One session's figures: RMS orientation errors (degrees) against the truth over the test
+/// orientations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SessionResult {
+    /// The marker-level fit.
+    pub markers_deg: f64,
+    /// The orientation-level fit (per station for sequential capture); `None` when it failed.
+    pub orientations_deg: Option<f64>,
+    /// The nominal model.
+    pub nominal_deg: f64,
+    /// The Cramér–Rao prediction of the marker-level fit's RMS error.
+    pub cramer_rao_deg: f64,
+    /// Marker observations fitted.
+    pub observations: usize,
+}
+
+/// Random orientations of the workspace (tilt ≤ 30°, yaw ≤ 30°) that `truth` reaches.
+pub fn test_orientations(truth: &Spm, n: usize, seed: u64) -> Vec<Rotation3<f64>> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let tilt = 30f64.to_radians() * rng.random::<f64>().sqrt();
+        let azimuth = rng.random_range(0.0..std::f64::consts::TAU);
+        let yaw = rng.random_range(-30f64..30.0).to_radians();
+        let r = so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt)) * so3::exp(&(Vector3::z() * yaw));
+        if truth.ik(&r).is_ok() {
+            out.push(r);
+        }
+    }
+    out
+}
+
+/// RMS angle (degrees) between what `legs` predicts from the true joints of each test orientation
+/// and the truth, in the fit's frames (`G R Hᵀ`).
+pub fn workspace_error(legs: &[LegGeometry; 3], truth: &Spm, gauge: &TruthInGauge, tests: &[Rotation3<f64>]) -> f64 {
+    let Ok(spm) = Spm::new(*legs) else { return f64::INFINITY };
+    let sum: f64 = tests
+        .iter()
+        .map(|r| {
+            let joints = truth.ik(r).expect("test orientations are reachable");
+            spm.forward(&joints).map_or(f64::INFINITY, |fit| so3::geodesic_angle(&fit, &gauge.orientation(r)).powi(2))
+        })
+        .sum();
+    (sum / tests.len() as f64).sqrt().to_degrees()
+}
+
+/// `∂ω/∂x` of the mechanism at `joints` (3 × N), by central differences of the FDA.
+fn orientation_sensitivity(p: &Parameterisation, x: &DVector<f64>, joints: &Vector3<f64>) -> DMatrix<f64> {
+    let h = 1e-7;
+    let mut s = DMatrix::zeros(3, p.len());
+    for i in 0..p.len() {
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[i] += h;
+        minus[i] -= h;
+        let at = |x: &DVector<f64>| Spm::new(p.legs(x)).ok().and_then(|spm| spm.forward(joints).ok());
+        if let (Some(a), Some(b)) = (at(&plus), at(&minus)) {
+            s.set_column(i, &(so3::log(&(a * b.inverse())) / (2.0 * h)));
+        }
+    }
+    s
+}
+
+/// The Cramér–Rao prediction of the RMS orientation error (degrees) over `tests`: the Fisher
+/// information of the session's marker observations at the true parameters, whitened by the true
+/// stereo noise, inverted and propagated through `∂ω/∂x` at each test orientation.
+pub fn cramer_rao(session: &Session, model: &RobotModel, config: &SimConfig, tests: &[Rotation3<f64>]) -> f64 {
+    let truth = session.truth.as_ref().expect("a simulated session");
+    let camera = truth.parameters.camera.expect("a simulated camera");
+    let markers0: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &camera,
+        &markers0,
+        &session.markers,
+        &CalibConfig::default().bounds,
+    );
+    let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
+    let gauge = TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &true_markers);
+    let spm_true = truth.parameters.spm().expect("a valid truth");
+    let (observations, _) = marker_observations(session, &spm_true);
+    let m = MarkerModel::new(&p, &observations);
+    let eval = m.evaluate(&gauge.x, None, true).expect("the truth evaluates");
+    let jac = eval.jacobian.expect("asked for");
+    let noise = StereoNoise {
+        reference_distance_m: config.camera.reference_distance_m,
+        lateral_m: config.camera.lateral_sigma_m,
+        lateral_std_error_m: 0.0,
+        depth_m: config.camera.depth_sigma_m,
+        depth_std_error_m: 0.0,
+    };
+    let mut fisher = DMatrix::zeros(p.len(), p.len());
+    for j in 0..observations.len() {
+        let block = m.whitening(j, &noise) * jac.rows(3 * j, 3);
+        fisher += block.transpose() * &block;
+    }
+    let cov = fisher.try_inverse().expect("the gauge-fixed parameters are identifiable");
+    let spm_fit_truth = Spm::new(p.legs(&gauge.x)).expect("the truth in gauge is valid");
+    let mean: f64 = tests
+        .iter()
+        .map(|r| {
+            let joints = spm_true.ik(r).expect("reachable");
+            let _ = spm_fit_truth.forward(&joints).expect("the truth reaches it");
+            let s = orientation_sensitivity(&p, &gauge.x, &joints);
+            (&s * &cov * s.transpose()).trace()
+        })
+        .sum::<f64>()
+        / tests.len() as f64;
+    mean.sqrt().to_degrees()
+}
+
+/// The error of a calibration's mechanism against the truth over `tests`.
+pub fn calibration_error(session: &Session, calibration: &Calibration, tests: &[Rotation3<f64>]) -> f64 {
+    let truth = session.truth.as_ref().expect("a simulated session");
+    let camera = truth.parameters.camera.expect("a simulated camera");
+    let gauge = TruthInGauge::new(
+        &calibration.parameterisation,
+        &truth.parameters.legs,
+        &camera.rotation,
+        &Rotation3::identity(),
+    );
+    let spm_true = truth.parameters.spm().expect("a valid truth");
+    workspace_error(&calibration.parameters.legs, &spm_true, &gauge, tests)
+}
+
+/// Simulate `config` with `seed`, calibrate at both levels and score them against the truth.
+pub fn run_session(config: &SimConfig, model: &RobotModel, seed: u64, tests: usize) -> SessionResult {
+    let mut c = config.clone();
+    c.seed = seed;
+    let (session, _) = simulate(&c, model, &mut |_| {}).expect("the simulation succeeds");
+    let truth = session.truth.as_ref().expect("a simulated session");
+    let spm_true = truth.parameters.spm().expect("a valid truth");
+    let tests = test_orientations(&spm_true, tests, seed ^ 0x5eed);
+    let markers = CalibConfig { folds: 0, ..CalibConfig::default() };
+    let fitted = calibrate(&session, model, &markers, &mut |_| {}).expect("the marker-level fit succeeds");
+    let orientations = CalibConfig { fit: FitLevel::Orientations, holdout_every: 0, ..CalibConfig::default() };
+    let by_orientation = calibrate(&session, model, &orientations, &mut |_| {}).ok();
+    let camera = truth.parameters.camera.expect("a simulated camera");
+    let gauge =
+        TruthInGauge::new(&fitted.parameterisation, &truth.parameters.legs, &camera.rotation, &Rotation3::identity());
+    SessionResult {
+        markers_deg: calibration_error(&session, &fitted, &tests),
+        orientations_deg: by_orientation.as_ref().map(|c| calibration_error(&session, c, &tests)),
+        nominal_deg: workspace_error(model.spm.geometry(), &spm_true, &gauge, &tests),
+        cramer_rao_deg: cramer_rao(&session, model, &c, &tests),
+        observations: fitted.marker_observations.len(),
+    }
+}
+
+/// RMS over sessions of per-session RMS figures.
+pub fn pooled(values: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = values.collect();
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
