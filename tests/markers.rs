@@ -277,3 +277,65 @@ fn cross_validation_by_one_newton_step_matches_refitting_each_fold() {
     assert!((cv.calibrated_rms_mm / calibrated - 1.0).abs() < 0.01, "{} vs {calibrated}", cv.calibrated_rms_mm);
     assert!((cv.nominal_rms_mm / nominal - 1.0).abs() < 0.01, "{} vs {nominal}", cv.nominal_rms_mm);
 }
+
+#[test]
+fn marker_data_leave_free_only_the_two_rotation_gauges() {
+    // Add the six directions the parameterisation fixes — tilts of u_1 (2), of u_2 out of its
+    // plane (1), of v0_1 (2), of v0_2 out of its plane (1) — as extra Jacobian columns. They lie
+    // in the span of the others (a rotation of B carried by R_CB, of P carried by the markers and
+    // the v0's): the augmented rank stays that of the gauge-fixed set, and exactly six directions
+    // are null. Everything else — t_CB and every marker included — is identified.
+    let (session, model) = simulated(200, 13, false);
+    let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let id = &calibration.report.identifiability;
+    assert_eq!((id.rank, id.parameters), (33, 33), "{id:?}");
+    let p = &calibration.parameterisation;
+    let x = &calibration.calibrated.x;
+    let obs = &calibration.marker_observations;
+    let base = MarkerModel::new(p, obs).evaluate(x, None, true).unwrap();
+    let g = p.legs(x);
+    let camera = spmcal::model::CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
+    let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
+    let tangent = |a: &Vector3<f64>| {
+        let e1 = a.cross(&Vector3::z()).normalize();
+        [e1, a.cross(&e1)]
+    };
+    let n12 = g[0].u.cross(&g[1].u).normalize();
+    let m12 = g[0].v0.cross(&g[1].v0).normalize();
+    let moves = [
+        (true, 0, tangent(&g[0].u)[0]),
+        (true, 0, tangent(&g[0].u)[1]),
+        (true, 1, g[1].u.cross(&n12).normalize()),
+        (false, 0, tangent(&g[0].v0)[0]),
+        (false, 0, tangent(&g[0].v0)[1]),
+        (false, 1, g[1].v0.cross(&m12).normalize()),
+    ];
+    let jac = base.jacobian.unwrap();
+    let mut augmented = DMatrix::zeros(jac.nrows(), jac.ncols() + moves.len());
+    augmented.view_mut((0, 0), (jac.nrows(), jac.ncols())).copy_from(&jac);
+    let residuals_after = |actuated: bool, leg: usize, angle: Vector3<f64>| {
+        let rot = spmcal::so3::exp(&angle);
+        let mut legs = g;
+        if actuated {
+            legs[leg].u = rot * legs[leg].u;
+            legs[leg].z = rot * legs[leg].z;
+        } else {
+            legs[leg].v0 = rot * legs[leg].v0;
+        }
+        let q =
+            Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &CalibConfig::default().bounds);
+        MarkerModel::new(&q, obs).evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false).unwrap().residuals
+    };
+    let h = 1e-6;
+    for (k, (actuated, leg, dir)) in moves.iter().enumerate() {
+        let (plus, minus) = (residuals_after(*actuated, *leg, dir * h), residuals_after(*actuated, *leg, dir * -h));
+        for j in 0..obs.len() {
+            augmented.fixed_view_mut::<3, 1>(3 * j, jac.ncols() + k).copy_from(&((plus[j] - minus[j]) / (2.0 * h)));
+        }
+    }
+    let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
+    let all: Vec<usize> = (0..augmented.ncols()).collect();
+    let analysis = spmcal::calib::analyse(&augmented, &all, &names, 1e-5);
+    assert_eq!(analysis.rank, 33, "the six gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.unidentifiable.len(), 6);
+}

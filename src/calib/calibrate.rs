@@ -372,8 +372,11 @@ fn weighted_jacobian(outcome: &FitOutcome) -> DMatrix<f64> {
     let mut jac = outcome.evaluation.jacobian.clone().expect("fits keep their Jacobian");
     let w = &outcome.weighting;
     for j in 0..outcome.evaluation.residuals.len() {
-        let block = w.whitening[j] * w.weights[j].sqrt() * jac.rows(3 * j, 3);
-        jac.rows_mut(3 * j, 3).copy_from(&block);
+        let s = w.whitening[j] * w.weights[j].sqrt();
+        for c in 0..jac.ncols() {
+            let column = s * jac.fixed_view::<3, 1>(3 * j, c);
+            jac.fixed_view_mut::<3, 1>(3 * j, c).copy_from(&column);
+        }
     }
     jac
 }
@@ -395,10 +398,11 @@ pub(super) fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMa
     let n = free.len();
     let idx: Vec<usize> = (0..n).filter(|&i| free[i]).collect();
     let jac = weighted_jacobian(outcome);
+    let full_h = jac.transpose() * &jac;
     let mut h = DMatrix::zeros(idx.len(), idx.len());
     for (a, &i) in idx.iter().enumerate() {
         for (b, &k) in idx.iter().enumerate() {
-            h[(a, b)] = jac.column(i).dot(&jac.column(k)) + prior.map_or(0.0, |l| l[(i, k)]);
+            h[(a, b)] = full_h[(i, k)] + prior.map_or(0.0, |l| l[(i, k)]);
         }
     }
     let w = &outcome.weighting;
