@@ -1,11 +1,14 @@
-//! Whole calibrations (vision, starting point, nominal baseline, identifiability, fit, covariance,
-//! hold-out) of 20, 400 and 4,000 poses: the cost should grow linearly with the poses.
+//! Whole calibrations, marker-level (the default: vision-free, baseline, identifiability, robust
+//! fit, gross-error exclusion, covariance, 5-fold cross-validation) on 20, 400 and 4,000 poses —
+//! the cost should grow linearly — and orientation-level on 400; then the command end to end as a
+//! user runs it (files in, parameters file out).
 
 use std::hint::black_box;
 use std::path::Path;
+use std::process::Command;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use spmcal::calib::{CalibConfig, calibrate};
+use spmcal::calib::{CalibConfig, FitLevel, calibrate};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
 use spmcal::sim::{SimConfig, simulate};
@@ -19,16 +22,42 @@ fn calibration(c: &mut Criterion) {
     }
     sim.poses = 4000;
     sessions.push(simulate(&sim, &model, &mut |_| {}).unwrap().0);
-    let config = CalibConfig::default();
-    let mut group = c.benchmark_group("calibrate");
+    let mut group = c.benchmark_group("calibrate_markers");
     group.sample_size(10);
     for session in &sessions {
         group.bench_with_input(BenchmarkId::from_parameter(session.poses.len()), session, |b, s| {
-            b.iter(|| calibrate(black_box(s), &model, &config, &mut |_| {}).unwrap())
+            b.iter(|| calibrate(black_box(s), &model, &CalibConfig::default(), &mut |_| {}).unwrap())
+        });
+    }
+    group.finish();
+    let orientations = CalibConfig { fit: FitLevel::Orientations, ..CalibConfig::default() };
+    let mut group = c.benchmark_group("calibrate_orientations");
+    group.sample_size(10);
+    group.bench_function("400", |b| {
+        b.iter(|| calibrate(black_box(&sessions[1]), &model, &orientations, &mut |_| {}).unwrap())
+    });
+    group.finish();
+}
+
+/// `spmcal calibrate --dataset D --out P`, process start to parameters file written.
+fn command(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("params.yaml");
+    let mut group = c.benchmark_group("calibrate_command");
+    group.sample_size(10);
+    for dataset in ["datasets/agile_wrist_sim_400", "datasets/agile_wrist_sequential_200"] {
+        group.bench_function(dataset.trim_start_matches("datasets/"), |b| {
+            b.iter(|| {
+                let run = Command::new(env!("CARGO_BIN_EXE_spmcal"))
+                    .args(["calibrate", "--dataset", dataset, "--out", out.to_str().unwrap()])
+                    .output()
+                    .unwrap();
+                assert!(run.status.success());
+            })
         });
     }
     group.finish();
 }
 
-criterion_group!(benches, calibration);
+criterion_group!(benches, calibration, command);
 criterion_main!(benches);

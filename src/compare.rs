@@ -6,15 +6,11 @@
 //! registration (a calibrated file) only the reference rotation `A` is fitted: it belongs to the
 //! session (where its reference pose was), not to the device.
 
-use nalgebra::{DVector, Rotation3};
 use serde::Serialize;
 
-use crate::calib::{
-    CalibConfig, ErrorSummary, FitError, FitSettings, Group, Loss, Observation, Parameterisation, fit,
-    initial_registration, observations,
-};
+use crate::calib::pose_errors;
 use crate::dataset::Session;
-use crate::model::{LegGeometry, Parameters, Spm};
+use crate::model::Parameters;
 use crate::vision::{Method, VisionError, estimate_session};
 
 /// The comparison of one parameter set.
@@ -72,50 +68,15 @@ fn compare_one(
     label: &str,
     params: &Parameters,
 ) -> Result<SetComparison, CompareError> {
-    let fail = |reason: String| CompareError::Set { label: label.to_string(), reason };
-    let spm = Spm::new(params.legs).map_err(|e| fail(e.to_string()))?;
-    let (kept, failed) = observations(session, vision, &spm);
-    let excluded: Vec<String> = failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")).collect();
-    let (observations, predicted): (Vec<Observation>, Vec<Rotation3<f64>>) = kept.into_iter().unzip();
-    if observations.len() < 3 {
-        return Err(fail(format!(
-            "only {} poses have both a vision estimate and a forward kinematics solution",
-            observations.len()
-        )));
-    }
-    let reference = observations.iter().position(|o| o.pose == vision.reference_pose).unwrap_or(0);
-    let (camera0, reference0, registration, groups): (_, _, _, &[Group]) = match params.camera {
-        Some(c) => (
-            c.rotation,
-            c.rotation * predicted[reference],
-            "from the parameters file (reference rotation fitted)",
-            &[Group::ReferenceRotation],
-        ),
-        None => {
-            let (c, a) = initial_registration(&observations, &predicted, vision.reference_pose)
-                .ok_or_else(|| fail("every pose rotates about one axis: no registration".into()))?;
-            (c, a, "best fit to this session", &[Group::CameraRotation, Group::ReferenceRotation])
-        }
-    };
-    let legs: [LegGeometry; 3] = *spm.geometry();
-    let defaults = CalibConfig::default();
-    let p = Parameterisation::new(legs, camera0, reference0, &defaults.bounds);
-    let free = p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect();
-    let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(&defaults, free) };
-    let outcome = fit(&p, &DVector::zeros(p.len()), &observations, &settings, &mut |_| {})
-        .map_err(|e: FitError| fail(e.to_string()))?;
-    let summary = ErrorSummary::of(&outcome.evaluation.residuals);
+    let e = pose_errors(session, vision, params)
+        .map_err(|reason| CompareError::Set { label: label.to_string(), reason })?;
     Ok(SetComparison {
         label: label.to_string(),
-        registration,
-        per_pose: observations
-            .iter()
-            .zip(&outcome.evaluation.residuals)
-            .map(|(o, r)| (o.pose, r.norm().to_degrees()))
-            .collect(),
-        rms_deg: summary.rms_deg,
-        median_deg: summary.median_deg,
-        max_deg: summary.max_deg,
-        excluded,
+        registration: e.registration,
+        rms_deg: e.summary.rms_deg,
+        median_deg: e.summary.median_deg,
+        max_deg: e.summary.max_deg,
+        per_pose: e.per_pose,
+        excluded: e.excluded,
     })
 }

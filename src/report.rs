@@ -6,7 +6,7 @@ use std::fmt;
 
 use serde::Serialize;
 
-use crate::calib::{CalibrationReport, Convergence, ErrorSummary, MarkerFitReport};
+use crate::calib::{CalibrationReport, Convergence, ErrorSummary, FitLevel, MarkerFitReport};
 use crate::compare::SetComparison;
 use crate::dataset::{JointReading, OrientationRecord};
 use crate::files::number;
@@ -307,17 +307,27 @@ fn error_line(f: &mut fmt::Formatter<'_>, label: &str, e: &ErrorSummary) -> fmt:
 impl fmt::Display for CalibrationReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = self;
-        writeln!(
-            f,
-            "{}: {} poses, {} fitted, {} held out, {} excluded; vision {:?}, loss {:?}",
-            r.session,
-            r.poses,
-            r.fit_poses,
-            r.held_out_poses,
-            r.excluded.len(),
-            r.vision_method,
-            r.loss
-        )?;
+        match r.fit {
+            FitLevel::Markers => writeln!(
+                f,
+                "{}: {} poses, {} excluded; marker-level fit, loss {:?}",
+                r.session,
+                r.poses,
+                r.excluded.len(),
+                r.loss
+            )?,
+            FitLevel::Orientations => writeln!(
+                f,
+                "{}: {} poses, {} fitted, {} held out, {} excluded; orientation-level fit, vision {:?}, loss {:?}",
+                r.session,
+                r.poses,
+                r.fit_poses,
+                r.held_out_poses,
+                r.excluded.len(),
+                r.vision_method,
+                r.loss
+            )?,
+        }
         for e in r.excluded.iter().take(LISTED) {
             writeln!(f, "  excluded {e}")?;
         }
@@ -325,7 +335,10 @@ impl fmt::Display for CalibrationReport {
             writeln!(f, "  … and {} more (all are listed by --json)", r.excluded.len() - LISTED)?;
         }
         match &r.markers {
-            Some(m) => marker_summary(f, m)?,
+            Some(m) => {
+                marker_summary(f, m)?;
+                per_pose_lines(f, r)?;
+            }
             None => {
                 writeln!(f, "FDA vs vision (deg)          RMS      median   max")?;
                 error_line(f, "nominal, fitted poses", &r.before.fit)?;
@@ -384,8 +397,10 @@ impl fmt::Display for CalibrationReport {
         if let Some(u) = &r.orientation_uncertainty_deg {
             writeln!(
                 f,
-                "predicted orientation uncertainty (1 sigma, as the camera sees it): mean {:.4} deg, max {:.4} deg",
-                u.mean, u.max
+                "predicted orientation uncertainty (1 sigma, {}): mean {:.4} deg, max {:.4} deg",
+                if r.fit == FitLevel::Markers { "of each pose's FDA" } else { "as the camera sees it" },
+                u.mean,
+                u.max
             )?;
         }
         match (r.camera_translation_m, r.camera_translation_std_error_m) {
@@ -440,6 +455,16 @@ fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
         .map(|((name, n, b), (_, _, a))| format!("{name} {b:.3} → {a:.3} ({n})"))
         .collect();
     writeln!(f, "  per marker, mm RMS (observations): {}", per_marker.join(", "))
+}
+
+/// The per-pose orientation errors beside a marker-level fit, when the estimator had poses.
+fn per_pose_lines(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
+    if r.before.fit.poses == 0 {
+        return writeln!(f, "FDA vs vision per pose: no pose (station) sees three markers");
+    }
+    writeln!(f, "FDA vs vision per pose (deg)  RMS      median   max")?;
+    error_line(f, "nominal", &r.before.fit)?;
+    error_line(f, "calibrated", &r.after.fit)
 }
 
 /// Fitted markers, stereo noise and flagged observations of a marker-level calibration.

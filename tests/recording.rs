@@ -275,3 +275,19 @@ fn marker_level_calibration_recording_shows_fitted_and_model_markers_and_per_pos
     let report = calibration.report.markers.as_ref().unwrap().after.rms_mm;
     assert!((rms - report).abs() < 1e-9, "{rms} vs {report}");
 }
+
+#[test]
+fn a_session_captured_one_marker_at_a_time_replays_with_calibrated_parameters() {
+    let (session, _) = Session::load(Path::new("datasets/agile_wrist_sequential_200"), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    let calibration =
+        calibrate(&session, &model, &CalibConfig { folds: 0, ..CalibConfig::default() }, &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("replay.rrd");
+    let scene = spmcal::record::replay_scene(&session, &model, Some(&calibration.parameters)).unwrap();
+    spmcal::record::write_recording(&path, &scene).unwrap();
+    let found = entities(&chunks(&path));
+    for e in ["world/mp/fda_calibrated", "world/markers/measured", "world/markers/predicted", "world/markers/model"] {
+        assert!(found.contains(e), "{e} missing; found {found:?}");
+    }
+}

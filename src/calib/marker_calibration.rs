@@ -13,11 +13,12 @@ use super::calibrate::{
 use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Unidentifiable};
 use super::markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 use super::params::{Kind, Parameterisation};
+use super::pose_errors::pose_errors;
 use super::solver::{FitOutcome, FitSettings, IterationLog, Model as _, fit_model};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
 use crate::so3;
-use crate::vision::{Method, Stats};
+use crate::vision::{Method, Stats, estimate_session};
 
 /// RMS, median and largest distance (mm) between measured and predicted markers.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -271,7 +272,22 @@ pub(super) fn calibrate_markers(
         .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. }))
         .map(|(r, _)| r)
         .collect();
-    let empty = Errors { fit: ErrorSummary::of(&[]), held_out: None };
+    // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
+    // model with its best-fit registration, the calibrated one with its own.
+    let parameters = Parameters {
+        source: ParameterSource::Calibrated,
+        model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
+        legs: p.legs(x),
+        camera: Some(camera),
+        markers: parameters_markers,
+        fit: None,
+    };
+    let vision = estimate_session(session, Method::Kabsch).ok();
+    let per_pose = |params: &Parameters| {
+        let fit = vision.as_ref().and_then(|v| pose_errors(session, v, params).ok()).map(|e| e.summary);
+        Errors { fit: fit.unwrap_or_else(|| ErrorSummary::of(&[])), held_out: None }
+    };
+    let (before_deg, after_deg) = (per_pose(&Parameters::nominal(spm, None)), per_pose(&parameters));
     let report = CalibrationReport {
         session: session.name.clone(),
         fit: FitLevel::Markers,
@@ -281,8 +297,8 @@ pub(super) fn calibrate_markers(
         fit_poses: model_m.poses(),
         held_out_poses: 0,
         excluded,
-        before: empty,
-        after: empty,
+        before: before_deg,
+        after: after_deg,
         iterations: calibrated.log.clone(),
         convergence: calibrated.status,
         not_significant: reports
@@ -311,14 +327,7 @@ pub(super) fn calibrate_markers(
             warnings,
         }),
     };
-    let mut parameters = Parameters {
-        source: ParameterSource::Calibrated,
-        model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
-        legs: p.legs(x),
-        camera: Some(camera),
-        markers: parameters_markers,
-        fit: None,
-    };
+    let mut parameters = parameters;
     parameters.fit = Some(fit_header(&report));
     Ok(Calibration {
         parameters,

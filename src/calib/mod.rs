@@ -7,6 +7,7 @@ mod identify;
 mod marker_calibration;
 mod markers;
 mod params;
+mod pose_errors;
 mod registration;
 mod residual;
 mod solver;
@@ -20,6 +21,7 @@ pub use identify::{Direction, Identifiability, analyse};
 pub use marker_calibration::{CrossValidation, FlaggedObservation, MarkerErrors, MarkerFitReport, MarkerReport};
 pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
+pub use pose_errors::{PoseErrors, pose_errors};
 pub(crate) use registration::initial_registration;
 pub use residual::{EvalError, Evaluation, Observation, Predicted, Unpredicted, evaluate, observations};
 pub use solver::{

@@ -131,8 +131,33 @@ pub fn replay_scene<'a>(
     model: &'a RobotModel,
     params: Option<&Parameters>,
 ) -> Result<Scene<'a>, SceneError> {
-    let estimate = estimate_session(session, Method::Kabsch)?;
-    vision_scene(session, model, params, &estimate)
+    match estimate_session(session, Method::Kabsch) {
+        Ok(estimate) => vision_scene(session, model, params, &estimate),
+        // Nothing for the per-pose estimator (one marker at a time): the mechanism and the measured
+        // markers through the parameters' own registration still show the session.
+        Err(e) => match params.and_then(|p| p.camera.map(|c| (p, c))) {
+            Some((p, camera)) => {
+                let spm = p.spm()?;
+                Ok(Scene {
+                    session,
+                    model,
+                    frames: vec![fda_frames("fda_calibrated", &spm, session)],
+                    mechanism: spm,
+                    registration: Some(camera),
+                    series: Vec::new(),
+                    iterations: Vec::new(),
+                    documents: vec![("used".to_string(), parameters_markdown("Parameters used", p))],
+                    fitted_markers: fitted_markers(session, p),
+                })
+            }
+            None => Err(e.into()),
+        },
+    }
+}
+
+/// The marker positions a parameters file carries, in the session's marker order (all or none).
+fn fitted_markers(session: &Session, params: &Parameters) -> Option<Vec<nalgebra::Vector3<f64>>> {
+    session.markers.iter().map(|name| params.markers.iter().find(|m| &m.name == name).map(|m| m.position)).collect()
 }
 
 /// `spmcal estimate --rrd`: a nominal replay whose vision frames and `e_j` are `estimate`'s, the
@@ -177,7 +202,7 @@ fn vision_scene<'a>(
         series: vec![e_series(estimate)],
         iterations: Vec::new(),
         documents,
-        fitted_markers: None,
+        fitted_markers: params.and_then(|p| fitted_markers(session, p)),
     })
 }
 
