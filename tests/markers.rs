@@ -339,3 +339,30 @@ fn marker_data_leave_free_only_the_two_rotation_gauges() {
     assert_eq!(analysis.rank, 33, "the six gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
+
+#[test]
+fn a_calibration_not_clearly_better_than_nominal_says_so_or_is_refused() {
+    // The true geometry is the nominal one and the markers sit where the model says: there is
+    // nothing to calibrate, so the calibrated model cannot predict unseen poses clearly better.
+    let mut c = config(60);
+    c.truth.axis_tilt_deg = 0.0;
+    c.truth.link_angle_deg = 0.0;
+    c.truth.joint_offset_deg = 0.0;
+    c.truth.marker_position_m = 0.0;
+    c.seed = 14;
+    let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
+    let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+    let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let report = calibration.report.markers.as_ref().unwrap();
+    let cv = report.cross_validation.as_ref().unwrap();
+    assert!(!cv.clearly_better, "{cv:?}");
+    assert!(
+        report.warnings.iter().any(|w| w.contains("not predict unseen poses clearly better")),
+        "{:?}",
+        report.warnings
+    );
+    assert!(calibration.report.to_string().contains("NOT CLEARLY BETTER"));
+    let refuse = CalibConfig { if_not_better: spmcal::calib::IfNotBetter::Refuse, ..CalibConfig::default() };
+    let err = spmcal::calib::calibrate(&session, &model, &refuse, &mut |_| {}).unwrap_err().to_string();
+    assert!(err.contains("not written"), "{err}");
+}

@@ -165,6 +165,11 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
                 .into(),
         );
     }
+    if has("marker_residuals_mm") {
+        panels.push(
+            TimeSeriesView::new("calibrated residual per marker (mm)").with_origin("errors/marker_residuals_mm").into(),
+        );
+    }
     if has("e_j") {
         panels.push(TimeSeriesView::new("e_j").with_origin("errors/e_j").into());
     }

@@ -264,6 +264,28 @@ fn marker_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Ser
     Series { name: format!("markers_mm/{name}"), values }
 }
 
+/// Each marker's residual (mm) at each pose that saw it, under the calibrated parameters.
+fn marker_residuals(session: &Session, calibration: &Calibration, x: &DVector<f64>) -> Vec<Series> {
+    use crate::calib::Model as _;
+    let model = crate::calib::MarkerModel::new(&calibration.parameterisation, &calibration.marker_observations);
+    let Ok(eval) = model.evaluate(x, None, false) else { return Vec::new() };
+    session
+        .markers
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let values = calibration
+                .marker_observations
+                .iter()
+                .zip(&eval.residuals)
+                .filter(|(o, _)| o.marker == k)
+                .map(|(o, r)| (o.pose, r.norm() * 1e3))
+                .collect();
+            Series { name: format!("marker_residuals_mm/{name}"), values }
+        })
+        .collect()
+}
+
 /// `spmcal calibrate --rrd`: nominal, calibrated and vision MP frames, the errors before and after,
 /// the fit's iterations, and the parameters before and after.
 ///
@@ -287,6 +309,7 @@ pub fn calibration_scene<'a>(
     } else {
         series.push(marker_series("nominal", calibration, &calibration.nominal.x));
         series.push(marker_series("calibrated", calibration, x));
+        series.extend(marker_residuals(session, calibration, x));
     }
     let fitted_markers =
         (!calibration.marker_observations.is_empty()).then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
