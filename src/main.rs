@@ -206,18 +206,18 @@ fn calibrate(args: CalibrateArgs) -> Result<()> {
     };
     let spinner = indicatif::ProgressBar::new_spinner();
     if args.verbose {
-        eprintln!("iteration   RMS (deg)   step (rad)   radius (rad)   ratio   accepted");
+        eprintln!("iteration   RMS (°|mm)  step         radius         ratio   accepted");
     }
     let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |it| {
         if args.verbose {
             spinner.suspend(|| {
                 eprintln!(
                     "{:9} {:11.5} {:12.3e} {:14.3e} {:7.3} {}",
-                    it.iteration, it.rms_deg, it.step, it.radius, it.ratio, it.accepted
+                    it.iteration, it.rms, it.step, it.radius, it.ratio, it.accepted
                 )
             });
         }
-        spinner.set_message(format!("iteration {}: RMS {:.4}°, step {:.2e} rad", it.iteration, it.rms_deg, it.step));
+        spinner.set_message(format!("iteration {}: RMS {:.4}, step {:.2e}", it.iteration, it.rms, it.step));
         spinner.tick();
     })
     .with_context(|| match &args.config {

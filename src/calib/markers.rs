@@ -216,6 +216,10 @@ impl Model for MarkerModel<'_> {
         Ok(eval)
     }
 
+    fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {
+        super::solver::rms(residuals) * 1e3
+    }
+
     fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]) {
         let noise = self.stereo_noise(residuals, &weighting.weights);
         weighting.whitening = (0..residuals.len()).map(|j| self.whitening(j, &noise)).collect();

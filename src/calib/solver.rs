@@ -67,10 +67,11 @@ impl FitSettings {
 pub struct IterationLog {
     /// Iteration number, from 1.
     pub iteration: u32,
-    /// Weighted cost `½ Σ w_j |r_j|²` before the step (rad²).
+    /// Weighted, whitened cost `½ Σ w_j |S_j r_j|²` before the step.
     pub cost: f64,
-    /// RMS residual angle before the step, degrees.
-    pub rms_deg: f64,
+    /// RMS residual before the step, in the model's unit: degrees (orientations) or
+    /// millimetres (markers).
+    pub rms: f64,
     /// Length of the proposed step (rad).
     pub step: f64,
     /// Trust-region radius (rad).
@@ -310,6 +311,11 @@ pub trait Model {
 
     /// Re-estimate the noise model from the residuals (feasible GLS): set `weighting.whitening`.
     fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]);
+
+    /// The RMS of the residuals in the unit a person reads them in (degrees by default).
+    fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {
+        rms(residuals).to_degrees()
+    }
 }
 
 /// The orientation-level model: one rotation residual per pose, poses whitened by the covariance
@@ -492,7 +498,7 @@ impl Problem<'_> {
         let entry = IterationLog {
             iteration,
             cost,
-            rms_deg: rms(&eval.residuals).to_degrees(),
+            rms: model.report_rms(&eval.residuals),
             step: step_norm,
             radius: *radius,
             ratio,

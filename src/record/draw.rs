@@ -209,7 +209,7 @@ impl Logger<'_> {
             self.rec.set_time_sequence("iteration", it.iteration as i64);
             self.log("fit/cost", &Scalars::single(it.cost))?;
             self.log("fit/step", &Scalars::single(it.step))?;
-            self.log("fit/rms_deg", &Scalars::single(it.rms_deg))?;
+            self.log("fit/rms", &Scalars::single(it.rms))?;
         }
         Ok(())
     }
@@ -219,14 +219,14 @@ impl Logger<'_> {
 fn iteration_table(iterations: &[crate::calib::IterationLog]) -> String {
     let mut s = String::from(
         "# The fit, iteration by iteration\n\nPlots of these columns are on the `iteration` timeline.\n\n\
-         | iteration | cost (rad²) | RMS (°) | step (rad) | radius (rad) | ratio | accepted |\n|---|---|---|---|---|---|---|\n",
+         | iteration | cost (whitened) | RMS (° or mm) | step (rad) | radius (rad) | ratio | accepted |\n|---|---|---|---|---|---|---|\n",
     );
     for it in iterations {
         s += &format!(
             "| {} | {:.6e} | {:.5} | {:.3e} | {:.3e} | {:.3} | {} |\n",
             it.iteration,
             it.cost,
-            it.rms_deg,
+            it.rms,
             it.step,
             it.radius,
             it.ratio,
