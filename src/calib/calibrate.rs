@@ -398,7 +398,7 @@ pub(super) fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMa
     let n = free.len();
     let idx: Vec<usize> = (0..n).filter(|&i| free[i]).collect();
     let jac = weighted_jacobian(outcome);
-    let full_h = jac.transpose() * &jac;
+    let full_h = super::solver::gram(&jac);
     let mut h = DMatrix::zeros(idx.len(), idx.len());
     for (a, &i) in idx.iter().enumerate() {
         for (b, &k) in idx.iter().enumerate() {

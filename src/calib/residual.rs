@@ -48,8 +48,10 @@ pub type Unpredicted = (u64, FdaError);
 /// If `vision` holds a pose that is not in `session` (an estimate of another session).
 pub fn observations(session: &Session, vision: &SessionEstimate, spm: &Spm) -> (Vec<Predicted>, Vec<Unpredicted>) {
     let (mut kept, mut failed) = (Vec::new(), Vec::new());
+    let joints_of: std::collections::HashMap<u64, Vector3<f64>> =
+        session.poses.iter().map(|p| (p.id, p.joints)).collect();
     for (pose, estimate) in &vision.poses {
-        let joints = session.poses.iter().find(|p| p.id == *pose).expect("estimated poses are session poses").joints;
+        let joints = joints_of[pose];
         match spm.forward(&joints) {
             Ok(r) => kept.push((
                 Observation { pose: *pose, joints, measured: estimate.rotation, markers: estimate.markers_used },
