@@ -10,7 +10,7 @@ use super::calibrate::{
     CalibError, Calibration, CalibrationReport, ErrorSummary, Errors, MIN_MOTION_DEG, correlations, covariance,
     fit_header, identifiability_at, parameter_reports,
 };
-use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Unidentifiable};
+use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 use super::markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 use super::params::{Kind, Parameterisation};
 use super::pose_errors::pose_errors;
@@ -194,8 +194,7 @@ pub(super) fn calibrate_markers(
     let registration_only = registration_mask(&p, &free);
     let x0 = DVector::zeros(p.len());
     let model_m = MarkerModel::new(&p, &observations);
-    let nominal = fit_model(&model_m, &x0, &settings(registration_only.clone(), None), &mut |_| {})
-        .map_err(|error| CalibError::Fit { stage: "nominal registration", error })?;
+    let nominal = baseline(&p, &observations, &x0, &registration_only, config)?;
     let identifiability = identifiability_at(&p, &nominal, &free, config);
     let regularised: Vec<String> = identifiability.unidentifiable.iter().map(|d| d.describe()).collect();
     // A session that barely moves is refused, with what it cannot tell apart.
@@ -234,12 +233,8 @@ pub(super) fn calibrate_markers(
     );
     let model_m = MarkerModel::new(&p, &observations);
     // The baseline on the same observations as the calibration (without the gross errors).
-    let nominal = if gross.is_empty() {
-        nominal
-    } else {
-        fit_model(&model_m, &nominal.x, &settings(registration_only.clone(), None), &mut |_| {})
-            .map_err(|error| CalibError::Fit { stage: "nominal registration", error })?
-    };
+    let nominal =
+        if gross.is_empty() { nominal } else { baseline(&p, &observations, &nominal.x, &registration_only, config)? };
     let before = MarkerErrors::of(&nominal.evaluation.residuals, &observations, &session.markers);
     let after = MarkerErrors::of(&calibrated.evaluation.residuals, &observations, &session.markers);
     let covariance = covariance(&calibrated, &free, prior.as_ref().map(|(l, _)| l));
@@ -341,6 +336,27 @@ pub(super) fn calibrate_markers(
         covariance,
         vision: None,
     })
+}
+
+/// The nominal model with its best-fit registration (least squares, as `compare` fits it), with
+/// the full Jacobian at its solution for the identifiability analysis and the cross-validation.
+fn baseline(
+    p: &Parameterisation,
+    observations: &[MarkerObservation],
+    start: &DVector<f64>,
+    registration_only: &[bool],
+    config: &CalibConfig,
+) -> Result<FitOutcome, CalibError> {
+    let fail = |error| CalibError::Fit { stage: "nominal registration", error };
+    let settings =
+        FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(config, registration_only.to_vec()) };
+    let model = MarkerModel::new(p, observations);
+    let light = MarkerModel::new(p, observations).with_columns(registration_only.to_vec());
+    let mut outcome = fit_model(&light, start, &settings, &mut |_| {}).map_err(fail)?;
+    outcome.evaluation = model
+        .evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true)
+        .map_err(|e| fail(super::solver::FitError::Start(e)))?;
+    Ok(outcome)
 }
 
 /// The model's position of each of the session's markers.
@@ -465,18 +481,34 @@ fn cross_validate(
     }
     let fold_of = fold_assignment(model.observations, folds);
     let (mut nominal_sq, mut calibrated_sq) = (Vec::new(), Vec::new());
+    let by_fold = [
+        FoldNormals::new(nominal, registration_only, &fold_of, folds),
+        FoldNormals::new(calibrated, free, &fold_of, folds),
+    ];
     for fold in 0..folds {
-        let test: Vec<usize> = (0..fold_of.len()).filter(|&j| fold_of[j] == fold).collect();
+        let test: Vec<MarkerObservation> =
+            (0..fold_of.len()).filter(|&j| fold_of[j] == fold).map(|j| model.observations[j]).collect();
         if test.is_empty() || test.len() == fold_of.len() {
             continue;
         }
-        let test_observations: Vec<MarkerObservation> = test.iter().map(|&j| model.observations[j]).collect();
-        let test_model = MarkerModel::new(model.p, &test_observations);
-        for (outcome, mask, prior, out) in
-            [(nominal, registration_only, None, &mut nominal_sq), (calibrated, free, prior, &mut calibrated_sq)]
+        let test_model = MarkerModel::new(model.p, &test);
+        // Each test pose's FDA starts from the full fit's orientation of it.
+        let full_pose: Vec<usize> =
+            (0..fold_of.len()).filter(|&j| fold_of[j] == fold).map(|j| model.pose_of(j)).collect();
+        let warm_for = |outcome: &FitOutcome| -> Vec<nalgebra::Rotation3<f64>> {
+            let mut warm = Vec::with_capacity(test_model.poses());
+            for (a, &full) in full_pose.iter().enumerate() {
+                if warm.len() == test_model.pose_of(a) {
+                    warm.push(outcome.evaluation.orientations[full]);
+                }
+            }
+            warm
+        };
+        for (outcome, normals, prior, out) in
+            [(nominal, &by_fold[0], None, &mut nominal_sq), (calibrated, &by_fold[1], prior, &mut calibrated_sq)]
         {
-            let x = leave_out(outcome, mask, &test, prior);
-            let eval = test_model.evaluate(&x, None, false).map_err(CalibError::HeldOut)?;
+            let x = normals.leave_out(&outcome.x, fold, prior);
+            let eval = test_model.evaluate(&x, Some(&warm_for(outcome)), false).map_err(CalibError::HeldOut)?;
             out.extend(eval.residuals.iter().map(|r| r.norm_squared() * 1e6));
         }
     }
@@ -500,44 +532,58 @@ fn cross_validate(
     }))
 }
 
-/// The parameters fitted without the observations `test`: one Gauss–Newton step from `outcome`.
-fn leave_out(
-    outcome: &FitOutcome,
-    free: &[bool],
-    test: &[usize],
-    prior: Option<&(DMatrix<f64>, DVector<f64>)>,
-) -> DVector<f64> {
-    let idx: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
-    let jac = outcome.evaluation.jacobian.as_ref().expect("fits keep their Jacobian");
-    let w = &outcome.weighting;
-    let (mut h, mut g) = (DMatrix::zeros(idx.len(), idx.len()), DVector::zeros(idx.len()));
-    let mut is_test = vec![false; outcome.evaluation.residuals.len()];
-    for &j in test {
-        is_test[j] = true;
+/// The normal equations of a fit split by fold: `H = Σ_k H_k`, `g = Σ_k g_k` over the free
+/// parameters, each fold's from its own rows of the whitened, weighted Jacobian (one GEMM each).
+struct FoldNormals {
+    free: Vec<usize>,
+    h: Vec<DMatrix<f64>>,
+    g: Vec<DVector<f64>>,
+}
+
+impl FoldNormals {
+    fn new(outcome: &FitOutcome, free: &[bool], fold_of: &[usize], folds: usize) -> Self {
+        let free: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
+        let jac = outcome.evaluation.jacobian.as_ref().expect("fits keep their Jacobian");
+        let w = &outcome.weighting;
+        let (mut h, mut g) = (Vec::with_capacity(folds), Vec::with_capacity(folds));
+        for fold in 0..folds {
+            let rows: Vec<usize> = (0..fold_of.len()).filter(|&j| fold_of[j] == fold).collect();
+            let mut block = DMatrix::zeros(3 * rows.len(), free.len());
+            let mut r = DVector::zeros(3 * rows.len());
+            for (a, &j) in rows.iter().enumerate() {
+                let s = w.whitening[j] * w.weights[j].sqrt();
+                r.fixed_rows_mut::<3>(3 * a).copy_from(&(s * outcome.evaluation.residuals[j]));
+                for (k, &i) in free.iter().enumerate() {
+                    block.fixed_view_mut::<3, 1>(3 * a, k).copy_from(&(s * jac.fixed_view::<3, 1>(3 * j, i)));
+                }
+            }
+            h.push(super::solver::gram(&block));
+            g.push(DVector::from_fn(free.len(), |k, _| block.column(k).dot(&r)));
+        }
+        FoldNormals { free, h, g }
     }
-    for (j, r) in outcome.evaluation.residuals.iter().enumerate().filter(|(j, _)| !is_test[*j]) {
-        let s = w.whitening[j] * w.weights[j].sqrt();
-        let block = DMatrix::from_fn(3, idx.len(), |a, b| (s * jac.fixed_view::<3, 1>(3 * j, idx[b]))[a]);
-        h += block.transpose() * &block;
-        g += block.transpose() * (s * r);
-    }
-    let x = &outcome.x;
-    if let Some((lambda, x0)) = prior {
-        let d = x - x0;
-        for (a, &i) in idx.iter().enumerate() {
-            g[a] += (lambda.row(i) * &d)[0];
-            for (b, &k) in idx.iter().enumerate() {
-                h[(a, b)] += lambda[(i, k)];
+
+    /// The parameters fitted without fold `fold`: one Gauss–Newton step from `x`.
+    fn leave_out(&self, x: &DVector<f64>, fold: usize, prior: Option<&(DMatrix<f64>, DVector<f64>)>) -> DVector<f64> {
+        let mut h: DMatrix<f64> = self.h.iter().enumerate().filter(|(k, _)| *k != fold).map(|(_, h)| h).sum();
+        let mut g: DVector<f64> = self.g.iter().enumerate().filter(|(k, _)| *k != fold).map(|(_, g)| g).sum();
+        if let Some((lambda, x0)) = prior {
+            let d = x - x0;
+            for (a, &i) in self.free.iter().enumerate() {
+                g[a] += (lambda.row(i) * &d)[0];
+                for (b, &k) in self.free.iter().enumerate() {
+                    h[(a, b)] += lambda[(i, k)];
+                }
             }
         }
-    }
-    let mut moved = x.clone();
-    if let Some(step) = h.cholesky().map(|c| c.solve(&g)) {
-        for (a, &i) in idx.iter().enumerate() {
-            moved[i] -= step[a];
+        let mut moved = x.clone();
+        if let Some(step) = h.cholesky().map(|c| c.solve(&g)) {
+            for (a, &i) in self.free.iter().enumerate() {
+                moved[i] -= step[a];
+            }
         }
+        moved
     }
-    moved
 }
 
 /// Why the calibrated model may not be better, in words.

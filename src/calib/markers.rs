@@ -98,6 +98,9 @@ pub struct MarkerModel<'a> {
     poses: Vec<(u64, Vector3<f64>)>,
     /// Median distance of the observations from the camera.
     reference_distance: f64,
+    /// The Jacobian columns computed (the others stay zero): a fit of the registration alone
+    /// needs none of the mechanism's derivatives, which are most of the cost.
+    columns: Option<Vec<bool>>,
 }
 
 impl<'a> MarkerModel<'a> {
@@ -114,7 +117,18 @@ impl<'a> MarkerModel<'a> {
         let mut distances: Vec<f64> = observations.iter().map(|o| o.measured.norm()).collect();
         distances.sort_by(f64::total_cmp);
         let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
-        MarkerModel { p, observations, pose_of, poses, reference_distance }
+        MarkerModel { p, observations, pose_of, poses, reference_distance, columns: None }
+    }
+
+    /// The same model computing only the Jacobian columns marked in `columns` (e.g. the free
+    /// parameters of a fit); the others are left zero.
+    pub fn with_columns(mut self, columns: Vec<bool>) -> Self {
+        self.columns = Some(columns);
+        self
+    }
+
+    fn column_needed(&self, i: usize) -> bool {
+        self.columns.as_ref().is_none_or(|c| c[i])
     }
 
     /// Distinct poses (FDA solutions) of the model.
@@ -204,11 +218,15 @@ impl Model for MarkerModel<'_> {
         let mut eval = Evaluation { residuals, orientations, jacobian: None, orientation_jacobians: None };
         if with_jacobian {
             let frames = Frames::new(p, x);
+            let mechanism = p.entries.iter().enumerate().any(|(i, e)| e.kind.leg().is_some() && self.column_needed(i));
             let sensitivities: Vec<DMatrix<f64>> = self
                 .poses
                 .iter()
                 .zip(&eval.orientations)
-                .map(|((_, joints), r)| frames.orientation_sensitivity(&spm, &legs, joints, r))
+                .map(|((_, joints), r)| match mechanism {
+                    true => frames.orientation_sensitivity(&spm, &legs, joints, r),
+                    false => DMatrix::zeros(3, p.len()),
+                })
                 .collect();
             eval.jacobian = Some(self.jacobian(x, &camera, &markers, &eval.orientations, &sensitivities));
             eval.orientation_jacobians = Some(sensitivities);
@@ -247,7 +265,7 @@ impl MarkerModel<'_> {
             let in_camera = (camera * rp).cross_matrix() * jc;
             let rotation = camera.matrix() * orientations[pose].matrix();
             let mut block = jac.view_mut((3 * j, 0), (3, p.len()));
-            for (i, e) in p.entries.iter().enumerate() {
+            for (i, e) in p.entries.iter().enumerate().filter(|(i, _)| self.column_needed(*i)) {
                 let column: Vector3<f64> = match e.kind {
                     Kind::Camera { k } => in_camera.column(k).into(),
                     Kind::Translation { k } => -Vector3::ith(k, 1.0),

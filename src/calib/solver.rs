@@ -392,7 +392,10 @@ pub fn fit_model(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<FitOutcome, FitError> {
     let n = model.parameterisation().len();
-    let problem = Problem { model, settings, free: (0..n).filter(|&i| settings.free[i]).collect() };
+    let free: Vec<usize> = (0..n).filter(|&i| settings.free[i]).collect();
+    // Stage 1 only has to bring the residuals near their minimum for the noise model to be
+    // estimated from them: a thousandfold looser step tolerance; stage 2 converges fully.
+    let rough = FitSettings { step_tolerance: settings.step_tolerance * 1e3, ..settings.clone() };
     let mut x = x0.clone();
     let mut eval = model.evaluate(&x, None, true).map_err(FitError::Start)?;
     let mut radius = settings.initial_radius;
@@ -403,6 +406,8 @@ pub fn fit_model(
         if whitened {
             model.whiten(&mut weighting, &eval.residuals);
         }
+        let settings = if whitened { settings } else { &rough };
+        let problem = Problem { model, settings, free: free.clone() };
         weighting.rescale(&eval.residuals);
         weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
         let mut settled = None;
