@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use serde::Serialize;
 
 use super::config::{CalibConfig, FitLevel, Group, Loss, Unidentifiable};
-use super::identify::{Identifiability, analyse};
+use super::identify::Identifiability;
 use super::marker_calibration::{MarkerFitReport, calibrate_markers};
 use super::markers::MarkerObservation;
 use super::params::Parameterisation;
@@ -367,18 +367,10 @@ pub fn calibrate(
     })
 }
 
-/// The whitened, weighted Jacobian of an outcome.
-fn weighted_jacobian(outcome: &FitOutcome) -> DMatrix<f64> {
-    let mut jac = outcome.evaluation.jacobian.clone().expect("fits keep their Jacobian");
-    let w = &outcome.weighting;
-    for j in 0..outcome.evaluation.residuals.len() {
-        let s = w.whitening[j] * w.weights[j].sqrt();
-        for c in 0..jac.ncols() {
-            let column = s * jac.fixed_view::<3, 1>(3 * j, c);
-            jac.fixed_view_mut::<3, 1>(3 * j, c).copy_from(&column);
-        }
-    }
-    jac
+/// `JᵀWJ` of an outcome over every parameter (whitened, weighted), without copying the Jacobian.
+fn weighted_gram(outcome: &FitOutcome) -> DMatrix<f64> {
+    let all: Vec<usize> = (0..outcome.evaluation.jacobian.as_ref().map_or(0, |j| j.ncols())).collect();
+    super::solver::weighted_normal(&outcome.evaluation, &outcome.weighting, &all).0
 }
 
 pub(super) fn identifiability_at(
@@ -389,7 +381,7 @@ pub(super) fn identifiability_at(
 ) -> Identifiability {
     let free_idx: Vec<usize> = (0..p.len()).filter(|&i| free[i]).collect();
     let names: Vec<String> = p.entries.iter().map(|e| e.name.clone()).collect();
-    analyse(&weighted_jacobian(start), &free_idx, &names, config.min_singular_ratio)
+    super::identify::analyse_gram(&weighted_gram(start), &free_idx, &names, config.min_singular_ratio)
 }
 
 /// `σ̂² (J̃ᵀ W J̃ + Λ)⁻¹` over the free parameters, embedded in the full vector; `σ̂²` is the weighted
@@ -397,8 +389,7 @@ pub(super) fn identifiability_at(
 pub(super) fn covariance(outcome: &FitOutcome, free: &[bool], prior: Option<&DMatrix<f64>>) -> DMatrix<f64> {
     let n = free.len();
     let idx: Vec<usize> = (0..n).filter(|&i| free[i]).collect();
-    let jac = weighted_jacobian(outcome);
-    let full_h = super::solver::gram(&jac);
+    let full_h = weighted_gram(outcome);
     let mut h = DMatrix::zeros(idx.len(), idx.len());
     for (a, &i) in idx.iter().enumerate() {
         for (b, &k) in idx.iter().enumerate() {

@@ -50,25 +50,38 @@ pub struct Identifiability {
 /// # Panics
 /// If `free` or `names` index past the Jacobian's columns.
 pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String], min_ratio: f64) -> Identifiability {
-    let n_all = weighted_jacobian.ncols();
-    let mut column_norms = DVector::from_element(n_all, 1.0);
-    let mut scaled = DMatrix::zeros(weighted_jacobian.nrows(), free.len());
-    for (k, &i) in free.iter().enumerate() {
-        let col = weighted_jacobian.column(i);
-        let norm = col.norm();
-        column_norms[i] = if norm > 0.0 { norm } else { 1.0 };
-        scaled.set_column(k, &(col / column_norms[i]));
+    if weighted_jacobian.nrows() == 0 {
+        // No data: no direction to analyse.
+        return Identifiability::nothing(free.len(), DVector::from_element(weighted_jacobian.ncols(), 1.0));
     }
-    if free.is_empty() || scaled.nrows() == 0 {
-        // Nothing free (or no data): no direction to analyse.
+    analyse_gram(&super::solver::gram(weighted_jacobian), free, names, min_ratio)
+}
+
+/// [`analyse`] from the Gram matrix `JᵀWJ` (N × N) of the weighted Jacobian: the singular values
+/// and right vectors of the column-scaled Jacobian are the roots and vectors of the scaled Gram
+/// matrix's eigen-decomposition. At 100,000 observations an SVD of the tall matrix cost a second.
+/// Squaring the spectrum puts a null direction at ~1e-8 of the largest singular value instead of
+/// ~1e-16, still far below any `min_singular_ratio` worth using (1e-6 by default).
+pub(crate) fn analyse_gram(
+    gram_all: &DMatrix<f64>,
+    free: &[usize],
+    names: &[String],
+    min_ratio: f64,
+) -> Identifiability {
+    let n_all = gram_all.ncols();
+    let mut column_norms = DVector::from_element(n_all, 1.0);
+    for &i in free {
+        let norm = gram_all[(i, i)].max(0.0).sqrt();
+        column_norms[i] = if norm > 0.0 { norm } else { 1.0 };
+    }
+    if free.is_empty() {
+        // Nothing free: no direction to analyse.
         return Identifiability::nothing(free.len(), column_norms);
     }
-    // The singular values and right vectors of the scaled Jacobian from the eigen-decomposition of
-    // its N × N Gram matrix: at 100,000 observations an SVD of the tall matrix cost a second.
-    // Squaring the spectrum puts a null direction at ~1e-8 of the largest singular value instead
-    // of ~1e-16, still far below any `min_singular_ratio` worth using (1e-6 by default).
+    let gram = DMatrix::from_fn(free.len(), free.len(), |a, b| {
+        gram_all[(free[a], free[b])] / (column_norms[free[a]] * column_norms[free[b]])
+    });
     // Non-finite Jacobians never reach here (the fit stops on a non-finite cost); bounded all the same.
-    let gram = super::solver::gram(&scaled);
     let Some(eigen) = gram
         .iter()
         .all(|x| x.is_finite())

@@ -131,6 +131,10 @@ impl<'a> MarkerModel<'a> {
         self.columns.as_ref().is_none_or(|c| c[i])
     }
 
+    fn mechanism_needed(&self) -> bool {
+        self.p.entries.iter().enumerate().any(|(i, e)| e.kind.leg().is_some() && self.column_needed(i))
+    }
+
     /// Distinct poses (FDA solutions) of the model.
     pub fn poses(&self) -> usize {
         self.poses.len()
@@ -218,7 +222,7 @@ impl Model for MarkerModel<'_> {
         let mut eval = Evaluation { residuals, orientations, jacobian: None, orientation_jacobians: None };
         if with_jacobian {
             let frames = Frames::new(p, x);
-            let mechanism = p.entries.iter().enumerate().any(|(i, e)| e.kind.leg().is_some() && self.column_needed(i));
+            let mechanism = self.mechanism_needed();
             let sensitivities: Vec<DMatrix<f64>> = self
                 .poses
                 .iter()
@@ -257,6 +261,7 @@ impl MarkerModel<'_> {
     ) -> DMatrix<f64> {
         let p = self.p;
         let jc = so3::left_jacobian(&p.registration_vectors(x).0);
+        let mechanism = self.mechanism_needed();
         let mut jac = DMatrix::zeros(3 * self.observations.len(), p.len());
         for (j, o) in self.observations.iter().enumerate() {
             let pose = self.pose_of[j];
@@ -264,14 +269,17 @@ impl MarkerModel<'_> {
             let mech = camera.matrix() * rp.cross_matrix();
             let in_camera = (camera * rp).cross_matrix() * jc;
             let rotation = camera.matrix() * orientations[pose].matrix();
-            let mut block = jac.view_mut((3 * j, 0), (3, p.len()));
+            let mut block = jac.fixed_rows_mut::<3>(3 * j);
+            // The mechanism's columns in one product (∂ω/∂x is zero in the others), then the rest.
+            if mechanism {
+                block.gemm(1.0, &mech, &sensitivities[pose], 0.0);
+            }
             for (i, e) in p.entries.iter().enumerate().filter(|(i, _)| self.column_needed(*i)) {
                 let column: Vector3<f64> = match e.kind {
                     Kind::Camera { k } => in_camera.column(k).into(),
                     Kind::Translation { k } => -Vector3::ith(k, 1.0),
                     Kind::Marker { marker, k } if marker == o.marker => -rotation.column(k),
-                    Kind::Marker { .. } | Kind::Reference { .. } => continue,
-                    _ => mech * sensitivities[pose].column(i),
+                    _ => continue,
                 };
                 block.set_column(i, &column);
             }

@@ -15,7 +15,7 @@ use super::config::{CalibConfig, Group, Loss};
 use super::params::Parameterisation;
 use super::registration::initial_registration;
 use super::residual::{Observation, observations};
-use super::solver::{FitError, FitSettings, fit};
+use super::solver::{FitError, FitSettings, Orientations, fit_model};
 use crate::dataset::Session;
 use crate::model::{LegGeometry, Parameters, Spm};
 use crate::vision::SessionEstimate;
@@ -69,7 +69,8 @@ pub fn pose_errors(session: &Session, vision: &SessionEstimate, params: &Paramet
     let p = Parameterisation::new(legs, camera0, reference0, &defaults.bounds);
     let free = p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect();
     let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(&defaults, free) };
-    let outcome = fit(&p, &DVector::zeros(p.len()), &observations, &settings, &mut |_| {})
+    let model = Orientations { p: &p, observations: &observations, registration_only: true };
+    let outcome = fit_model(&model, &DVector::zeros(p.len()), &settings, &mut |_| {})
         .map_err(|e: FitError| fail(e.to_string()))?;
     Ok(PoseErrors {
         registration,

@@ -106,6 +106,18 @@ pub fn evaluate(
     warm: Option<&[Rotation3<f64>]>,
     with_jacobian: bool,
 ) -> Result<Evaluation, EvalError> {
+    evaluate_with(p, x, observations, warm, with_jacobian, true)
+}
+
+/// [`evaluate`], the mechanism's Jacobian columns computed only when `mechanism` is set.
+pub(crate) fn evaluate_with(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    observations: &[Observation],
+    warm: Option<&[Rotation3<f64>]>,
+    with_jacobian: bool,
+    mechanism: bool,
+) -> Result<Evaluation, EvalError> {
     let legs = p.legs(x);
     let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
     let (camera, reference) = (p.camera(x), p.reference(x));
@@ -126,7 +138,11 @@ pub fn evaluate(
         let m = obs.measured * reference * r.inverse() * camera.inverse();
         let residual = so3::log(&m);
         if let (Some(jac), Some(sens)) = (eval.jacobian.as_mut(), eval.orientation_jacobians.as_mut()) {
-            let d_omega = frames.orientation_sensitivity(&spm, &legs, &obs.joints, &r);
+            let d_omega = if mechanism {
+                frames.orientation_sensitivity(&spm, &legs, &obs.joints, &r)
+            } else {
+                DMatrix::zeros(3, p.len())
+            };
             let jl_inv = so3::left_jacobian_inverse(&residual);
             let mech = jl_inv * m.matrix() * camera.matrix();
             let mut block = -(mech * &d_omega);

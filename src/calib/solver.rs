@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 use super::config::{CalibConfig, Loss};
 use super::params::Parameterisation;
-use super::residual::{EvalError, Evaluation, Observation, evaluate};
+use super::residual::{EvalError, Evaluation, Observation};
 
 /// Median of the norm of a 3-D isotropic Gaussian with unit deviation per axis (Maxwell
 /// distribution): the robust scale of the residual norms is `median / 1.5382`.
@@ -325,6 +325,9 @@ pub struct Orientations<'a> {
     pub p: &'a Parameterisation,
     /// The poses.
     pub observations: &'a [Observation],
+    /// Only the registration moves: the mechanism's derivatives (most of the cost) are skipped
+    /// and their Jacobian columns left zero.
+    pub registration_only: bool,
 }
 
 impl Model for Orientations<'_> {
@@ -338,7 +341,7 @@ impl Model for Orientations<'_> {
         warm: Option<&[Rotation3<f64>]>,
         with_jacobian: bool,
     ) -> Result<Evaluation, EvalError> {
-        evaluate(self.p, x, self.observations, warm, with_jacobian)
+        super::residual::evaluate_with(self.p, x, self.observations, warm, with_jacobian, !self.registration_only)
     }
 
     fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]) {
@@ -378,7 +381,7 @@ pub fn fit(
     settings: &FitSettings,
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<FitOutcome, FitError> {
-    fit_model(&Orientations { p, observations }, x0, settings, on_iteration)
+    fit_model(&Orientations { p, observations, registration_only: false }, x0, settings, on_iteration)
 }
 
 /// [`fit`] for any [`Model`].
@@ -552,21 +555,7 @@ pub(crate) fn normal_equations(
     settings: &FitSettings,
     x: &DVector<f64>,
 ) -> (DMatrix<f64>, DVector<f64>) {
-    let jac = eval.jacobian.as_ref().expect("evaluated with the Jacobian");
-    let n = free.len();
-    // The whitened, weighted rows of the free columns, written once; then one blocked GEMM.
-    let mut jf = DMatrix::zeros(jac.nrows(), n);
-    let mut r = DVector::zeros(jac.nrows());
-    for (j, (res, w)) in eval.residuals.iter().zip(&weighting.weights).enumerate() {
-        let s = weighting.whitening[j] * w.sqrt();
-        r.fixed_rows_mut::<3>(3 * j).copy_from(&(s * res));
-        for (k, &i) in free.iter().enumerate() {
-            let column = s * jac.fixed_view::<3, 1>(3 * j, i);
-            jf.fixed_view_mut::<3, 1>(3 * j, k).copy_from(&column);
-        }
-    }
-    let mut hessian = gram(&jf);
-    let mut gradient = DVector::from_fn(n, |k, _| jf.column(k).dot(&r));
+    let (mut hessian, mut gradient) = weighted_normal(eval, weighting, free);
     if let Some((lambda, x0)) = &settings.prior {
         let d = x - x0;
         let full_gradient = lambda * d;
@@ -580,19 +569,75 @@ pub(crate) fn normal_equations(
     (hessian, gradient)
 }
 
+/// `Jᵀ W J` and `Jᵀ W r` over the columns `free`, `W` the whitening and weights.
+pub(crate) fn weighted_normal(
+    eval: &Evaluation,
+    weighting: &Weighting,
+    free: &[usize],
+) -> (DMatrix<f64>, DVector<f64>) {
+    let jac = eval.jacobian.as_ref().expect("evaluated with the Jacobian");
+    let n = free.len();
+    let m = eval.residuals.len();
+    // The whitened, weighted rows of the free columns, a chunk of observations at a time (the
+    // chunk stays in cache and no Jacobian-sized copy is made), each chunk added by one GEMM.
+    const CHUNK: usize = 1024;
+    let mut block = DMatrix::zeros(3 * CHUNK.min(m), n);
+    let mut r = DVector::zeros(3 * CHUNK.min(m));
+    let mut hessian = DMatrix::zeros(n, n);
+    let mut gradient = DVector::zeros(n);
+    for start in (0..m).step_by(CHUNK) {
+        let len = (m - start).min(CHUNK);
+        for a in 0..len {
+            let j = start + a;
+            let s = weighting.whitening[j] * weighting.weights[j].sqrt();
+            r.fixed_rows_mut::<3>(3 * a).copy_from(&(s * eval.residuals[j]));
+            if n == jac.ncols() {
+                // Every column free (the usual case): one 3 × 3 by 3 × N product in place.
+                block.fixed_rows_mut::<3>(3 * a).gemm(1.0, &s, &jac.fixed_rows::<3>(3 * j), 0.0);
+                continue;
+            }
+            for (k, &i) in free.iter().enumerate() {
+                let column = s * jac.fixed_view::<3, 1>(3 * j, i);
+                block.fixed_view_mut::<3, 1>(3 * a, k).copy_from(&column);
+            }
+        }
+        gram_into(&block, 3 * len, &mut hessian);
+        for k in 0..n {
+            gradient[k] += block.view((0, k), (3 * len, 1)).dot(&r.rows(0, 3 * len));
+        }
+    }
+    (hessian, gradient)
+}
+
 /// `JᵀJ` by one cache-blocked GEMM reading `J` through transposed strides: nalgebra's `tr_mul`
 /// takes a dot product per entry (5× slower at 100,000 observations) and `transpose() *` first
 /// copies the whole matrix.
 pub(crate) fn gram(j: &DMatrix<f64>) -> DMatrix<f64> {
-    let (rows, n) = j.shape();
-    let mut out = DMatrix::zeros(n, n);
+    let mut out = DMatrix::zeros(j.ncols(), j.ncols());
+    gram_into(j, j.nrows(), &mut out);
+    out
+}
+
+/// `out += J[..rows]ᵀ J[..rows]`, the Gram matrix of the first `rows` rows of `j`.
+///
+/// # Panics
+/// If `rows` exceeds `j`'s rows or `out` is not `n × n`.
+pub(crate) fn gram_into(j: &DMatrix<f64>, rows: usize, out: &mut DMatrix<f64>) {
+    let n = j.ncols();
+    assert!(
+        rows <= j.nrows() && out.shape() == (n, n),
+        "gram of {rows} rows of {:?} into {:?}",
+        j.shape(),
+        out.shape()
+    );
     if rows == 0 || n == 0 {
-        return out;
+        return;
     }
-    let (a, stride) = (j.as_slice().as_ptr(), rows as isize);
-    // SAFETY: `a` points to `rows × n` column-major values (element (i, k) at i + k·rows), read
-    // as Jᵀ (n × rows: row stride `rows`, column stride 1) and as J (rows × n: strides 1, `rows`);
-    // `out` is a distinct n × n column-major matrix (strides 1, n). All indices stay in bounds.
+    let (a, stride) = (j.as_slice().as_ptr(), j.nrows() as isize);
+    // SAFETY: `a` points to `nrows × n` column-major values (element (i, k) at i + k·nrows); the
+    // first `rows` rows are read as Jᵀ (n × rows: row stride `nrows`, column stride 1) and as J
+    // (rows × n: strides 1, `nrows`); `out` is a distinct n × n column-major matrix (strides 1,
+    // n), accumulated into (beta = 1). All indices stay in bounds (asserted above).
     unsafe {
         matrixmultiply::dgemm(
             n,
@@ -605,13 +650,12 @@ pub(crate) fn gram(j: &DMatrix<f64>) -> DMatrix<f64> {
             a,
             1,
             stride,
-            0.0,
+            1.0,
             out.as_mut_slice().as_mut_ptr(),
             1,
             n as isize,
         );
     }
-    out
 }
 
 /// The clarabel subproblem: bounds as a nonnegative cone, the trust region as a second-order cone.
