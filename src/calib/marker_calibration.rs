@@ -14,7 +14,7 @@ use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifia
 use super::markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 use super::params::{Kind, Parameterisation};
 use super::pose_errors::pose_errors;
-use super::solver::{FitOutcome, FitSettings, IterationLog, Model as _, fit_model};
+use super::solver::{FitOutcome, FitSettings, IterationLog, Model as _, fit_model, weighted_normal_of};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
 use crate::so3;
@@ -167,8 +167,17 @@ pub(super) fn calibrate_markers(
             session.markers[k], poses_seeing[k]
         ));
     }
-    let max_deg = largest_rotation(&observations, spm);
-    let registration = initial_registration(&observations, spm, &markers0).ok_or(CalibError::Registration)?;
+    // The nominal orientation of each observation's pose (one FDA per pose, not per marker).
+    let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
+    let p0 = Parameterisation::for_markers(*spm.geometry(), &origin, &markers0, &session.markers, &config.bounds);
+    let nominal_model = MarkerModel::new(&p0, &observations);
+    let at_pose = nominal_model
+        .evaluate(&DVector::zeros(nominal_model.p.len()), None, false)
+        .map_err(CalibError::HeldOut)?
+        .orientations;
+    let nominal_r: Vec<Rotation3<f64>> = (0..observations.len()).map(|j| at_pose[nominal_model.pose_of(j)]).collect();
+    let max_deg = largest_rotation(&nominal_r);
+    let registration = initial_registration(&observations, &nominal_r, &markers0).ok_or(CalibError::Registration)?;
     let p = Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
     let free: Vec<bool> = p
         .entries
@@ -374,8 +383,7 @@ fn model_markers(session: &Session, model: &RobotModel) -> Result<Vec<Vector3<f6
 }
 
 /// The largest rotation (degrees) of the MP between the first pose and any other, by the nominal FDA.
-fn largest_rotation(observations: &[MarkerObservation], spm: &crate::model::Spm) -> f64 {
-    let rotations: Vec<Rotation3<f64>> = observations.iter().filter_map(|o| spm.forward(&o.joints).ok()).collect();
+fn largest_rotation(rotations: &[Rotation3<f64>]) -> f64 {
     let first = rotations.first().copied().unwrap_or_else(Rotation3::identity);
     rotations.iter().map(|r| so3::geodesic_angle(r, &first).to_degrees()).fold(0.0, f64::max)
 }
@@ -384,13 +392,11 @@ fn largest_rotation(observations: &[MarkerObservation], spm: &crate::model::Spm)
 /// (in C): Kabsch over every observation. Needs no pose with three markers.
 fn initial_registration(
     observations: &[MarkerObservation],
-    spm: &crate::model::Spm,
+    nominal: &[Rotation3<f64>],
     markers: &[Vector3<f64>],
 ) -> Option<CameraRegistration> {
-    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = observations
-        .iter()
-        .filter_map(|o| spm.forward(&o.joints).ok().map(|r| (r * markers[o.marker], o.measured)))
-        .collect();
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> =
+        observations.iter().zip(nominal).map(|(o, r)| (r * markers[o.marker], o.measured)).collect();
     if pairs.len() < 3 {
         return None;
     }
@@ -533,7 +539,7 @@ fn cross_validate(
 }
 
 /// The normal equations of a fit split by fold: `H = Σ_k H_k`, `g = Σ_k g_k` over the free
-/// parameters, each fold's from its own rows of the whitened, weighted Jacobian (one GEMM each).
+/// parameters, each fold's from its own rows of the whitened, weighted Jacobian.
 struct FoldNormals {
     free: Vec<usize>,
     h: Vec<DMatrix<f64>>,
@@ -543,23 +549,12 @@ struct FoldNormals {
 impl FoldNormals {
     fn new(outcome: &FitOutcome, free: &[bool], fold_of: &[usize], folds: usize) -> Self {
         let free: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
-        let jac = outcome.evaluation.jacobian.as_ref().expect("fits keep their Jacobian");
-        let w = &outcome.weighting;
-        let (mut h, mut g) = (Vec::with_capacity(folds), Vec::with_capacity(folds));
-        for fold in 0..folds {
-            let rows: Vec<usize> = (0..fold_of.len()).filter(|&j| fold_of[j] == fold).collect();
-            let mut block = DMatrix::zeros(3 * rows.len(), free.len());
-            let mut r = DVector::zeros(3 * rows.len());
-            for (a, &j) in rows.iter().enumerate() {
-                let s = w.whitening[j] * w.weights[j].sqrt();
-                r.fixed_rows_mut::<3>(3 * a).copy_from(&(s * outcome.evaluation.residuals[j]));
-                for (k, &i) in free.iter().enumerate() {
-                    block.fixed_view_mut::<3, 1>(3 * a, k).copy_from(&(s * jac.fixed_view::<3, 1>(3 * j, i)));
-                }
-            }
-            h.push(super::solver::gram(&block));
-            g.push(DVector::from_fn(free.len(), |k, _| block.column(k).dot(&r)));
-        }
+        let (h, g) = (0..folds)
+            .map(|fold| {
+                let rows: Vec<usize> = (0..fold_of.len()).filter(|&j| fold_of[j] == fold).collect();
+                weighted_normal_of(&outcome.evaluation, &outcome.weighting, &free, &rows)
+            })
+            .unzip();
         FoldNormals { free, h, g }
     }
 

@@ -101,6 +101,8 @@ pub struct MarkerModel<'a> {
     /// The Jacobian columns computed (the others stay zero): a fit of the registration alone
     /// needs none of the mechanism's derivatives, which are most of the cost.
     columns: Option<Vec<bool>>,
+    /// A Jacobian the fit gave back, reused by the next evaluation.
+    spare: std::cell::RefCell<Option<DMatrix<f64>>>,
 }
 
 impl<'a> MarkerModel<'a> {
@@ -117,7 +119,7 @@ impl<'a> MarkerModel<'a> {
         let mut distances: Vec<f64> = observations.iter().map(|o| o.measured.norm()).collect();
         distances.sort_by(f64::total_cmp);
         let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
-        MarkerModel { p, observations, pose_of, poses, reference_distance, columns: None }
+        MarkerModel { p, observations, pose_of, poses, reference_distance, columns: None, spare: Default::default() }
     }
 
     /// The same model computing only the Jacobian columns marked in `columns` (e.g. the free
@@ -238,6 +240,12 @@ impl Model for MarkerModel<'_> {
         Ok(eval)
     }
 
+    fn recycle(&self, old: Evaluation) {
+        if let Some(jacobian) = old.jacobian {
+            *self.spare.borrow_mut() = Some(jacobian);
+        }
+    }
+
     fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {
         super::solver::rms(residuals) * 1e3
     }
@@ -262,7 +270,14 @@ impl MarkerModel<'_> {
         let p = self.p;
         let jc = so3::left_jacobian(&p.registration_vectors(x).0);
         let mechanism = self.mechanism_needed();
-        let mut jac = DMatrix::zeros(3 * self.observations.len(), p.len());
+        let shape = (3 * self.observations.len(), p.len());
+        let mut jac = match self.spare.take() {
+            Some(mut spare) if spare.shape() == shape => {
+                spare.fill(0.0);
+                spare
+            }
+            _ => DMatrix::zeros(shape.0, shape.1),
+        };
         for (j, o) in self.observations.iter().enumerate() {
             let pose = self.pose_of[j];
             let rp = orientations[pose] * markers[o.marker];
