@@ -1,7 +1,8 @@
-//! Whole calibrations, marker-level (the default: vision-free, baseline, identifiability, robust
-//! fit, gross-error exclusion, covariance, 5-fold cross-validation) on 20, 400 and 4,000 poses —
-//! the cost should grow linearly — and orientation-level on 400; then the command end to end as a
-//! user runs it (files in, parameters file out).
+//! Whole calibrations, marker-level (the default: baseline, identifiability, robust fit,
+//! gross-error exclusion, covariance, 5-fold cross-validation, per-pose comparison) on 20, 400,
+//! 4,000 and 27,000 poses (100,000 observations) — the cost should grow linearly — and
+//! orientation-level on 400; then the command end to end as a user runs it (files in, parameters
+//! file out).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -29,6 +30,15 @@ fn calibration(c: &mut Criterion) {
             b.iter(|| calibrate(black_box(s), &model, &CalibConfig::default(), &mut |_| {}).unwrap())
         });
     }
+    group.finish();
+    // 100,000 observations (27,000 poses × ~3.8 markers seen): target ≤ 3 s.
+    sim.poses = 27_000;
+    let big = simulate(&sim, &model, &mut |_| {}).unwrap().0;
+    let mut group = c.benchmark_group("calibrate_markers_100k");
+    group.sample_size(10).measurement_time(std::time::Duration::from_secs(40));
+    group.bench_function("27000", |b| {
+        b.iter(|| calibrate(black_box(&big), &model, &CalibConfig::default(), &mut |_| {}).unwrap())
+    });
     group.finish();
     let orientations = CalibConfig { fit: FitLevel::Orientations, ..CalibConfig::default() };
     let mut group = c.benchmark_group("calibrate_orientations");

@@ -452,16 +452,13 @@ fn flag(
 
 /// The fold of each observation: groups (stations, else poses) dealt out in order of appearance.
 pub(crate) fn fold_assignment(observations: &[MarkerObservation], k: usize) -> Vec<usize> {
-    let mut groups: Vec<(bool, u64)> = Vec::new();
+    let mut groups: std::collections::HashMap<(bool, u64), usize> = std::collections::HashMap::new();
     observations
         .iter()
         .map(|o| {
             let key = o.station.map_or((false, o.pose), |s| (true, s));
-            let g = groups.iter().position(|x| *x == key).unwrap_or_else(|| {
-                groups.push(key);
-                groups.len() - 1
-            });
-            g % k
+            let next = groups.len();
+            *groups.entry(key).or_insert(next) % k
         })
         .collect()
 }

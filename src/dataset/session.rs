@@ -128,8 +128,9 @@ impl Session {
     /// the mechanism — the reason the marker-level fit uses every capture's own reading.
     pub fn by_station(&self) -> Session {
         let mut poses: Vec<SessionPose> = Vec::new();
+        let mut at: HashMap<u64, usize> = HashMap::new();
         for pose in &self.poses {
-            let merged = pose.station.and_then(|s| poses.iter_mut().find(|p| p.station == Some(s)));
+            let merged = pose.station.and_then(|s| at.get(&s)).map(|&k| &mut poses[k]);
             match merged {
                 Some(into) => {
                     for (k, m) in pose.markers.iter().enumerate() {
@@ -139,7 +140,12 @@ impl Session {
                         }
                     }
                 }
-                None => poses.push(pose.clone()),
+                None => {
+                    if let Some(s) = pose.station {
+                        at.insert(s, poses.len());
+                    }
+                    poses.push(pose.clone());
+                }
             }
         }
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
