@@ -178,11 +178,18 @@ fn standard_errors_are_honest_and_misplaced_markers_are_recovered() {
         assert!(moved > 4e-3, "seed {seed}: the truth barely misplaces the markers");
     }
     let within = |k: f64| z.iter().filter(|v| v.abs() <= k).count() as f64 / z.len() as f64;
-    eprintln!("{} parameters: {:.3} within 1σ, {:.3} within 3σ", z.len(), within(1.0), within(3.0));
+    let worst_marker = marker_z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    eprintln!(
+        "{} parameters: {:.3} within 1σ, {:.3} within 3σ; markers at most {worst_marker:.2}σ",
+        z.len(),
+        within(1.0),
+        within(3.0)
+    );
     // Gaussian: 68.3% and 99.7%. Over 330 correlated values the fraction within 1σ has a spread of
     // a few percent: 0.60–0.76 allows ±3 of it.
     assert!(within(3.0) >= 0.95 && (0.60..=0.76).contains(&within(1.0)), "{} {}", within(1.0), within(3.0));
-    assert!(marker_z.iter().all(|v| v.abs() < 4.0), "{marker_z:?}");
+    // The misplaced markers (120 coordinates) are recovered within 3σ of the truth (2.37σ at most).
+    assert!(worst_marker < 3.0, "{marker_z:?}");
 }
 
 #[test]
