@@ -241,8 +241,13 @@ pub fn calibrate(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
     config.check().map_err(|(key, reason)| CalibError::Config { key, reason })?;
+    // A free-motion recording's poses at the configured camera latency.
+    let (at_latency, left_out) = session.at_latency(config.latency_s);
+    let session = &at_latency;
     if config.fit == FitLevel::Markers {
-        return calibrate_markers(session, model, config, on_iteration);
+        let mut calibration = calibrate_markers(session, model, config, on_iteration)?;
+        calibration.report.excluded.extend(left_out.iter().map(|w| w.to_string()));
+        return Ok(calibration);
     }
     let vision = estimate_session(session, config.vision_method)?;
     let nominal_spm = &model.spm;

@@ -87,6 +87,9 @@ pub struct CalibConfig {
     pub folds: usize,
     /// What to do when the calibrated model does not predict unseen data clearly better.
     pub if_not_better: IfNotBetter,
+    /// The camera's latency behind the encoders (s), for free-motion recordings: each capture's
+    /// joints are interpolated at its time less this (fixed; not yet estimated).
+    pub latency_s: f64,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
     /// Loss applied to each pose residual.
@@ -140,6 +143,7 @@ impl Default for CalibConfig {
             fit: FitLevel::Markers,
             folds: 5,
             if_not_better: IfNotBetter::Warn,
+            latency_s: 0.0,
             vision_method: Method::Kabsch,
             loss: Loss::Huber,
             huber_threshold: 3.0,
@@ -185,6 +189,9 @@ impl CalibConfig {
             if !(value.is_finite() && value > 0.0) {
                 return Err((key.into(), format!("`{key}` must be a positive number (got {value})")));
             }
+        }
+        if !(self.latency_s.is_finite() && self.latency_s.abs() <= 0.2) {
+            return Err(("latency_s".into(), format!("`latency_s` must be within ±0.2 s (got {})", self.latency_s)));
         }
         if self.max_iterations == 0 {
             return Err(("max_iterations".into(), "`max_iterations` must be at least 1".into()));

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use super::joints::{JointReading, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
+use super::streams::{StreamLimits, Streams};
 use crate::files::{FileError, relative_path, write_atomic};
 use crate::model::Parameters;
 
@@ -78,6 +79,9 @@ pub struct Session {
     pub poses: Vec<SessionPose>,
     /// Ground truth, for simulated sessions.
     pub truth: Option<Truth>,
+    /// The encoder and camera streams of a free-motion recording, from which `poses` were made
+    /// (one per camera frame, joints interpolated at the frame's time less the latency).
+    pub streams: Option<Streams>,
 }
 
 /// A pose kept in the session but skipped by the vision estimator, and why.
@@ -171,6 +175,20 @@ impl Session {
             (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
         };
         let joints_path = dir.join("joints.csv");
+        if !joints_path.exists() && dir.join("encoders.csv").exists() {
+            let streams = Streams::read(dir, &file.markers, &StreamLimits::default())?;
+            let session = Session {
+                name: file.name,
+                description: file.description,
+                model,
+                markers: file.markers,
+                reference_pose: 0,
+                poses: Vec::new(),
+                truth: read_truth(dir)?,
+                streams: Some(streams),
+            };
+            return Ok(session.at_latency(0.0));
+        }
         let readings = read_joints(&joints_path)?;
         if readings.is_empty() {
             return Err(FileError::new(&joints_path, "empty session: no poses"));
@@ -195,8 +213,50 @@ impl Session {
             reference_pose,
             poses,
             truth,
+            streams: None,
         };
         Ok((session, warnings))
+    }
+
+    /// A free-motion recording's poses for camera latency `latency_s`: one pose per camera frame
+    /// (the captures sharing a time stamp), numbered in order, its joints interpolated in the
+    /// encoder stream at the frame's time less the latency. Frames that fall outside the encoder
+    /// stream at that latency are left out, each with a warning naming its `captures.csv` line.
+    /// A session without streams is returned as it is.
+    pub fn at_latency(&self, latency_s: f64) -> (Session, Vec<Warning>) {
+        let Some(streams) = &self.streams else { return (self.clone(), Vec::new()) };
+        let m = self.markers.len();
+        let (mut poses, mut warnings): (Vec<SessionPose>, Vec<Warning>) = (Vec::new(), Vec::new());
+        for frame in streams.captures.chunk_by(|a, b| a.time_s == b.time_s) {
+            let time = frame[0].time_s;
+            let Some(joints) = streams.joints_at(time - latency_s) else {
+                warnings.push(Warning {
+                    path: streams.captures_path.clone(),
+                    line: frame[0].line,
+                    pose: poses.len() as u64,
+                    message: format!(
+                        "the frame at {time} s falls outside the encoder stream at a latency of {latency_s} s: left out"
+                    ),
+                });
+                continue;
+            };
+            let mut pose = SessionPose {
+                id: poses.len() as u64,
+                joints,
+                time_s: Some(time),
+                markers: vec![None; m],
+                line: frame[0].line,
+                marker_lines: vec![0; m],
+                station: None,
+            };
+            for c in frame {
+                pose.markers[c.marker] = Some(c.position);
+                pose.marker_lines[c.marker] = c.line;
+            }
+            poses.push(pose);
+        }
+        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).or(poses.first()).map_or(0, |p| p.id);
+        (Session { poses, reference_pose, ..self.clone() }, warnings)
     }
 
     /// Check, before any work, that a session can be written into `dir`: a session folder (it has

@@ -230,6 +230,7 @@ impl Simulator<'_> {
             reference_pose: 0,
             poses,
             truth: Some(Truth { parameters, orientations: truth }),
+            streams: None,
         })
     }
 

@@ -1,0 +1,187 @@
+//! Free-motion recordings: `encoders.csv` (`time_s,theta1_rad,theta2_rad,theta3_rad`, e.g. 1 kHz)
+//! and `captures.csv` (`time_s,marker,x_m,y_m,z_m`, e.g. 15 Hz), two streams on their own clocks.
+//!
+//! A capture stamped `t` on the camera's clock was taken at `t − τ` on the encoders' clock (τ the
+//! camera's latency), where the joints are interpolated linearly between the two samples around it.
+//! Every problem is an error naming the file, line and column: time stamps that do not increase,
+//! a gap in the encoder stream longer than the limit (the interpolation would bridge motion it
+//! never saw), a capture outside the encoder stream for every latency within the bound.
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use nalgebra::Vector3;
+
+use crate::files::FileError;
+use crate::table::Table;
+
+/// One encoder sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EncoderSample {
+    /// Time on the encoders' clock (s).
+    pub time_s: f64,
+    /// Joint readings θ1, θ2, θ3 (rad).
+    pub joints: Vector3<f64>,
+}
+
+/// One marker captured by the camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Capture {
+    /// Time on the camera's clock (s).
+    pub time_s: f64,
+    /// Marker index (as in the session's `markers`).
+    pub marker: usize,
+    /// Marker centre in the camera frame (m).
+    pub position: Vector3<f64>,
+    /// Line of `captures.csv`.
+    pub line: usize,
+}
+
+/// Limits a recording must meet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamLimits {
+    /// Longest gap between encoder samples that the interpolation may bridge (s).
+    pub max_encoder_gap_s: f64,
+    /// Largest camera latency considered, either sign (s).
+    pub latency_bound_s: f64,
+}
+
+impl Default for StreamLimits {
+    /// 50 ms of encoder gap (fifty samples at 1 kHz), ±200 ms of latency.
+    fn default() -> Self {
+        StreamLimits { max_encoder_gap_s: 0.05, latency_bound_s: 0.2 }
+    }
+}
+
+/// The two streams of a recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Streams {
+    /// The `captures.csv` they were read from (warnings name its lines).
+    pub captures_path: std::path::PathBuf,
+    /// Encoder samples, time strictly increasing.
+    pub encoders: Vec<EncoderSample>,
+    /// Captures, time non-decreasing (several markers may share a frame).
+    pub captures: Vec<Capture>,
+}
+
+/// Read `encoders.csv`: numbers, finite, time strictly increasing, no gap over the limit.
+///
+/// # Errors
+/// A [`FileError`] naming the line and column of the first problem.
+pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSample>, FileError> {
+    let mut table = Table::open(path, &["time_s", "theta1_rad", "theta2_rad", "theta3_rad"])?;
+    let mut out: Vec<EncoderSample> = Vec::new();
+    for row in table.all_rows()? {
+        let time_s = table.number(&row, 0)?;
+        if let Some(last) = out.last() {
+            if time_s <= last.time_s {
+                let what = if time_s == last.time_s { "repeats" } else { "goes back from" };
+                return Err(table.error(
+                    &row,
+                    0,
+                    format!("time {time_s} s {what} the previous sample's {} s", last.time_s),
+                ));
+            }
+            if time_s - last.time_s > limits.max_encoder_gap_s {
+                return Err(table.error(
+                    &row,
+                    0,
+                    format!(
+                        "a gap of {:.4} s in the encoder stream (from {} s), longer than the limit of {} s",
+                        time_s - last.time_s,
+                        last.time_s,
+                        limits.max_encoder_gap_s
+                    ),
+                ));
+            }
+        }
+        let joints = Vector3::new(table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?);
+        out.push(EncoderSample { time_s, joints });
+    }
+    if out.len() < 2 {
+        return Err(FileError::new(path, format!("{} encoder samples: a stream needs at least two", out.len())));
+    }
+    Ok(out)
+}
+
+/// Read `captures.csv`: numbers, finite, known markers, time non-decreasing, one capture per
+/// (time, marker).
+///
+/// # Errors
+/// A [`FileError`] naming the line and column of the first problem.
+pub fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, FileError> {
+    let mut table = Table::open(path, &["time_s", "marker", "x_m", "y_m", "z_m"])?;
+    let mut out: Vec<Capture> = Vec::new();
+    let mut seen = HashSet::new();
+    for row in table.all_rows()? {
+        let time_s = table.number(&row, 0)?;
+        if let Some(last) = out.last().filter(|l| time_s < l.time_s) {
+            return Err(table.error(
+                &row,
+                0,
+                format!("time {time_s} s goes back from the previous capture's {} s", last.time_s),
+            ));
+        }
+        let name = &row.fields[1];
+        let marker = names.iter().position(|n| n == name).ok_or_else(|| {
+            table.error(&row, 1, format!("unknown marker `{name}` (session.yaml lists {})", names.join(", ")))
+        })?;
+        if !seen.insert((time_s.to_bits(), marker)) {
+            return Err(table.error(&row, 1, format!("marker `{name}` is captured twice at {time_s} s")));
+        }
+        let position = Vector3::new(table.number(&row, 2)?, table.number(&row, 3)?, table.number(&row, 4)?);
+        out.push(Capture { time_s, marker, position, line: row.line });
+    }
+    Ok(out)
+}
+
+impl Streams {
+    /// Read both streams of the recording in `dir` and check that every capture can be placed in
+    /// the encoder stream for some latency within the bound.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file, line and column of the first problem.
+    pub fn read(dir: &Path, names: &[String], limits: &StreamLimits) -> Result<Streams, FileError> {
+        let encoders = read_encoders(&dir.join("encoders.csv"), limits)?;
+        let captures_path = dir.join("captures.csv");
+        let captures = read_captures(&captures_path, names)?;
+        let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
+        let bound = limits.latency_bound_s;
+        if let Some(c) = captures.iter().find(|c| c.time_s + bound < first || c.time_s - bound > last) {
+            return Err(FileError::new(
+                &captures_path,
+                format!(
+                    "the capture at {} s lies outside the encoder stream ({first} s to {last} s) for every latency within ±{bound} s",
+                    c.time_s
+                ),
+            )
+            .at_line(c.line)
+            .in_column("time_s"));
+        }
+        Ok(Streams { captures_path, encoders, captures })
+    }
+
+    /// The joints at `time_s` on the encoders' clock, interpolated linearly; `None` outside the
+    /// stream.
+    pub fn joints_at(&self, time_s: f64) -> Option<Vector3<f64>> {
+        let e = &self.encoders;
+        if !(time_s >= e[0].time_s && time_s <= e[e.len() - 1].time_s) {
+            return None;
+        }
+        let k = e.partition_point(|s| s.time_s <= time_s).clamp(1, e.len() - 1);
+        let (a, b) = (&e[k - 1], &e[k]);
+        let f = (time_s - a.time_s) / (b.time_s - a.time_s);
+        Some(a.joints + (b.joints - a.joints) * f)
+    }
+
+    /// The joint velocity (rad/s) at `time_s`: the slope of the interval around it.
+    pub fn velocity_at(&self, time_s: f64) -> Option<Vector3<f64>> {
+        let e = &self.encoders;
+        if !(time_s >= e[0].time_s && time_s <= e[e.len() - 1].time_s) {
+            return None;
+        }
+        let k = e.partition_point(|s| s.time_s <= time_s).clamp(1, e.len() - 1);
+        let (a, b) = (&e[k - 1], &e[k]);
+        Some((b.joints - a.joints) / (b.time_s - a.time_s))
+    }
+}
