@@ -469,6 +469,12 @@ fn per_pose_lines(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Res
 
 /// Fitted markers, stereo noise and flagged observations of a marker-level calibration.
 fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
+    if let Some(l) = &m.latency {
+        match l.std_error_s {
+            Some(se) => writeln!(f, "camera latency: {:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3)?,
+            None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
+        }
+    }
     if let Some(n) = &m.stereo_noise {
         writeln!(
             f,

@@ -78,16 +78,19 @@ fn a_recording_of_a_sessions_readings_calibrates_as_the_session_at_its_latency()
     assert!(warnings.iter().all(|w| w.message.contains("outside the encoder stream")), "{warnings:?}");
     let config = CalibConfig { folds: 0, ..CalibConfig::default() };
     let direct = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
-    let at_latency = CalibConfig { latency_s: 0.04, ..config.clone() };
+    // The latency given and held (estimating it is the next test).
+    let freeze = vec![spmcal::calib::Group::Latency];
+    let at_latency = CalibConfig { latency_s: 0.04, freeze: freeze.clone(), ..config.clone() };
     let streamed = calibrate(&recording, &model, &at_latency, &mut |_| {}).unwrap();
     // The same observations with the same readings (interpolation between 1 kHz samples laid on
     // straight lines through them gives them back to rounding): the same fit.
     let (a, b) = (&direct.calibrated.x, &streamed.calibrated.x);
-    assert_eq!(a.len(), b.len());
+    assert_eq!(a.len() + 1, b.len(), "the recording's fit has the latency besides");
+    let b = b.rows(0, a.len());
     assert!((a - b).amax() < 1e-9, "{}", (a - b).amax());
     // Ignoring the 40 ms latency reads the joints 40 ms late — about 1° at this hand speed, against
     // markers measured to 0.2–0.7 mm: 2.3× the marker error (measured), far beyond 1.2×.
-    let ignored = calibrate(&recording, &model, &config, &mut |_| {}).unwrap();
+    let ignored = calibrate(&recording, &model, &CalibConfig { freeze, ..config }, &mut |_| {}).unwrap();
     let rms = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().after.rms_mm;
     eprintln!("latency ignored: {:.3} mm, at 40 ms: {:.3} mm", rms(&ignored), rms(&streamed));
     assert!(rms(&ignored) > 1.2 * rms(&streamed), "{} vs {}", rms(&ignored), rms(&streamed));
@@ -131,4 +134,71 @@ fn every_bad_recording_is_refused_with_its_file_line_and_reason() {
         let after = &err[err.find(file).unwrap() + file.len()..];
         assert!(after.starts_with(':') && after[1..].starts_with(|c: char| c.is_ascii_digit()), "{what}: {err}");
     }
+}
+
+#[test]
+fn the_latency_is_estimated_with_an_honest_standard_error() {
+    let (session, model) = sequential_session();
+    let dir = tempfile::tempdir().unwrap();
+    write_recording(&session, dir.path(), 0.04);
+    let (recording, _) = Session::load(dir.path(), None).unwrap();
+    // Start from zero latency: the fit moves it to the truth.
+    let config = CalibConfig { folds: 0, ..CalibConfig::default() };
+    let calibration = calibrate(&recording, &model, &config, &mut |_| {}).unwrap();
+    let latency = calibration.report.markers.as_ref().unwrap().latency.unwrap();
+    let se = latency.std_error_s.unwrap();
+    eprintln!("latency {:.4} ± {:.4} ms", latency.value_s * 1e3, se * 1e3);
+    assert!((latency.value_s - 0.04).abs() < 1e-3, "{latency:?}");
+    assert!((latency.value_s - 0.04).abs() < 3.0 * se, "{latency:?}");
+    // Frozen, it stays where it is given.
+    let frozen = CalibConfig { freeze: vec![spmcal::calib::Group::Latency], latency_s: 0.04, ..config };
+    let fixed = calibrate(&recording, &model, &frozen, &mut |_| {}).unwrap();
+    let l = fixed.report.markers.as_ref().unwrap().latency.unwrap();
+    assert_eq!((l.value_s, l.std_error_s), (0.04, None));
+    assert!(fixed.report.to_string().contains("camera latency: 40.000 ms (as given; frozen)"));
+}
+
+#[test]
+fn the_latency_column_of_the_jacobian_matches_central_differences() {
+    use nalgebra::DVector;
+    use spmcal::calib::{MarkerModel, Model, Parameterisation, marker_observations};
+    let (session, model) = sequential_session();
+    let dir = tempfile::tempdir().unwrap();
+    write_recording(&session, dir.path(), 0.04);
+    let (recording, _) = Session::load(dir.path(), None).unwrap();
+    let (recording, _) = recording.at_latency(0.03);
+    let truth = session.truth.as_ref().unwrap();
+    let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &truth.parameters.camera.unwrap(),
+        &markers,
+        &recording.markers,
+        &CalibConfig::default().bounds,
+    )
+    .with_latency(0.03, 0.2);
+    let (observations, _) = marker_observations(&recording, &model.spm);
+    let m = MarkerModel::new(&p, &observations).with_streams(recording.streams.as_ref().unwrap());
+    let x = DVector::from_fn(p.len(), |i, _| 1e-3 * ((i * 5 + 1) as f64).sin());
+    let at = m.evaluate(&x, None, true).unwrap();
+    let i = p.len() - 1;
+    assert_eq!(p.entries[i].name, "camera.latency");
+    // Inside one 1 ms encoder interval the interpolation is linear: a 10 µs step stays within it
+    // for most frames, and the derivative is exact there; across a sample boundary the slope
+    // changes, so compare where both sides fall in the same interval.
+    let h = 1e-5;
+    let (mut plus, mut minus) = (x.clone(), x.clone());
+    plus[i] += h;
+    minus[i] -= h;
+    let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+    let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+    let jac = at.jacobian.unwrap();
+    let mut agree = 0;
+    for j in 0..observations.len() {
+        let numeric = (rp[j] - rm[j]) / (2.0 * h);
+        let analytic: nalgebra::Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+        agree += usize::from((numeric - analytic).amax() <= 1e-6 * (1.0 + analytic.amax()));
+    }
+    // 2 h = 20 µs of a 1 ms interval: about 2% of the frames straddle a sample.
+    assert!(agree as f64 >= 0.95 * observations.len() as f64, "{agree} of {}", observations.len());
 }

@@ -30,6 +30,8 @@ pub enum Group {
     CameraTranslation,
     /// The markers' positions on the MP (marker-level fit).
     MarkerPositions,
+    /// The camera's latency (free-motion recordings): frozen, `latency_s` is used as it is.
+    Latency,
 }
 
 /// What the calibration fits.
@@ -88,8 +90,11 @@ pub struct CalibConfig {
     /// What to do when the calibrated model does not predict unseen data clearly better.
     pub if_not_better: IfNotBetter,
     /// The camera's latency behind the encoders (s), for free-motion recordings: each capture's
-    /// joints are interpolated at its time less this (fixed; not yet estimated).
+    /// joints are interpolated at its time less this. The marker-level fit estimates it from here
+    /// (within ±`latency_bound_s`) unless `latency` is frozen.
     pub latency_s: f64,
+    /// The bound on the estimated latency, either sign (s).
+    pub latency_bound_s: f64,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
     /// Loss applied to each pose residual.
@@ -144,6 +149,7 @@ impl Default for CalibConfig {
             folds: 5,
             if_not_better: IfNotBetter::Warn,
             latency_s: 0.0,
+            latency_bound_s: 0.2,
             vision_method: Method::Kabsch,
             loss: Loss::Huber,
             huber_threshold: 3.0,
@@ -190,8 +196,16 @@ impl CalibConfig {
                 return Err((key.into(), format!("`{key}` must be a positive number (got {value})")));
             }
         }
-        if !(self.latency_s.is_finite() && self.latency_s.abs() <= 0.2) {
-            return Err(("latency_s".into(), format!("`latency_s` must be within ±0.2 s (got {})", self.latency_s)));
+        if !(self.latency_bound_s.is_finite() && self.latency_bound_s > 0.0 && self.latency_bound_s <= 1.0) {
+            let reason = format!("`latency_bound_s` must be in (0, 1] s (got {})", self.latency_bound_s);
+            return Err(("latency_bound_s".into(), reason));
+        }
+        if !(self.latency_s.is_finite() && self.latency_s.abs() <= self.latency_bound_s) {
+            let reason = format!(
+                "`latency_s` must be within ±`latency_bound_s` = {} s (got {})",
+                self.latency_bound_s, self.latency_s
+            );
+            return Err(("latency_s".into(), reason));
         }
         if self.max_iterations == 0 {
             return Err(("max_iterations".into(), "`max_iterations` must be at least 1".into()));

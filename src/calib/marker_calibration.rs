@@ -15,7 +15,7 @@ use super::markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observa
 use super::params::{Kind, Parameterisation};
 use super::pose_errors::pose_errors;
 use super::solver::{FitOutcome, FitSettings, IterationLog, Model as _, fit_model, weighted_normal_of};
-use crate::dataset::Session;
+use crate::dataset::{Session, Streams};
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
 use crate::so3;
 use crate::vision::{Method, Stats, estimate_session};
@@ -116,9 +116,20 @@ pub struct FlaggedObservation {
     pub excluded: bool,
 }
 
+/// The camera's latency behind the encoders, for a free-motion recording.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Latency {
+    /// The latency (s): estimated, or as given when frozen.
+    pub value_s: f64,
+    /// Its standard error (s); `None` when frozen.
+    pub std_error_s: Option<f64>,
+}
+
 /// What the marker-level calibration adds to the report.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MarkerFitReport {
+    /// The camera latency of a free-motion recording.
+    pub latency: Option<Latency>,
     /// Marker observations fitted.
     pub observations: usize,
     /// Distinct poses (encoder readings) among them.
@@ -179,6 +190,12 @@ pub(super) fn calibrate_markers(
     let max_deg = largest_rotation(&nominal_r);
     let registration = initial_registration(&observations, &nominal_r, &markers0).ok_or(CalibError::Registration)?;
     let p = Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
+    // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
+    let streams = session.streams.as_ref();
+    let p = match streams {
+        Some(_) => p.with_latency(config.latency_s, config.latency_bound_s),
+        None => p,
+    };
     let free: Vec<bool> = p
         .entries
         .iter()
@@ -202,8 +219,8 @@ pub(super) fn calibrate_markers(
     let settings = |free: Vec<bool>, prior| FitSettings { prior, ..FitSettings::from_config(config, free) };
     let registration_only = registration_mask(&p, &free);
     let x0 = DVector::zeros(p.len());
-    let model_m = MarkerModel::new(&p, &observations);
-    let nominal = baseline(&p, &observations, &x0, &registration_only, config)?;
+    let model_m = marker_model(&p, &observations, streams);
+    let nominal = baseline(&p, &observations, streams, &x0, &registration_only, config)?;
     let identifiability = identifiability_at(&p, &nominal, &free, config);
     let regularised: Vec<String> = identifiability.unidentifiable.iter().map(|d| d.describe()).collect();
     // A session that barely moves is refused, with what it cannot tell apart.
@@ -227,7 +244,7 @@ pub(super) fn calibrate_markers(
         robust
     } else {
         observations = observations.iter().enumerate().filter(|(j, _)| !gross.contains(j)).map(|(_, o)| *o).collect();
-        let refit = MarkerModel::new(&p, &observations);
+        let refit = marker_model(&p, &observations, streams);
         let outcome = fit_model(&refit, &robust.x, &settings(free.clone(), prior.clone()), &mut |_| {})
             .map_err(|error| CalibError::Fit { stage: "calibration without the gross errors", error })?;
         flagged.retain(|(_, f)| f.excluded);
@@ -240,10 +257,13 @@ pub(super) fn calibrate_markers(
             .filter(|(_, f)| f.excluded)
             .map(|(_, f)| format!("pose {} marker {} (markers.csv line {}): gross error", f.pose, f.marker, f.line)),
     );
-    let model_m = MarkerModel::new(&p, &observations);
+    let model_m = marker_model(&p, &observations, streams);
     // The baseline on the same observations as the calibration (without the gross errors).
-    let nominal =
-        if gross.is_empty() { nominal } else { baseline(&p, &observations, &nominal.x, &registration_only, config)? };
+    let nominal = if gross.is_empty() {
+        nominal
+    } else {
+        baseline(&p, &observations, streams, &nominal.x, &registration_only, config)?
+    };
     let before = MarkerErrors::of(&nominal.evaluation.residuals, &observations, &session.markers);
     let after = MarkerErrors::of(&calibrated.evaluation.residuals, &observations, &session.markers);
     let covariance = covariance(&calibrated, &free, prior.as_ref().map(|(l, _)| l));
@@ -273,7 +293,7 @@ pub(super) fn calibrate_markers(
     let reports: Vec<_> = parameter_reports(&p, x, &covariance, &free)
         .into_iter()
         .zip(&p.entries)
-        .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. }))
+        .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency))
         .map(|(r, _)| r)
         .collect();
     // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
@@ -320,6 +340,10 @@ pub(super) fn calibrate_markers(
         camera_translation_m: Some(camera.translation.into()),
         camera_translation_std_error_m: translation_se,
         markers: Some(MarkerFitReport {
+            latency: p.entries.iter().position(|e| e.kind == Kind::Latency).map(|i| Latency {
+                value_s: p.latency(x),
+                std_error_s: free[i].then(|| covariance[(i, i)].max(0.0).sqrt()),
+            }),
             observations: observations.len(),
             poses: model_m.poses(),
             before,
@@ -352,6 +376,7 @@ pub(super) fn calibrate_markers(
 fn baseline(
     p: &Parameterisation,
     observations: &[MarkerObservation],
+    streams: Option<&Streams>,
     start: &DVector<f64>,
     registration_only: &[bool],
     config: &CalibConfig,
@@ -359,13 +384,25 @@ fn baseline(
     let fail = |error| CalibError::Fit { stage: "nominal registration", error };
     let settings =
         FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(config, registration_only.to_vec()) };
-    let model = MarkerModel::new(p, observations);
-    let light = MarkerModel::new(p, observations).with_columns(registration_only.to_vec());
+    let model = marker_model(p, observations, streams);
+    let light = marker_model(p, observations, streams).with_columns(registration_only.to_vec());
     let mut outcome = fit_model(&light, start, &settings, &mut |_| {}).map_err(fail)?;
     outcome.evaluation = model
         .evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true)
         .map_err(|e| fail(super::solver::FitError::Start(e)))?;
     Ok(outcome)
+}
+
+/// The marker-level model of `observations`, reading a recording's `streams` when there are.
+fn marker_model<'a>(
+    p: &'a Parameterisation,
+    observations: &'a [MarkerObservation],
+    streams: Option<&'a Streams>,
+) -> MarkerModel<'a> {
+    match streams {
+        Some(s) => MarkerModel::new(p, observations).with_streams(s),
+        None => MarkerModel::new(p, observations),
+    }
 }
 
 /// The model's position of each of the session's markers.
@@ -494,7 +531,7 @@ fn cross_validate(
         if test.is_empty() || test.len() == fold_of.len() {
             continue;
         }
-        let test_model = MarkerModel::new(model.p, &test);
+        let test_model = marker_model(model.p, &test, model.streams());
         // Each test pose's FDA starts from the full fit's orientation of it.
         let full_pose: Vec<usize> =
             (0..fold_of.len()).filter(|&j| fold_of[j] == fold).map(|j| model.pose_of(j)).collect();

@@ -21,7 +21,7 @@ use serde::Serialize;
 use super::params::{Kind, Parameterisation};
 use super::residual::{EvalError, Evaluation, Frames};
 use super::solver::{Model, Weighting};
-use crate::dataset::Session;
+use crate::dataset::{Session, Streams};
 use crate::model::{FdaError, Spm};
 use crate::so3;
 
@@ -40,6 +40,9 @@ pub struct MarkerObservation {
     pub line: usize,
     /// The capture's station, when recorded.
     pub station: Option<u64>,
+    /// The capture's time on the camera's clock (s), when recorded: with a free-motion
+    /// recording's streams, the joints are interpolated at this time less the latency.
+    pub time_s: Option<f64>,
 }
 
 /// Every marker observation of `session`, pose by pose, and the poses whose FDA fails on `spm`
@@ -60,6 +63,7 @@ pub fn marker_observations(session: &Session, spm: &Spm) -> (Vec<MarkerObservati
                     measured: *measured,
                     line: pose.marker_lines[marker],
                     station: pose.station,
+                    time_s: pose.time_s,
                 });
             }
         }
@@ -94,8 +98,8 @@ pub struct MarkerModel<'a> {
     pub observations: &'a [MarkerObservation],
     /// Index of each observation's pose in `poses`.
     pose_of: Vec<usize>,
-    /// Joint readings of each distinct pose.
-    poses: Vec<(u64, Vector3<f64>)>,
+    /// Id, joint readings and camera time of each distinct pose.
+    poses: Vec<(u64, Vector3<f64>, Option<f64>)>,
     /// Median distance of the observations from the camera.
     reference_distance: f64,
     /// The Jacobian columns computed (the others stay zero): a fit of the registration alone
@@ -103,23 +107,63 @@ pub struct MarkerModel<'a> {
     columns: Option<Vec<bool>>,
     /// A Jacobian the fit gave back, reused by the next evaluation.
     spare: std::cell::RefCell<Option<DMatrix<f64>>>,
+    /// A free-motion recording's streams: with a latency parameter, each pose's joints are
+    /// interpolated at its time less the latency.
+    streams: Option<&'a Streams>,
 }
 
 impl<'a> MarkerModel<'a> {
     /// The model of `observations` (consecutive observations of a pose share its FDA).
     pub fn new(p: &'a Parameterisation, observations: &'a [MarkerObservation]) -> Self {
-        let mut poses: Vec<(u64, Vector3<f64>)> = Vec::new();
+        let mut poses: Vec<(u64, Vector3<f64>, Option<f64>)> = Vec::new();
         let mut pose_of = Vec::with_capacity(observations.len());
         for o in observations {
-            if poses.last().is_none_or(|(id, joints)| *id != o.pose || *joints != o.joints) {
-                poses.push((o.pose, o.joints));
+            if poses.last().is_none_or(|(id, joints, _)| *id != o.pose || *joints != o.joints) {
+                poses.push((o.pose, o.joints, o.time_s));
             }
             pose_of.push(poses.len() - 1);
         }
         let mut distances: Vec<f64> = observations.iter().map(|o| o.measured.norm()).collect();
         distances.sort_by(f64::total_cmp);
         let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
-        MarkerModel { p, observations, pose_of, poses, reference_distance, columns: None, spare: Default::default() }
+        MarkerModel {
+            p,
+            observations,
+            pose_of,
+            poses,
+            reference_distance,
+            columns: None,
+            spare: Default::default(),
+            streams: None,
+        }
+    }
+
+    /// The same model reading each pose's joints from `streams` at its time less the latency
+    /// (when the parameterisation has one).
+    pub fn with_streams(mut self, streams: &'a Streams) -> Self {
+        self.streams = Some(streams);
+        self
+    }
+
+    /// The recording's streams the model reads, if any.
+    pub fn streams(&self) -> Option<&'a Streams> {
+        self.streams
+    }
+
+    /// Each pose's joints at `x` (the latency moves them along the encoder stream), with their
+    /// rate of change with the latency, `−θ̇`.
+    fn joints(&self, x: &DVector<f64>) -> Result<Vec<(Vector3<f64>, Vector3<f64>)>, EvalError> {
+        let latency = self.p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| self.p.latency(x));
+        self.poses
+            .iter()
+            .map(|&(pose, joints, time)| match (latency, self.streams, time) {
+                (Some(tau), Some(s), Some(t)) => match (s.joints_at(t - tau), s.velocity_at(t - tau)) {
+                    (Some(j), Some(v)) => Ok((j, -v)),
+                    _ => Err(EvalError::OutsideStream { pose, latency_s: tau }),
+                },
+                _ => Ok((joints, Vector3::zeros())),
+            })
+            .collect()
     }
 
     /// The same model computing only the Jacobian columns marked in `columns` (e.g. the free
@@ -206,11 +250,12 @@ impl Model for MarkerModel<'_> {
         let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
         let (camera, translation) = (p.camera(x), p.translation(x));
         let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
+        let joints = self.joints(x)?;
         let mut orientations = Vec::with_capacity(self.poses.len());
-        for (k, (pose, joints)) in self.poses.iter().enumerate() {
+        for (k, ((pose, _, _), (theta, _))) in self.poses.iter().zip(&joints).enumerate() {
             let r = match warm {
-                Some(w) => spm.track(joints, &w[k]),
-                None => spm.forward(joints),
+                Some(w) => spm.track(theta, &w[k]),
+                None => spm.forward(theta),
             }
             .map_err(|error| EvalError::Fda { pose: *pose, error })?;
             orientations.push(r);
@@ -225,13 +270,20 @@ impl Model for MarkerModel<'_> {
         if with_jacobian {
             let frames = Frames::new(p, x);
             let mechanism = self.mechanism_needed();
-            let sensitivities: Vec<DMatrix<f64>> = self
-                .poses
+            let latency = p.entries.iter().position(|e| e.kind == Kind::Latency);
+            let sensitivities: Vec<DMatrix<f64>> = joints
                 .iter()
                 .zip(&eval.orientations)
-                .map(|((_, joints), r)| match mechanism {
-                    true => frames.orientation_sensitivity(&spm, &legs, joints, r),
-                    false => DMatrix::zeros(3, p.len()),
+                .map(|((theta, rate), r)| {
+                    let mut s = match mechanism {
+                        true => frames.orientation_sensitivity(&spm, &legs, theta, r),
+                        false => DMatrix::zeros(3, p.len()),
+                    };
+                    // ∂ω/∂τ = J(θ) ∂θ/∂τ, J = A⁻¹B mapping joint rates to the MP's angular velocity.
+                    if let (Some(i), Some(j)) = (latency, spm.jacobians(theta, r).forward()) {
+                        s.set_column(i, &(j * rate));
+                    }
+                    s
                 })
                 .collect();
             eval.jacobian = Some(self.jacobian(x, &camera, &markers, &eval.orientations, &sensitivities));
@@ -294,6 +346,7 @@ impl MarkerModel<'_> {
                     Kind::Camera { k } => in_camera.column(k).into(),
                     Kind::Translation { k } => -Vector3::ith(k, 1.0),
                     Kind::Marker { marker, k } if marker == o.marker => -rotation.column(k),
+                    Kind::Latency if !mechanism => mech * sensitivities[pose].column(i),
                     _ => continue,
                 };
                 block.set_column(i, &column);

@@ -18,7 +18,9 @@ pub use calibrate::{
 };
 pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 pub use identify::{Direction, Identifiability, analyse};
-pub use marker_calibration::{CrossValidation, FlaggedObservation, MarkerErrors, MarkerFitReport, MarkerReport};
+pub use marker_calibration::{
+    CrossValidation, FlaggedObservation, Latency, MarkerErrors, MarkerFitReport, MarkerReport,
+};
 pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use pose_errors::{PoseErrors, pose_errors};

@@ -66,6 +66,8 @@ pub enum Kind {
         /// Axis 0, 1 or 2.
         k: usize,
     },
+    /// The camera's latency behind the encoders, `τ − τ⁰` (s; free-motion recordings).
+    Latency,
     /// Component `k` of marker `marker`'s position in P (m).
     Marker {
         /// Marker index (as in the session's `markers`).
@@ -88,6 +90,7 @@ impl Kind {
             Kind::Reference { .. } => Group::ReferenceRotation,
             Kind::Translation { .. } => Group::CameraTranslation,
             Kind::Marker { .. } => Group::MarkerPositions,
+            Kind::Latency => Group::Latency,
         }
     }
 
@@ -99,7 +102,11 @@ impl Kind {
             | Kind::Alpha2 { leg }
             | Kind::Offset { leg }
             | Kind::PlatformTilt { leg, .. } => Some(leg),
-            Kind::Camera { .. } | Kind::Reference { .. } | Kind::Translation { .. } | Kind::Marker { .. } => None,
+            Kind::Camera { .. }
+            | Kind::Reference { .. }
+            | Kind::Translation { .. }
+            | Kind::Marker { .. }
+            | Kind::Latency => None,
         }
     }
 }
@@ -132,6 +139,8 @@ pub struct Parameterisation {
     pub translation0: Vector3<f64>,
     /// Marker positions in P at `x = 0` (marker level; empty otherwise).
     pub markers0: Vec<Vector3<f64>>,
+    /// Camera latency at `x = 0` (s; free-motion recordings).
+    pub latency0: f64,
     /// One entry per parameter.
     pub entries: Vec<Entry>,
 }
@@ -193,6 +202,7 @@ impl Parameterisation {
             platform_dirs,
             translation0: Vector3::zeros(),
             markers0: Vec::new(),
+            latency0: 0.0,
             entries,
         }
     }
@@ -223,6 +233,19 @@ impl Parameterisation {
             }
         }
         p
+    }
+
+    /// The same parameterisation with the camera latency as a parameter, from `latency0`,
+    /// bounded by `bound` either side of zero (s).
+    pub fn with_latency(mut self, latency0: f64, bound: f64) -> Self {
+        self.latency0 = latency0;
+        self.entries.push(Entry { kind: Kind::Latency, name: "camera.latency".into(), bound: Some(bound) });
+        self
+    }
+
+    /// The camera latency at `x` (s).
+    pub fn latency(&self, x: &DVector<f64>) -> f64 {
+        self.latency0 + self.value(x, Kind::Latency)
     }
 
     /// `t_CB` at `x`.
@@ -338,7 +361,7 @@ impl Parameterisation {
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
                 // Marker-level entries are set by `TruthInGauge::for_markers`.
-                Kind::Translation { .. } | Kind::Marker { .. } => 0.0,
+                Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency => 0.0,
             };
         }
         x

@@ -84,6 +84,14 @@ pub enum EvalError {
     #[error("the parameters do not make a valid manipulator: {0}")]
     /// The parameters make no valid manipulator.
     Geometry(SpmError),
+    #[error("pose {pose}: at a camera latency of {latency_s} s its frame falls outside the encoder stream")]
+    /// A frame falls outside the encoder stream at the latency tried.
+    OutsideStream {
+        /// Pose (frame) id.
+        pose: u64,
+        /// The latency tried (s).
+        latency_s: f64,
+    },
     #[error("pose {pose}: forward kinematics failed: {error}")]
     /// The forward kinematics of a pose failed.
     Fda {
@@ -235,7 +243,11 @@ impl<'a> Frames<'a> {
                 let dy = du.cross(&g.z) + g.u.cross(&dz);
                 (du * ca + (dz * cp + dy * sp) * sa).dot(v)
             }
-            Kind::Camera { .. } | Kind::Reference { .. } | Kind::Translation { .. } | Kind::Marker { .. } => 0.0,
+            Kind::Camera { .. }
+            | Kind::Reference { .. }
+            | Kind::Translation { .. }
+            | Kind::Marker { .. }
+            | Kind::Latency => 0.0,
         }
     }
 }
