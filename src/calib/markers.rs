@@ -87,6 +87,9 @@ pub struct StereoNoise {
     pub depth_std_error_m: f64,
 }
 
+/// A pose's joints and their rate of change with the camera latency.
+type JointsAndRate = (Vector3<f64>, Vector3<f64>);
+
 /// Smallest σ the whitening uses (0.1 µm): noise-free data must not divide by zero.
 const SIGMA_FLOOR_M: f64 = 1e-7;
 
@@ -152,7 +155,7 @@ impl<'a> MarkerModel<'a> {
 
     /// Each pose's joints at `x` (the latency moves them along the encoder stream), with their
     /// rate of change with the latency, `−θ̇`.
-    fn joints(&self, x: &DVector<f64>) -> Result<Vec<(Vector3<f64>, Vector3<f64>)>, EvalError> {
+    fn joints(&self, x: &DVector<f64>) -> Result<Vec<JointsAndRate>, EvalError> {
         let latency = self.p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| self.p.latency(x));
         self.poses
             .iter()
