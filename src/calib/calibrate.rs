@@ -318,6 +318,7 @@ pub fn calibrate(
     let centre = vision.centre;
     let mut parameters = Parameters {
         markers: Vec::new(),
+        latency_s: None,
         source: ParameterSource::Calibrated,
         model: Some(crate::files::tidy_path(&model.urdf_path).display().to_string()),
         legs: p.legs(&calibrated.x),

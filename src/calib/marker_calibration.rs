@@ -304,6 +304,7 @@ pub(super) fn calibrate_markers(
         legs: p.legs(x),
         camera: Some(camera),
         markers: parameters_markers,
+        latency_s: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.latency(x)),
         fit: None,
     };
     let vision = estimate_session(session, Method::Kabsch).ok();

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use super::joints::{JointReading, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
-use super::streams::{StreamLimits, Streams};
+use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
 use crate::files::{FileError, relative_path, write_atomic};
 use crate::model::Parameters;
 
@@ -288,6 +288,23 @@ impl Session {
     pub fn write(&self, dir: &Path) -> Result<(), FileError> {
         Session::check_destination(dir)?;
         std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;
+        if let Some(streams) = &self.streams {
+            // A free-motion recording is its streams; its poses are derived from them on loading.
+            write_atomic(&dir.join("encoders.csv"), encoders_csv(&streams.encoders).as_bytes())?;
+            write_atomic(&dir.join("captures.csv"), captures_csv(&streams.captures, &self.markers).as_bytes())?;
+            if let Some(truth) = &self.truth {
+                truth.parameters.write(&dir.join("truth.yaml"))?;
+            }
+            let file = SessionFile {
+                name: self.name.clone(),
+                model: Some(relative_path(dir, &self.model)?),
+                markers: self.markers.clone(),
+                reference_pose: None,
+                description: self.description.clone(),
+            };
+            let yaml = serde_yaml::to_string(&file).expect("session serialises");
+            return write_atomic(&dir.join("session.yaml"), yaml.as_bytes());
+        }
         let readings: Vec<_> = self
             .poses
             .iter()

@@ -12,7 +12,9 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::files::FileError;
+use std::fmt::Write as _;
+
+use crate::files::{FileError, number};
 use crate::table::Table;
 
 /// One encoder sample.
@@ -36,6 +38,9 @@ pub struct Capture {
     /// Line of `captures.csv`.
     pub line: usize,
 }
+
+/// Half-width of the window over which the joint velocity is taken (s).
+pub const VELOCITY_WINDOW_S: f64 = 0.01;
 
 /// Limits a recording must meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -174,14 +179,38 @@ impl Streams {
         Some(a.joints + (b.joints - a.joints) * f)
     }
 
-    /// The joint velocity (rad/s) at `time_s`: the slope of the interval around it.
+    /// The joint velocity (rad/s) at `time_s`: a central difference over ±`VELOCITY_WINDOW_S`
+    /// (one-sided at the ends). The slope of a single 1 ms interval is dominated by the encoders'
+    /// quantisation (one count in a millisecond is 20°/s at 14 bits); the latency's derivative
+    /// needs the hand's motion, not that noise.
     pub fn velocity_at(&self, time_s: f64) -> Option<Vector3<f64>> {
         let e = &self.encoders;
-        if !(time_s >= e[0].time_s && time_s <= e[e.len() - 1].time_s) {
+        let (first, last) = (e[0].time_s, e[e.len() - 1].time_s);
+        if !(time_s >= first && time_s <= last) {
             return None;
         }
-        let k = e.partition_point(|s| s.time_s <= time_s).clamp(1, e.len() - 1);
-        let (a, b) = (&e[k - 1], &e[k]);
-        Some((b.joints - a.joints) / (b.time_s - a.time_s))
+        let (a, b) = ((time_s - VELOCITY_WINDOW_S).max(first), (time_s + VELOCITY_WINDOW_S).min(last));
+        Some((self.joints_at(b)? - self.joints_at(a)?) / (b - a))
     }
+}
+
+/// `encoders.csv` text, with full precision.
+pub fn encoders_csv(samples: &[EncoderSample]) -> String {
+    let mut text = String::from("time_s,theta1_rad,theta2_rad,theta3_rad\n");
+    for e in samples {
+        let j = e.joints;
+        let _ = writeln!(text, "{},{},{},{}", number(e.time_s), number(j[0]), number(j[1]), number(j[2]));
+    }
+    text
+}
+
+/// `captures.csv` text, with full precision.
+pub fn captures_csv(captures: &[Capture], names: &[String]) -> String {
+    let mut text = String::from("time_s,marker,x_m,y_m,z_m\n");
+    for c in captures {
+        let p = c.position;
+        let _ =
+            writeln!(text, "{},{},{},{},{}", number(c.time_s), names[c.marker], number(p.x), number(p.y), number(p.z));
+    }
+    text
 }

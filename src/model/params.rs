@@ -88,6 +88,9 @@ pub struct Parameters {
     /// The markers' positions in P, when a fit estimated them (or a simulation drew them);
     /// empty: the model's companion holds them.
     pub markers: Vec<MarkerPosition>,
+    /// The camera's latency behind the encoders (s), when fitted (or simulated) from a
+    /// free-motion recording.
+    pub latency_s: Option<f64>,
     /// Statistics of the fit that produced the file (informational).
     pub fit: Option<serde_yaml::Value>,
 }
@@ -143,6 +146,8 @@ struct ParametersRecord {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     markers: Vec<MarkerRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    latency_s: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     fit: Option<serde_yaml::Value>,
 }
 
@@ -155,6 +160,7 @@ impl Parameters {
             legs: *spm.geometry(),
             camera: None,
             markers: Vec::new(),
+            latency_s: None,
             fit: None,
         }
     }
@@ -226,7 +232,18 @@ impl Parameters {
                 std_error: m.std_error_m.map(Vector3::from),
             });
         }
-        Ok(Parameters { source: record.source, model: record.model, legs, camera, markers, fit: record.fit })
+        if record.latency_s.is_some_and(|l| !l.is_finite()) {
+            return Err(keys.error(path, "latency_s", "`latency_s` is not finite"));
+        }
+        Ok(Parameters {
+            source: record.source,
+            model: record.model,
+            legs,
+            camera,
+            markers,
+            latency_s: record.latency_s,
+            fit: record.fit,
+        })
     }
 
     /// The file text, with a comment header.
@@ -262,6 +279,7 @@ impl Parameters {
                     std_error_m: m.std_error.map(Into::into),
                 })
                 .collect(),
+            latency_s: self.latency_s,
             fit: self.fit.clone(),
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");

@@ -54,6 +54,8 @@ pub struct SimConfig {
     pub encoders: Encoders,
     /// How markers are captured.
     pub capture: Capture,
+    /// A free-motion recording (encoder and camera streams) instead of static poses.
+    pub recording: Option<Recording>,
 }
 
 /// Standard deviations of the true geometry around the nominal model.
@@ -135,6 +137,41 @@ pub struct Capture {
     pub interval_s: f64,
 }
 
+/// A free-motion recording instead of static poses: a hand moving the joystick smoothly over
+/// the workspace while the encoders stream and the camera tracks markers on its own clock.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Recording {
+    /// Length of the recording (s).
+    pub duration_s: f64,
+    /// Encoder sampling rate (Hz).
+    pub encoder_rate_hz: f64,
+    /// Camera frame rate (Hz).
+    pub camera_rate_hz: f64,
+    /// The camera's latency behind the encoders (s): a frame taken at `t` is stamped `t + latency`.
+    pub latency_s: f64,
+    /// Standard deviation of the camera's time stamps (s).
+    pub jitter_s: f64,
+    /// Every marker in every frame (else one marker per frame, round robin).
+    pub all_markers: bool,
+    /// Slowest period of the hand's motion (s); the motion mixes periods from this down to a third.
+    pub period_s: f64,
+}
+
+impl Default for Recording {
+    fn default() -> Self {
+        Recording {
+            duration_s: 120.0,
+            encoder_rate_hz: 1000.0,
+            camera_rate_hz: 15.0,
+            latency_s: 0.04,
+            jitter_s: 0.001,
+            all_markers: false,
+            period_s: 20.0,
+        }
+    }
+}
+
 impl Default for SimConfig {
     /// The settings of `configs/simulate_agile_wrist.yaml`.
     fn default() -> Self {
@@ -149,6 +186,7 @@ impl Default for SimConfig {
             camera: Camera::default(),
             encoders: Encoders::default(),
             capture: Capture::default(),
+            recording: None,
         }
     }
 }
@@ -263,6 +301,32 @@ impl SimConfig {
         }
         if self.poses == 0 {
             return Err(("poses".into(), "`poses` must be at least 1".into()));
+        }
+        if let Some(r) = &self.recording {
+            for (key, value) in [
+                ("recording.duration_s", r.duration_s),
+                ("recording.encoder_rate_hz", r.encoder_rate_hz),
+                ("recording.camera_rate_hz", r.camera_rate_hz),
+                ("recording.period_s", r.period_s),
+            ] {
+                if !(value.is_finite() && value > 0.0) {
+                    return Err((key.into(), format!("`{key}` must be positive (got {value})")));
+                }
+            }
+            if !(r.latency_s.is_finite() && r.latency_s.abs() <= 0.2) {
+                return Err((
+                    "recording.latency_s".into(),
+                    format!("`latency_s` must be within ±0.2 s (got {})", r.latency_s),
+                ));
+            }
+            if !(r.jitter_s.is_finite() && r.jitter_s >= 0.0 && r.jitter_s < 0.25 / r.camera_rate_hz) {
+                let reason = format!("`jitter_s` must be non-negative and below a quarter frame (got {})", r.jitter_s);
+                return Err(("recording.jitter_s".into(), reason));
+            }
+            if r.encoder_rate_hz < 20.0 || r.duration_s * r.encoder_rate_hz > 2.0e7 {
+                let reason = "the encoders must stream at 20 Hz or more (their gaps are bounded), and at most 2e7 samples in all";
+                return Err(("recording.encoder_rate_hz".into(), reason.into()));
+            }
         }
         if !(0.0..=1.0).contains(&self.camera.outlier_probability) {
             return Err(("camera.outlier_probability".into(), "`outlier_probability` must lie in [0, 1]".into()));

@@ -7,6 +7,6 @@ mod scene;
 mod simulator;
 
 pub use camera::{Measurement, lenses, looking_down, measure};
-pub use config::{Camera, Capture, DEFAULT_MODEL, Encoders, SimConfig, Trajectory, TruthSpread, Workspace};
+pub use config::{Camera, Capture, DEFAULT_MODEL, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
 pub use scene::{BodyRotations, Scene};
 pub use simulator::{SimError, SimSummary, simulate};

@@ -10,9 +10,9 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use super::camera::{lenses, looking_down, measure};
-use super::config::{SimConfig, Trajectory};
+use super::config::{Recording, SimConfig, Trajectory};
 use super::scene::Scene;
-use crate::dataset::{MIN_MARKERS, Session, SessionPose, Truth};
+use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, Streams, Truth};
 use crate::model::{
     CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
     conditioning_index, perturb,
@@ -120,7 +120,10 @@ pub fn simulate(
         model.markers.iter().map(|m| m.position + Vector3::from_fn(|_, _| misplacement.sample(&mut rng))).collect();
     let summary = SimSummary { name: config.name.clone(), seed: config.seed, ..Default::default() };
     let mut sim = Simulator { config, model, spm, camera, markers, scene: Scene::new(model), rng, summary };
-    let session = sim.run(progress)?;
+    let session = match &config.recording {
+        Some(r) => sim.record_streams(r, progress)?,
+        None => sim.run(progress)?,
+    };
     Ok((session, sim.summary))
 }
 
@@ -200,20 +203,7 @@ impl Simulator<'_> {
         }
         self.summary.poses = poses.len();
         self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();
-        let parameters = Parameters {
-            source: ParameterSource::Truth,
-            model: Some(crate::files::tidy_path(&self.model.urdf_path).display().to_string()),
-            legs: *self.spm.geometry(),
-            camera: Some(self.camera),
-            markers: self
-                .model
-                .markers
-                .iter()
-                .zip(&self.markers)
-                .map(|(m, p)| MarkerPosition { name: m.name.clone(), position: *p, std_error: None })
-                .collect(),
-            fit: None,
-        };
+        let parameters = self.truth_parameters(None);
         let description = self.config.description.clone().unwrap_or_else(|| {
             format!(
                 "simulated by spmcal simulate (seed {}, {} poses, {} trajectory)",
@@ -232,6 +222,132 @@ impl Simulator<'_> {
             truth: Some(Truth { parameters, orientations: truth }),
             streams: None,
         })
+    }
+
+    /// The true parameters (with the camera latency of a recording).
+    fn truth_parameters(&self, latency_s: Option<f64>) -> Parameters {
+        Parameters {
+            source: ParameterSource::Truth,
+            model: Some(crate::files::tidy_path(&self.model.urdf_path).display().to_string()),
+            legs: *self.spm.geometry(),
+            camera: Some(self.camera),
+            markers: self
+                .model
+                .markers
+                .iter()
+                .zip(&self.markers)
+                .map(|(m, p)| MarkerPosition { name: m.name.clone(), position: *p, std_error: None })
+                .collect(),
+            latency_s,
+            fit: None,
+        }
+    }
+
+    /// A free-motion recording: the hand's motion mixes three periods per axis (the slowest
+    /// `period_s`) within 80% of the workspace's tilt and yaw, shrunk until every encoder sample
+    /// is reachable, away from singularities and free of collisions; the encoders stream its IK
+    /// with noise and quantisation, the camera measures markers at its own rate, stamped late by
+    /// the latency with jitter.
+    fn record_streams(&mut self, r: &Recording, progress: &mut dyn FnMut(usize)) -> Result<Session, SimError> {
+        let w = &self.config.workspace;
+        let (tilt, yaw) = (0.8 * w.max_tilt_deg.to_radians(), 0.8 * w.max_yaw_deg.to_radians());
+        let waves: Vec<[(f64, f64, f64); 3]> = (0..3)
+            .map(|_| {
+                std::array::from_fn(|k| {
+                    let amplitude = self.rng.random_range(0.5..1.0);
+                    (
+                        amplitude,
+                        std::f64::consts::TAU * (k + 1) as f64 / r.period_s,
+                        self.rng.random_range(0.0..std::f64::consts::TAU),
+                    )
+                })
+            })
+            .collect();
+        let wave = |axis: usize, t: f64| -> f64 {
+            let total: f64 = waves[axis].iter().map(|w| w.0).sum();
+            waves[axis].iter().map(|(a, f, p)| a * (f * t + p).sin()).sum::<f64>() / total
+        };
+        let n = (r.duration_s * r.encoder_rate_hz).round() as usize + 1;
+        let mut scale = 1.0;
+        let at = |scale: f64, t: f64| {
+            let v = Vector3::new(wave(0, t), wave(1, t), 0.0) * (tilt * scale);
+            let v = if v.norm() > tilt * scale { v * (tilt * scale / v.norm()) } else { v };
+            so3::exp(&v) * so3::exp(&(Vector3::z() * (yaw * scale * wave(2, t))))
+        };
+        let truth_joints = loop {
+            let mut joints = Vec::with_capacity(n);
+            let mut failed = None;
+            for i in 0..n {
+                let t = i as f64 / r.encoder_rate_hz;
+                // Collisions and singularities change slowly: checked every 10 ms; IK everywhere.
+                let check = i % ((r.encoder_rate_hz / 100.0).ceil() as usize).max(1) == 0;
+                let rot = at(scale, t);
+                let result =
+                    if check { self.accept(&rot) } else { self.spm.ik(&rot).map_err(|_| Rejection::Unreachable) };
+                match result {
+                    Ok(j) => joints.push(j),
+                    Err(_) => {
+                        failed = Some(t);
+                        break;
+                    }
+                }
+            }
+            match failed {
+                None => break joints,
+                Some(_) if scale > 0.3 => scale *= 0.8,
+                Some(t) => {
+                    return Err(SimError::TooFewPoses {
+                        found: 0,
+                        wanted: 1,
+                        attempts: 6,
+                        cause: format!("the hand's motion leaves the workspace at {t:.2} s even at 30% of its size"),
+                        key: "workspace.max_tilt_deg",
+                    });
+                }
+            }
+        };
+        let encoders: Vec<EncoderSample> = truth_joints
+            .iter()
+            .enumerate()
+            .map(|(i, j)| EncoderSample { time_s: i as f64 / r.encoder_rate_hz, joints: self.read_encoders(j) })
+            .collect();
+        let jitter = Normal::new(0.0, r.jitter_s).expect("validated deviation");
+        let frames = (r.duration_s * r.camera_rate_hz).floor() as usize;
+        let m = self.markers.len();
+        let mut captures = Vec::new();
+        for f in 0..frames {
+            let t = (f as f64 + 0.5) / r.camera_rate_hz;
+            let rot = at(scale, t);
+            let Ok(joints) = self.spm.ik(&rot) else { continue };
+            let which: Vec<usize> = if r.all_markers { (0..m).collect() } else { vec![f % m] };
+            let pose = self.record(0, &rot, &joints, &which);
+            let stamp = t + r.latency_s + jitter.sample(&mut self.rng);
+            for (marker, seen) in pose.markers.iter().enumerate() {
+                if let Some(position) = seen {
+                    captures.push(Capture { time_s: stamp, marker, position: *position, line: 0 });
+                }
+            }
+            progress(f + 1);
+        }
+        captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        self.summary.poses = frames;
+        let streams = Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures };
+        let session = Session {
+            name: self.config.name.clone(),
+            description: Some(self.config.description.clone().unwrap_or_else(|| {
+                format!(
+                    "free-motion recording simulated by spmcal simulate (seed {}, {} s)",
+                    self.config.seed, r.duration_s
+                )
+            })),
+            model: self.model.urdf_path.clone(),
+            markers: self.model.markers.iter().map(|mk| mk.name.clone()).collect(),
+            reference_pose: 0,
+            poses: Vec::new(),
+            truth: Some(Truth { parameters: self.truth_parameters(Some(r.latency_s)), orientations: BTreeMap::new() }),
+            streams: Some(streams),
+        };
+        Ok(session.at_latency(r.latency_s).0)
     }
 
     /// The `k`-th candidate orientation of `n`.
