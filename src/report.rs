@@ -282,16 +282,21 @@ impl fmt::Display for SetComparison {
 
 impl fmt::Display for SimSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        writeln!(
-            f,
-            "{}: {} poses ({} attempts; rejected: {} unreachable, {} near a singularity, {} colliding)",
-            self.name,
-            self.poses,
-            self.attempts,
-            self.rejected_unreachable,
-            self.rejected_singular,
-            self.rejected_collision
-        )?;
+        if self.attempts == 0 {
+            // A free-motion recording: frames of the camera, not drawn poses.
+            writeln!(f, "{}: a free-motion recording of {} camera frames", self.name, self.poses)?;
+        } else {
+            writeln!(
+                f,
+                "{}: {} poses ({} attempts; rejected: {} unreachable, {} near a singularity, {} colliding)",
+                self.name,
+                self.poses,
+                self.attempts,
+                self.rejected_unreachable,
+                self.rejected_singular,
+                self.rejected_collision
+            )?;
+        }
         writeln!(
             f,
             "markers: {} seen, {} occluded, {} outliers; {} poses with fewer than 3 markers",
