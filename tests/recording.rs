@@ -291,3 +291,21 @@ fn a_session_captured_one_marker_at_a_time_replays_with_calibrated_parameters() 
         assert!(found.contains(e), "{e} missing; found {found:?}");
     }
 }
+
+#[test]
+fn a_free_motion_calibration_is_recorded_at_its_fitted_latency() {
+    let (session, _) = Session::load(Path::new("datasets/agile_wrist_free_motion_120s"), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    let calibration =
+        calibrate(&session, &model, &CalibConfig { folds: 0, ..CalibConfig::default() }, &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("free_motion.rrd");
+    let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
+    spmcal::record::write_recording(&path, &scene).unwrap();
+    // One marker per frame: each frame's logged error is its residual, and their RMS is the fit's
+    // (the recording sees the joints at the fitted latency, not at the start's).
+    let after = scalars(&chunks(&path), "errors/markers_mm/calibrated", "pose");
+    let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
+    let report = calibration.report.markers.as_ref().unwrap().after.rms_mm;
+    assert!((rms - report).abs() < 1e-9 * report.max(1.0), "{rms} vs {report}");
+}

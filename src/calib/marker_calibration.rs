@@ -358,13 +358,14 @@ pub(super) fn calibrate_markers(
     };
     let mut parameters = parameters;
     parameters.fit = Some(fit_header(&report));
+    let marker_observations = at_fitted_latency(observations, streams, &p, &calibrated.x);
     Ok(Calibration {
         parameters,
         report,
         parameterisation: p,
         observations: Vec::new(),
         held_out: Vec::new(),
-        marker_observations: observations,
+        marker_observations,
         nominal,
         calibrated,
         covariance,
@@ -392,6 +393,25 @@ fn baseline(
         .evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true)
         .map_err(|e| fail(super::solver::FitError::Start(e)))?;
     Ok(outcome)
+}
+
+/// The observations with their joints read at the fitted latency, so that whoever evaluates them
+/// without the streams (the recordings) sees the fit's own poses.
+fn at_fitted_latency(
+    mut observations: Vec<MarkerObservation>,
+    streams: Option<&Streams>,
+    p: &Parameterisation,
+    x: &DVector<f64>,
+) -> Vec<MarkerObservation> {
+    if let Some(s) = streams.filter(|_| p.entries.iter().any(|e| e.kind == Kind::Latency)) {
+        let tau = p.latency(x);
+        for o in observations.iter_mut() {
+            if let Some(joints) = o.time_s.and_then(|t| s.joints_at(t - tau)) {
+                o.joints = joints;
+            }
+        }
+    }
+    observations
 }
 
 /// The marker-level model of `observations`, reading a recording's `streams` when there are.
