@@ -231,8 +231,8 @@ fn a_simulated_free_motion_recording_gives_back_its_latency() {
     let worse = calibrate(&recording, &model, &ignored, &mut |_| {}).unwrap();
     let rms = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().after.rms_mm;
     eprintln!("latency ignored: {:.3} mm, estimated: {:.3} mm", rms(&worse), rms(&calibration));
-    // A hand at ~10°/s read 40 ms late is 0.4° off, beside 0.2–0.7 mm of marker noise: 12% worse
-    // (measured). The RMS over n ≈ 580 observations has a relative standard error of about
-    // 1/√(6n) ≈ 1.7%, so 5% is three of them.
-    assert!(rms(&worse) > 1.05 * rms(&calibration), "{} vs {}", rms(&worse), rms(&calibration));
+    // A hand at ~10–20°/s read 40 ms late is about half a degree off, beside 0.2–0.7 mm of marker
+    // noise: 2.1× the marker error (measured). The RMS over n ≈ 560 observations has a relative
+    // standard error of about 1/√(6n) ≈ 1.7%: 1.5× is far beyond chance.
+    assert!(rms(&worse) > 1.5 * rms(&calibration), "{} vs {}", rms(&worse), rms(&calibration));
 }

@@ -3,10 +3,7 @@
 //! orientations, from free-motion recordings of several lengths (latency estimated, and held at
 //! zero), beside 200 static poses captured four markers at once.
 //! Run: `cargo run --release --example free_motion [sessions]` (default 5 per row).
-//!
-//! Work in progress (issue 11): on this study the free-motion fits are 3–4× less accurate than
-//! 200 static poses, and long recordings can end at the iteration limit (the cost is only
-//! piecewise smooth in the latency); failed fits are counted, not hidden.
+//! A fit that fails is counted, not hidden.
 
 use std::path::Path;
 

@@ -154,7 +154,7 @@ pub struct Recording {
     pub jitter_s: f64,
     /// Every marker in every frame (else one marker per frame, round robin).
     pub all_markers: bool,
-    /// Slowest period of the hand's motion (s); the motion mixes periods from this down to a third.
+    /// Ten times the time between the hand's random waypoints (s).
     pub period_s: f64,
 }
 

@@ -243,29 +243,37 @@ impl Simulator<'_> {
         }
     }
 
-    /// A free-motion recording: the hand's motion mixes three periods per axis (the slowest
-    /// `period_s`) within 80% of the workspace's tilt and yaw, shrunk until every encoder sample
-    /// is reachable, away from singularities and free of collisions; the encoders stream its IK
+    /// A free-motion recording: the hand moves smoothly through random waypoints of 80% of the
+    /// workspace's tilt and yaw (one every `period_s / 10`), shrunk until every encoder sample is
+    /// reachable, away from singularities and free of collisions; the encoders stream its IK
     /// with noise and quantisation, the camera measures markers at its own rate, stamped late by
     /// the latency with jitter.
     fn record_streams(&mut self, r: &Recording, progress: &mut dyn FnMut(usize)) -> Result<Session, SimError> {
         let w = &self.config.workspace;
         let (tilt, yaw) = (0.8 * w.max_tilt_deg.to_radians(), 0.8 * w.max_yaw_deg.to_radians());
-        let waves: Vec<[(f64, f64, f64); 3]> = (0..3)
+        // The hand goes through random waypoints — uniform over the tilt disc and the yaw range,
+        // as the static poses are drawn — one every `period_s / 10`, along a Catmull–Rom spline
+        // (smooth, no stops): a path that covers the workspace as static poses do. (Sums of a few
+        // sinusoids per axis, tried first, left the mechanism weakly determined.)
+        let step = r.period_s / 10.0;
+        let count = (r.duration_s / step).ceil() as usize + 4;
+        let waypoints: Vec<[f64; 3]> = (0..count)
             .map(|_| {
-                std::array::from_fn(|k| {
-                    let amplitude = self.rng.random_range(0.5..1.0);
-                    (
-                        amplitude,
-                        std::f64::consts::TAU * (k + 1) as f64 / r.period_s,
-                        self.rng.random_range(0.0..std::f64::consts::TAU),
-                    )
-                })
+                let radius = self.rng.random::<f64>().sqrt();
+                let azimuth = self.rng.random_range(0.0..std::f64::consts::TAU);
+                [radius * azimuth.cos(), radius * azimuth.sin(), self.rng.random_range(-1.0..1.0)]
             })
             .collect();
         let wave = |axis: usize, t: f64| -> f64 {
-            let total: f64 = waves[axis].iter().map(|w| w.0).sum();
-            waves[axis].iter().map(|(a, f, p)| a * (f * t + p).sin()).sum::<f64>() / total
+            let u = t / step;
+            let k = (u.floor() as usize).min(count - 4);
+            let f = u - k as f64;
+            let [p0, p1, p2, p3] = [0, 1, 2, 3].map(|d| waypoints[k + d][axis]);
+            // Catmull–Rom between p1 and p2.
+            0.5 * (2.0 * p1
+                + (p2 - p0) * f
+                + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * f * f
+                + (3.0 * p1 - p0 - 3.0 * p2 + p3) * f * f * f)
         };
         let n = (r.duration_s * r.encoder_rate_hz).round() as usize + 1;
         let mut scale = 1.0;
