@@ -2,7 +2,7 @@
 //! gross-error exclusion, covariance, 5-fold cross-validation, per-pose comparison) on 20, 400,
 //! 4,000 and 27,000 poses (100,000 observations) — the cost should grow linearly — and
 //! orientation-level on 400; then the command end to end as a user runs it (files in, parameters
-//! file out).
+//! file out), on static sessions and on a ten-minute free-motion recording.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -66,6 +66,24 @@ fn command(c: &mut Criterion) {
             })
         });
     }
+    group.finish();
+    // A ten-minute free-motion recording (600,001 encoder samples, ~8,700 captures), written once.
+    let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+    sim.recording.as_mut().unwrap().duration_s = 600.0;
+    let model = RobotModel::load(&sim.model).unwrap();
+    let recording = dir.path().join("ten_minutes");
+    simulate(&sim, &model, &mut |_| {}).unwrap().0.write(&recording).unwrap();
+    let mut group = c.benchmark_group("calibrate_command_free_motion");
+    group.sample_size(10).measurement_time(std::time::Duration::from_secs(30));
+    group.bench_function("600s", |b| {
+        b.iter(|| {
+            let run = Command::new(env!("CARGO_BIN_EXE_spmcal"))
+                .args(["calibrate", "--dataset", recording.to_str().unwrap(), "--out", out.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert!(run.status.success());
+        })
+    });
     group.finish();
 }
 
