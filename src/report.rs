@@ -502,6 +502,15 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
             k.name, k.fitted_m[0], k.fitted_m[1], k.fitted_m[2], k.change_mm[0], k.change_mm[1], k.change_mm[2]
         )?;
     }
+    if !m.fast_captures.is_empty() {
+        writeln!(
+            f,
+            "fast captures: {} taken while a joint turned faster than `max_joint_speed_deg_s`, down-weighted (e.g. captures.csv line {}, {:.0} deg/s)",
+            m.fast_captures.len(),
+            m.fast_captures[0].2,
+            m.fast_captures[0].3
+        )?;
+    }
     let excluded = m.flagged.iter().filter(|o| o.excluded).count();
     writeln!(f, "flagged observations: {} ({excluded} excluded as gross errors)", m.flagged.len())?;
     for o in m.flagged.iter().take(LISTED) {

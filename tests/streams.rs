@@ -80,7 +80,10 @@ fn a_recording_of_a_sessions_readings_calibrates_as_the_session_at_its_latency()
     let direct = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
     // The latency given and held (estimating it is the next test).
     let freeze = vec![spmcal::calib::Group::Latency];
-    let at_latency = CalibConfig { latency_s: 0.04, freeze: freeze.clone(), ..config.clone() };
+    // The synthetic stream jumps between stations at hundreds of deg/s; the session's own fit
+    // knows no speed, so none is down-weighted here.
+    let at_latency =
+        CalibConfig { latency_s: 0.04, freeze: freeze.clone(), max_joint_speed_deg_s: 1e9, ..config.clone() };
     let streamed = calibrate(&recording, &model, &at_latency, &mut |_| {}).unwrap();
     // The same observations with the same readings (interpolation between 1 kHz samples laid on
     // straight lines through them gives them back to rounding): the same fit.
@@ -235,4 +238,25 @@ fn a_simulated_free_motion_recording_gives_back_its_latency() {
     // noise: 2.1× the marker error (measured). The RMS over n ≈ 560 observations has a relative
     // standard error of about 1/√(6n) ≈ 1.7%: 1.5× is far beyond chance.
     assert!(rms(&worse) > 1.5 * rms(&calibration), "{} vs {}", rms(&worse), rms(&calibration));
+}
+
+#[test]
+fn captures_taken_while_the_joystick_moves_fast_are_flagged_and_down_weighted() {
+    // A hurried hand: a new waypoint every 0.3 s, joints turning at well over 90 deg/s at times.
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+    let r = config.recording.as_mut().unwrap();
+    r.duration_s = 30.0;
+    r.period_s = 3.0;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (recording, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let settings = CalibConfig { folds: 0, ..CalibConfig::default() };
+    let calibration = calibrate(&recording, &model, &settings, &mut |_| {}).unwrap();
+    let report = calibration.report.markers.as_ref().unwrap();
+    assert!(!report.fast_captures.is_empty(), "no fast capture flagged");
+    assert!(report.fast_captures.iter().all(|(_, _, _, speed)| *speed > 90.0));
+    assert!(calibration.report.to_string().contains("fast captures:"));
+    // Raising the limit flags none.
+    let relaxed = CalibConfig { max_joint_speed_deg_s: 1e6, ..settings };
+    let calm = calibrate(&recording, &model, &relaxed, &mut |_| {}).unwrap();
+    assert!(calm.report.markers.as_ref().unwrap().fast_captures.is_empty());
 }

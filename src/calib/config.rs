@@ -95,6 +95,9 @@ pub struct CalibConfig {
     pub latency_s: f64,
     /// The bound on the estimated latency, either sign (s).
     pub latency_bound_s: f64,
+    /// Free-motion recordings: a capture taken while a joint turns faster than this (deg/s) is
+    /// flagged and its noise inflated in proportion (blur, interpolation error).
+    pub max_joint_speed_deg_s: f64,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
     /// Loss applied to each pose residual.
@@ -150,6 +153,7 @@ impl Default for CalibConfig {
             if_not_better: IfNotBetter::Warn,
             latency_s: 0.0,
             latency_bound_s: 0.2,
+            max_joint_speed_deg_s: 90.0,
             vision_method: Method::Kabsch,
             loss: Loss::Huber,
             huber_threshold: 3.0,
@@ -190,6 +194,7 @@ impl CalibConfig {
             ("bounds.joint_offset_deg", self.bounds.joint_offset_deg),
             ("bounds.marker_position_m", self.bounds.marker_position_m),
             ("min_singular_ratio", self.min_singular_ratio),
+            ("max_joint_speed_deg_s", self.max_joint_speed_deg_s),
         ];
         for (key, value) in positive {
             if !(value.is_finite() && value > 0.0) {

@@ -148,6 +148,9 @@ pub struct MarkerFitReport {
     pub flagged: Vec<FlaggedObservation>,
     /// Plain-language warnings: markers seen at too few poses, a calibration not clearly better.
     pub warnings: Vec<String>,
+    /// Captures of a free-motion recording taken while a joint turned faster than
+    /// `max_joint_speed_deg_s`: `(pose, marker, captures.csv line, deg/s)`, down-weighted.
+    pub fast_captures: Vec<(u64, String, usize, f64)>,
 }
 
 /// The marker-level calibration of `session`.
@@ -219,7 +222,7 @@ pub(super) fn calibrate_markers(
     let settings = |free: Vec<bool>, prior| FitSettings { prior, ..FitSettings::from_config(config, free) };
     let registration_only = registration_mask(&p, &free);
     let x0 = DVector::zeros(p.len());
-    let model_m = marker_model(&p, &observations, streams);
+    let model_m = marker_model(&p, &observations, streams, config.max_joint_speed_deg_s);
     let nominal = baseline(&p, &observations, streams, &x0, &registration_only, config)?;
     let identifiability = identifiability_at(&p, &nominal, &free, config);
     let regularised: Vec<String> = identifiability.unidentifiable.iter().map(|d| d.describe()).collect();
@@ -244,7 +247,7 @@ pub(super) fn calibrate_markers(
         robust
     } else {
         observations = observations.iter().enumerate().filter(|(j, _)| !gross.contains(j)).map(|(_, o)| *o).collect();
-        let refit = marker_model(&p, &observations, streams);
+        let refit = marker_model(&p, &observations, streams, config.max_joint_speed_deg_s);
         let outcome = fit_model(&refit, &robust.x, &settings(free.clone(), prior.clone()), &mut |_| {})
             .map_err(|error| CalibError::Fit { stage: "calibration without the gross errors", error })?;
         flagged.retain(|(_, f)| f.excluded);
@@ -257,7 +260,7 @@ pub(super) fn calibrate_markers(
             .filter(|(_, f)| f.excluded)
             .map(|(_, f)| format!("pose {} marker {} (markers.csv line {}): gross error", f.pose, f.marker, f.line)),
     );
-    let model_m = marker_model(&p, &observations, streams);
+    let model_m = marker_model(&p, &observations, streams, config.max_joint_speed_deg_s);
     // The baseline on the same observations as the calibration (without the gross errors).
     let nominal = if gross.is_empty() {
         nominal
@@ -313,6 +316,7 @@ pub(super) fn calibrate_markers(
         Errors { fit: fit.unwrap_or_else(|| ErrorSummary::of(&[])), held_out: None }
     };
     let (before_deg, after_deg) = (per_pose(&Parameters::nominal(spm, None)), per_pose(&parameters));
+    let observations_fit = observations.clone();
     let report = CalibrationReport {
         session: session.name.clone(),
         fit: FitLevel::Markers,
@@ -353,6 +357,14 @@ pub(super) fn calibrate_markers(
             stereo_noise: calibrated.weighting.stereo,
             markers: marker_reports,
             flagged: flagged.into_iter().map(|(_, f)| f).collect(),
+            fast_captures: streams.map_or_else(Vec::new, |st| {
+                observations_fit
+                    .iter()
+                    .zip(joint_speeds(&observations_fit, st, &p))
+                    .filter(|(_, v)| *v > config.max_joint_speed_deg_s)
+                    .map(|(o, v)| (o.pose, session.markers[o.marker].clone(), o.line, v))
+                    .collect()
+            }),
             warnings,
         }),
     };
@@ -386,8 +398,9 @@ fn baseline(
     let fail = |error| CalibError::Fit { stage: "nominal registration", error };
     let settings =
         FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(config, registration_only.to_vec()) };
-    let model = marker_model(p, observations, streams);
-    let light = marker_model(p, observations, streams).with_columns(registration_only.to_vec());
+    let model = marker_model(p, observations, streams, config.max_joint_speed_deg_s);
+    let light =
+        marker_model(p, observations, streams, config.max_joint_speed_deg_s).with_columns(registration_only.to_vec());
     let mut outcome = fit_model(&light, start, &settings, &mut |_| {}).map_err(fail)?;
     outcome.evaluation = model
         .evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true)
@@ -419,11 +432,34 @@ fn marker_model<'a>(
     p: &'a Parameterisation,
     observations: &'a [MarkerObservation],
     streams: Option<&'a Streams>,
+    max_speed: f64,
 ) -> MarkerModel<'a> {
     match streams {
-        Some(s) => MarkerModel::new(p, observations).with_streams(s),
+        Some(s) => {
+            let inflation = fast_inflation(observations, s, p, max_speed);
+            MarkerModel::new(p, observations).with_streams(s).with_inflation(inflation)
+        }
         None => MarkerModel::new(p, observations),
     }
+}
+
+/// The fastest joint's speed (deg/s) at each observation's capture, at the starting latency.
+fn joint_speeds(observations: &[MarkerObservation], streams: &Streams, p: &Parameterisation) -> Vec<f64> {
+    observations
+        .iter()
+        .map(|o| o.time_s.and_then(|t| streams.velocity_at(t - p.latency0)).map_or(0.0, |v| v.amax().to_degrees()))
+        .collect()
+}
+
+/// Noise inflation of each observation: `max(1, speed / max_speed)` — a capture taken while a
+/// joint turns faster than `max_speed` (deg/s) is blurred or badly interpolated.
+fn fast_inflation(
+    observations: &[MarkerObservation],
+    streams: &Streams,
+    p: &Parameterisation,
+    max_speed: f64,
+) -> Vec<f64> {
+    joint_speeds(observations, streams, p).into_iter().map(|v| (v / max_speed).max(1.0)).collect()
 }
 
 /// The model's position of each of the session's markers.
@@ -552,7 +588,7 @@ fn cross_validate(
         if test.is_empty() || test.len() == fold_of.len() {
             continue;
         }
-        let test_model = marker_model(model.p, &test, model.streams());
+        let test_model = marker_model(model.p, &test, model.streams(), f64::INFINITY);
         // Each test pose's FDA starts from the full fit's orientation of it.
         let full_pose: Vec<usize> =
             (0..fold_of.len()).filter(|&j| fold_of[j] == fold).map(|j| model.pose_of(j)).collect();

@@ -113,6 +113,9 @@ pub struct MarkerModel<'a> {
     /// A free-motion recording's streams: with a latency parameter, each pose's joints are
     /// interpolated at its time less the latency.
     streams: Option<&'a Streams>,
+    /// Per observation, the factor its noise is inflated by (captures taken while the joystick
+    /// moved too fast); empty: none.
+    inflation: Vec<f64>,
 }
 
 impl<'a> MarkerModel<'a> {
@@ -138,6 +141,7 @@ impl<'a> MarkerModel<'a> {
             columns: None,
             spare: Default::default(),
             streams: None,
+            inflation: Vec::new(),
         }
     }
 
@@ -146,6 +150,16 @@ impl<'a> MarkerModel<'a> {
     pub fn with_streams(mut self, streams: &'a Streams) -> Self {
         self.streams = Some(streams);
         self
+    }
+
+    /// The same model with each observation's noise inflated by `factors` (≥ 1, one per observation).
+    pub fn with_inflation(mut self, factors: Vec<f64>) -> Self {
+        self.inflation = factors;
+        self
+    }
+
+    fn inflation(&self, j: usize) -> f64 {
+        self.inflation.get(j).copied().unwrap_or(1.0)
     }
 
     /// The recording's streams the model reads, if any.
@@ -207,7 +221,8 @@ impl<'a> MarkerModel<'a> {
         for (j, r) in residuals.iter().enumerate() {
             let (l, d) = self.sight(j);
             let ratio = self.reference_distance / d;
-            let along = l.dot(r);
+            let r = r / self.inflation(j);
+            let along = l.dot(&r);
             depth += weights[j] * (along * ratio * ratio).powi(2);
             lateral += weights[j] * ((r - l * along) * ratio).norm_squared();
             total += weights[j];
@@ -232,8 +247,9 @@ impl<'a> MarkerModel<'a> {
         let ratio = noise.reference_distance_m / d;
         let along = l * l.transpose();
         let across = Matrix3::identity() - along;
-        across * (ratio / noise.lateral_m.max(SIGMA_FLOOR_M))
-            + along * (ratio * ratio / noise.depth_m.max(SIGMA_FLOOR_M))
+        (across * (ratio / noise.lateral_m.max(SIGMA_FLOOR_M))
+            + along * (ratio * ratio / noise.depth_m.max(SIGMA_FLOOR_M)))
+            / self.inflation(j)
     }
 }
 
