@@ -304,8 +304,12 @@ fn a_free_motion_calibration_is_recorded_at_its_fitted_latency() {
     spmcal::record::write_recording(&path, &scene).unwrap();
     // One marker per frame: each frame's logged error is its residual, and their RMS is the fit's
     // (the recording sees the joints at the fitted latency, not at the start's).
-    let after = scalars(&chunks(&path), "errors/markers_mm/calibrated", "pose");
+    let chunks = chunks(&path);
+    let after = scalars(&chunks, "errors/markers_mm/calibrated", "pose");
     let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
     let report = calibration.report.markers.as_ref().unwrap().after.rms_mm;
     assert!((rms - report).abs() < 1e-9 * report.max(1.0), "{rms} vs {report}");
+    // The frames are on the `time` timeline too (camera time, seconds), which the layout selects.
+    let frame_times = scalars(&chunks, "errors/markers_mm/calibrated", "time");
+    assert_eq!(frame_times.len(), after.len());
 }

@@ -196,6 +196,7 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
     let blueprint = Blueprint::new(layout)
         .with_blueprint_panel(BlueprintPanel::from_state(rerun::blueprint::components::PanelState::Collapsed))
         .with_selection_panel(SelectionPanel::from_state(rerun::blueprint::components::PanelState::Collapsed))
-        .with_time_panel(TimePanel::new().with_timeline("pose"));
+        // A free-motion recording plays in time (its frames are 1/15 s apart, not evenly numbered).
+        .with_time_panel(TimePanel::new().with_timeline(if scene.session.streams.is_some() { "time" } else { "pose" }));
     blueprint.send(rec, BlueprintActivation::default())
 }
