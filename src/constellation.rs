@@ -3,7 +3,7 @@
 //! fraction of a millimetre, and a constellation that is a line to within the noise leaves the
 //! rotation about that line to the noise (a 180° flip costs it nothing).
 
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 /// The noise (1σ, metres) the degeneracy tests assume for a marker position: a Bumblebee-class
 /// stereo camera at 0.8 m measures across the line of sight to ~0.2 mm and along it to ~1 mm.
@@ -59,11 +59,7 @@ pub fn spreads(points: &[Vector3<f64>]) -> Vector3<f64> {
     let n = points.len().max(1) as f64;
     let c = points.iter().sum::<Vector3<f64>>() / n;
     let scatter: Matrix3<f64> = points.iter().map(|p| (p - c) * (p - c).transpose()).sum::<Matrix3<f64>>() / n;
-    if !scatter.iter().all(|x| x.is_finite()) {
-        return Vector3::repeat(f64::NAN);
-    }
-    let eigen = SymmetricEigen::try_new(scatter, f64::EPSILON, crate::so3::MAX_DECOMPOSITION_ITERATIONS);
-    let Some(eigen) = eigen else { return Vector3::repeat(f64::NAN) };
+    let Some(eigen) = crate::so3::bounded_symmetric_eigen(&scatter) else { return Vector3::repeat(f64::NAN) };
     let mut s = eigen.eigenvalues.map(|l| l.max(0.0).sqrt());
     s.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
     s

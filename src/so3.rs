@@ -126,6 +126,21 @@ where
     m.clone_owned().try_svd(compute_u, compute_v, f64::EPSILON, MAX_DECOMPOSITION_ITERATIONS)
 }
 
+/// The eigen-decomposition of the symmetric `m` with bounded work: `None` for non-finite input
+/// or no convergence.
+pub fn bounded_symmetric_eigen<D>(m: &nalgebra::OMatrix<f64, D, D>) -> Option<nalgebra::SymmetricEigen<f64, D>>
+where
+    D: nalgebra::DimSub<nalgebra::U1>,
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D, D>
+        + nalgebra::allocator::Allocator<D>
+        + nalgebra::allocator::Allocator<nalgebra::DimDiff<D, nalgebra::U1>>,
+{
+    if !m.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    nalgebra::SymmetricEigen::try_new(m.clone(), f64::EPSILON, MAX_DECOMPOSITION_ITERATIONS)
+}
+
 /// The proper rotation nearest to `m` in the Frobenius norm (via SVD), or `None` when
 /// `m` is rank-deficient (no unique nearest rotation).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {

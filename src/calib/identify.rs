@@ -82,12 +82,7 @@ pub(crate) fn analyse_gram(
         gram_all[(free[a], free[b])] / (column_norms[free[a]] * column_norms[free[b]])
     });
     // Non-finite Jacobians never reach here (the fit stops on a non-finite cost); bounded all the same.
-    let Some(eigen) = gram
-        .iter()
-        .all(|x| x.is_finite())
-        .then(|| gram.try_symmetric_eigen(f64::EPSILON, crate::so3::MAX_DECOMPOSITION_ITERATIONS))
-        .flatten()
-    else {
+    let Some(eigen) = crate::so3::bounded_symmetric_eigen(&gram) else {
         return Identifiability::nothing(free.len(), column_norms);
     };
     let v_t = eigen.eigenvectors.transpose();

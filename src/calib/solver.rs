@@ -193,12 +193,7 @@ fn weighted_covariance(residuals: &[Vector3<f64>], members: &[usize], weights: &
 
 /// `Σ^{-1/2}`, with the spectrum floored so that noise-free data (zero residuals) stays defined.
 fn inverse_root(covariance: &Matrix3<f64>) -> Matrix3<f64> {
-    let Some(eig) = covariance
-        .iter()
-        .all(|x| x.is_finite())
-        .then(|| covariance.try_symmetric_eigen(f64::EPSILON, crate::so3::MAX_DECOMPOSITION_ITERATIONS))
-        .flatten()
-    else {
+    let Some(eig) = crate::so3::bounded_symmetric_eigen(covariance) else {
         return Matrix3::identity();
     };
     let floor = (eig.eigenvalues.max() * 1e-8).max(1e-30);
