@@ -242,8 +242,11 @@ pub fn calibrate(
 ) -> Result<Calibration, CalibError> {
     config.check().map_err(|(key, reason)| CalibError::Config { key, reason })?;
     // A free-motion recording's poses at the configured camera latency.
-    let (at_latency, left_out) = session.at_latency(config.latency_s);
-    let session = &at_latency;
+    let resampled = session.streams.is_some().then(|| session.at_latency(config.latency_s));
+    let (session, left_out) = match &resampled {
+        Some((s, warnings)) => (s, warnings.as_slice()),
+        None => (session, &[][..]),
+    };
     if config.fit == FitLevel::Markers {
         let mut calibration = calibrate_markers(session, model, config, on_iteration)?;
         calibration.report.excluded.extend(left_out.iter().map(|w| w.to_string()));
@@ -265,18 +268,7 @@ pub fn calibrate(
     let layout =
         Parameterisation::new(*nominal_spm.geometry(), Rotation3::identity(), Rotation3::identity(), &config.bounds);
     let free: Vec<bool> = layout.entries.iter().map(|e| !config.freeze.contains(&e.kind.group())).collect();
-    let n_free = free.iter().filter(|f| **f).count();
-    if n_free == 0 {
-        let reason = "every parameter is frozen: there is nothing to fit".to_string();
-        return Err(CalibError::Config { key: "freeze".into(), reason });
-    }
-    if 3 * observations.len() < n_free + 3 {
-        return Err(CalibError::TooFewPoses {
-            usable: observations.len(),
-            needed: n_free.div_ceil(3) + 1,
-            parameters: n_free,
-        });
-    }
+    check_enough(&free, observations.len())?;
     let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
     let measured: Vec<Rotation3<f64>> = observations.iter().map(|o| o.measured).collect();
     // Nothing moving is its own problem, not "one axis": say which.
@@ -342,11 +334,7 @@ pub fn calibrate(
         after,
         iterations: calibrated.log.clone(),
         convergence: calibrated.status,
-        not_significant: reports
-            .iter()
-            .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
-            .map(|r| r.name.clone())
-            .collect(),
+        not_significant: not_significant(&reports),
         parameters: reports,
         identifiability,
         regularised,
@@ -371,6 +359,33 @@ pub fn calibrate(
         covariance,
         vision: Some(vision),
     })
+}
+
+/// Something to fit, and enough residuals (3 per observation) for the free parameters: checked
+/// before anything indexes them.
+pub(super) fn check_enough(free: &[bool], observations: usize) -> Result<(), CalibError> {
+    let n_free = free.iter().filter(|f| **f).count();
+    if n_free == 0 {
+        let reason = "every parameter is frozen: there is nothing to fit".to_string();
+        return Err(CalibError::Config { key: "freeze".into(), reason });
+    }
+    if 3 * observations < n_free + 3 {
+        return Err(CalibError::TooFewPoses {
+            usable: observations,
+            needed: n_free.div_ceil(3) + 1,
+            parameters: n_free,
+        });
+    }
+    Ok(())
+}
+
+/// The parameters whose change from nominal is under twice its standard error.
+pub(super) fn not_significant(reports: &[ParameterReport]) -> Vec<String> {
+    reports
+        .iter()
+        .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
+        .map(|r| r.name.clone())
+        .collect()
 }
 
 /// `JᵀWJ` of an outcome over every parameter (whitened, weighted), without copying the Jacobian.

@@ -7,8 +7,8 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
 use super::calibrate::{
-    CalibError, Calibration, CalibrationReport, ErrorSummary, Errors, MIN_MOTION_DEG, correlations, covariance,
-    fit_header, identifiability_at, parameter_reports,
+    CalibError, Calibration, CalibrationReport, ErrorSummary, Errors, MIN_MOTION_DEG, check_enough, correlations,
+    covariance, fit_header, identifiability_at, not_significant, parameter_reports,
 };
 use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 use super::markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
@@ -207,18 +207,7 @@ pub(super) fn calibrate_markers(
                 && !matches!(e.kind, Kind::Marker { marker, .. } if held_markers.contains(&marker))
         })
         .collect();
-    let n_free = free.iter().filter(|&&f| f).count();
-    if n_free == 0 {
-        let reason = "every parameter is frozen: there is nothing to fit".to_string();
-        return Err(CalibError::Config { key: "freeze".into(), reason });
-    }
-    if 3 * observations.len() < n_free + 3 {
-        return Err(CalibError::TooFewPoses {
-            usable: observations.len(),
-            needed: n_free.div_ceil(3) + 1,
-            parameters: n_free,
-        });
-    }
+    check_enough(&free, observations.len())?;
     let settings = |free: Vec<bool>, prior| FitSettings { prior, ..FitSettings::from_config(config, free) };
     let registration_only = registration_mask(&p, &free);
     let x0 = DVector::zeros(p.len());
@@ -316,7 +305,6 @@ pub(super) fn calibrate_markers(
         Errors { fit: fit.unwrap_or_else(|| ErrorSummary::of(&[])), held_out: None }
     };
     let (before_deg, after_deg) = (per_pose(&Parameters::nominal(spm, None)), per_pose(&parameters));
-    let observations_fit = observations.clone();
     let report = CalibrationReport {
         session: session.name.clone(),
         fit: FitLevel::Markers,
@@ -330,11 +318,7 @@ pub(super) fn calibrate_markers(
         after: after_deg,
         iterations: calibrated.log.clone(),
         convergence: calibrated.status,
-        not_significant: reports
-            .iter()
-            .filter(|r| r.std_error_deg.is_some_and(|se| r.change_deg.abs() < 2.0 * se))
-            .map(|r| r.name.clone())
-            .collect(),
+        not_significant: not_significant(&reports),
         parameters: reports,
         identifiability,
         regularised,
@@ -358,9 +342,9 @@ pub(super) fn calibrate_markers(
             markers: marker_reports,
             flagged: flagged.into_iter().map(|(_, f)| f).collect(),
             fast_captures: streams.map_or_else(Vec::new, |st| {
-                observations_fit
+                observations
                     .iter()
-                    .zip(joint_speeds(&observations_fit, st, &p))
+                    .zip(joint_speeds(&observations, st, &p))
                     .filter(|(_, v)| *v > config.max_joint_speed_deg_s)
                     .map(|(o, v)| (o.pose, session.markers[o.marker].clone(), o.line, v))
                     .collect()

@@ -247,28 +247,28 @@ fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> S
     Series { name: format!("fda_vs_vision/{name}"), values }
 }
 
-/// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers, of a
-/// marker-level parameter vector.
-fn marker_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Series {
+/// The marker residuals of a marker-level calibration at parameter vector `x` (empty when the
+/// model cannot be evaluated there).
+fn marker_residuals_at(calibration: &Calibration, x: &DVector<f64>) -> Vec<nalgebra::Vector3<f64>> {
     use crate::calib::Model as _;
     let model = crate::calib::MarkerModel::new(&calibration.parameterisation, &calibration.marker_observations);
+    model.evaluate(x, None, false).map(|e| e.residuals).unwrap_or_default()
+}
+
+/// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers.
+fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
     let mut sums: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
-    if let Ok(eval) = model.evaluate(x, None, false) {
-        for (o, r) in calibration.marker_observations.iter().zip(&eval.residuals) {
-            let e = sums.entry(o.pose).or_default();
-            e.0 += r.norm_squared() * 1e6;
-            e.1 += 1;
-        }
+    for (o, r) in calibration.marker_observations.iter().zip(residuals) {
+        let e = sums.entry(o.pose).or_default();
+        e.0 += r.norm_squared() * 1e6;
+        e.1 += 1;
     }
     let values = sums.into_iter().map(|(pose, (sum, n))| (pose, (sum / n as f64).sqrt())).collect();
     Series { name: format!("markers_mm/{name}"), values }
 }
 
-/// Each marker's residual (mm) at each pose that saw it, under the calibrated parameters.
-fn marker_residuals(session: &Session, calibration: &Calibration, x: &DVector<f64>) -> Vec<Series> {
-    use crate::calib::Model as _;
-    let model = crate::calib::MarkerModel::new(&calibration.parameterisation, &calibration.marker_observations);
-    let Ok(eval) = model.evaluate(x, None, false) else { return Vec::new() };
+/// Each marker's residual (mm) at each pose that saw it.
+fn marker_residuals(session: &Session, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Vec<Series> {
     session
         .markers
         .iter()
@@ -277,7 +277,7 @@ fn marker_residuals(session: &Session, calibration: &Calibration, x: &DVector<f6
             let values = calibration
                 .marker_observations
                 .iter()
-                .zip(&eval.residuals)
+                .zip(residuals)
                 .filter(|(o, _)| o.marker == k)
                 .map(|(o, r)| (o.pose, r.norm() * 1e3))
                 .collect();
@@ -307,9 +307,10 @@ pub fn calibration_scene<'a>(
         series.push(residual_series("nominal", calibration, &calibration.nominal.x));
         series.push(residual_series("calibrated", calibration, x));
     } else {
-        series.push(marker_series("nominal", calibration, &calibration.nominal.x));
-        series.push(marker_series("calibrated", calibration, x));
-        series.extend(marker_residuals(session, calibration, x));
+        let after = marker_residuals_at(calibration, x);
+        series.push(marker_series("nominal", calibration, &marker_residuals_at(calibration, &calibration.nominal.x)));
+        series.push(marker_series("calibrated", calibration, &after));
+        series.extend(marker_residuals(session, calibration, &after));
     }
     let fitted_markers =
         (!calibration.marker_observations.is_empty()).then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
