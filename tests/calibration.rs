@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use nalgebra::{DVector, Rotation3};
+use nalgebra::DVector;
 
 use spmcal::calib::{
     CalibConfig, Calibration, Convergence, FitLevel, FitSettings, Group, Loss, Observation, Parameterisation,
@@ -19,6 +19,9 @@ fn load(dir: &str) -> (Session, RobotModel) {
     let model = RobotModel::load(&session.model).unwrap();
     (session, model)
 }
+
+#[path = "common/gauge.rs"]
+mod gauge;
 
 /// This file tests the orientation-level fit (`fit: orientations`); tests/markers.rs the marker-level one.
 fn orientation_config() -> CalibConfig {
@@ -112,43 +115,10 @@ fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
     let x = &calibration.calibrated.x;
     let obs = &calibration.observations;
     let base = evaluate(p, x, obs, None, true).unwrap();
-    let g = p.legs(x);
-    let n12 = g[0].u.cross(&g[1].u).normalize();
-    let m12 = g[0].v0.cross(&g[1].v0).normalize();
-    let t = |a: &nalgebra::Vector3<f64>| {
-        let e1 = a.cross(&nalgebra::Vector3::z()).normalize();
-        [e1, a.cross(&e1)]
-    };
-    let gauge_moves: Vec<(bool, usize, nalgebra::Vector3<f64>)> = vec![
-        (true, 0, t(&g[0].u)[0]),
-        (true, 0, t(&g[0].u)[1]),
-        (true, 1, g[1].u.cross(&n12).normalize()),
-        (false, 0, t(&g[0].v0)[0]),
-        (false, 0, t(&g[0].v0)[1]),
-        (false, 1, g[1].v0.cross(&m12).normalize()),
-    ];
-    let jac = base.jacobian.unwrap();
-    let mut augmented = nalgebra::DMatrix::zeros(jac.nrows(), jac.ncols() + 6);
-    augmented.view_mut((0, 0), (jac.nrows(), jac.ncols())).copy_from(&jac);
-    let residuals_after = |actuated: bool, leg: usize, rot: Rotation3<f64>| {
-        let mut legs = g;
-        if actuated {
-            legs[leg].u = rot * legs[leg].u;
-            legs[leg].z = rot * legs[leg].z;
-        } else {
-            legs[leg].v0 = rot * legs[leg].v0;
-        }
+    let augmented = gauge::augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
         let q = Parameterisation::new(legs, p.camera(x), p.reference(x), &orientation_config().bounds);
         evaluate(&q, &DVector::zeros(q.len()), obs, Some(&base.orientations), false).unwrap().residuals
-    };
-    let h = 1e-6;
-    for (k, (actuated, leg, dir)) in gauge_moves.iter().enumerate() {
-        let plus = residuals_after(*actuated, *leg, so3::exp(&(dir * h)));
-        let minus = residuals_after(*actuated, *leg, so3::exp(&(dir * -h)));
-        for j in 0..obs.len() {
-            augmented.fixed_view_mut::<3, 1>(3 * j, jac.ncols() + k).copy_from(&((plus[j] - minus[j]) / (2.0 * h)));
-        }
-    }
+    });
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = analyse(&augmented, &all, &names, 1e-5);

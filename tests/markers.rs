@@ -88,6 +88,9 @@ fn marker_data_identify_every_parameter_of_the_gauge_fixed_parameterisation() {
     assert!(s[0] > 1e-4 * s[s.len() - 1], "a free direction: smallest {:e}, largest {:e}", s[0], s[s.len() - 1]);
 }
 
+#[path = "common/gauge.rs"]
+mod gauge;
+
 /// The efficiency study of the README (`examples/marker_efficiency`), here on one noise level.
 #[path = "../examples/marker_efficiency/study.rs"]
 mod study;
@@ -300,46 +303,13 @@ fn marker_data_leave_free_only_the_two_rotation_gauges() {
     let x = &calibration.calibrated.x;
     let obs = &calibration.marker_observations;
     let base = MarkerModel::new(p, obs).evaluate(x, None, true).unwrap();
-    let g = p.legs(x);
     let camera = spmcal::model::CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
     let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
-    let tangent = |a: &Vector3<f64>| {
-        let e1 = a.cross(&Vector3::z()).normalize();
-        [e1, a.cross(&e1)]
-    };
-    let n12 = g[0].u.cross(&g[1].u).normalize();
-    let m12 = g[0].v0.cross(&g[1].v0).normalize();
-    let moves = [
-        (true, 0, tangent(&g[0].u)[0]),
-        (true, 0, tangent(&g[0].u)[1]),
-        (true, 1, g[1].u.cross(&n12).normalize()),
-        (false, 0, tangent(&g[0].v0)[0]),
-        (false, 0, tangent(&g[0].v0)[1]),
-        (false, 1, g[1].v0.cross(&m12).normalize()),
-    ];
-    let jac = base.jacobian.unwrap();
-    let mut augmented = DMatrix::zeros(jac.nrows(), jac.ncols() + moves.len());
-    augmented.view_mut((0, 0), (jac.nrows(), jac.ncols())).copy_from(&jac);
-    let residuals_after = |actuated: bool, leg: usize, angle: Vector3<f64>| {
-        let rot = spmcal::so3::exp(&angle);
-        let mut legs = g;
-        if actuated {
-            legs[leg].u = rot * legs[leg].u;
-            legs[leg].z = rot * legs[leg].z;
-        } else {
-            legs[leg].v0 = rot * legs[leg].v0;
-        }
+    let augmented = gauge::augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
         let q =
             Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &CalibConfig::default().bounds);
         MarkerModel::new(&q, obs).evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false).unwrap().residuals
-    };
-    let h = 1e-6;
-    for (k, (actuated, leg, dir)) in moves.iter().enumerate() {
-        let (plus, minus) = (residuals_after(*actuated, *leg, dir * h), residuals_after(*actuated, *leg, dir * -h));
-        for j in 0..obs.len() {
-            augmented.fixed_view_mut::<3, 1>(3 * j, jac.ncols() + k).copy_from(&((plus[j] - minus[j]) / (2.0 * h)));
-        }
-    }
+    });
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = spmcal::calib::analyse(&augmented, &all, &names, 1e-5);
