@@ -56,6 +56,15 @@ fn write_recording(session: &Session, dir: &Path, latency_s: f64) {
     std::fs::write(dir.join("captures.csv"), captures).unwrap();
 }
 
+/// A free-motion recording of the shipped settings, `seconds` long, a waypoint every `period_s / 10`.
+fn free_motion(seconds: f64, period_s: f64) -> (Session, RobotModel) {
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+    let r = config.recording.as_mut().unwrap();
+    (r.duration_s, r.period_s) = (seconds, period_s);
+    let model = RobotModel::load(&config.model).unwrap();
+    (simulate(&config, &model, &mut |_| {}).unwrap().0, model)
+}
+
 fn sequential_session() -> (Session, RobotModel) {
     let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
     config.poses = 60;
@@ -166,10 +175,7 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
     use nalgebra::DVector;
     use spmcal::calib::{MarkerModel, Model, Parameterisation, marker_observations};
     // A smooth hand motion (10 s of the shipped recording's settings).
-    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
-    config.recording.as_mut().unwrap().duration_s = 10.0;
-    let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, model) = free_motion(10.0, 20.0);
     let (recording, _) = session.at_latency(0.04);
     let truth = session.truth.as_ref().unwrap();
     let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
@@ -213,10 +219,7 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
 #[test]
 fn a_simulated_free_motion_recording_gives_back_its_latency() {
     // 40 s of hand motion, encoders at 1 kHz (14-bit), one marker per 15 Hz frame, 40 ms late.
-    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
-    config.recording.as_mut().unwrap().duration_s = 40.0;
-    let model = RobotModel::load(&config.model).unwrap();
-    let (simulated, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (simulated, model) = free_motion(40.0, 20.0);
     // Through the files, as a user has it.
     let dir = tempfile::tempdir().unwrap();
     simulated.write(&dir.path().join("rec")).unwrap();
@@ -243,12 +246,7 @@ fn a_simulated_free_motion_recording_gives_back_its_latency() {
 #[test]
 fn captures_taken_while_the_joystick_moves_fast_are_flagged_and_down_weighted() {
     // A hurried hand: a new waypoint every 0.3 s, joints turning at well over 90 deg/s at times.
-    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
-    let r = config.recording.as_mut().unwrap();
-    r.duration_s = 30.0;
-    r.period_s = 3.0;
-    let model = RobotModel::load(&config.model).unwrap();
-    let (recording, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (recording, model) = free_motion(30.0, 3.0);
     let settings = CalibConfig { folds: 0, ..CalibConfig::default() };
     let calibration = calibrate(&recording, &model, &settings, &mut |_| {}).unwrap();
     let report = calibration.report.markers.as_ref().unwrap();
