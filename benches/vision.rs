@@ -1,11 +1,19 @@
-//! Vision estimator timings: Higham's polar decomposition against nalgebra's SVD, and the
-//! whole per-pose estimate with four markers (reference factorised once, as in a session).
+//! Vision estimator timings: Higham's polar decomposition against nalgebra's SVD, the whole
+//! per-pose estimate with four markers (reference factorised once, as in a session), and
+//! `spmcal estimate` end to end on 100,000 poses (files in, orientations file out).
+//!
+//! `SPMCAL_BIN=/path/to/an/older/spmcal cargo bench --bench vision -- estimate_command` times
+//! another build of the command the same way (the README's before/after figures).
 
 use std::hint::black_box;
+use std::path::Path;
+use std::process::Command;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix3, Vector3};
+use spmcal::model::RobotModel;
 use spmcal::polar::{polar, polar_svd};
+use spmcal::sim::{SimConfig, simulate};
 use spmcal::so3;
 use spmcal::vision::{Method, Reference};
 
@@ -42,5 +50,30 @@ fn vision(c: &mut Criterion) {
     c.bench_function("factorise_reference_4_markers", |b| b.iter(|| Reference::new(black_box(&reference)).unwrap()));
 }
 
-criterion_group!(benches, vision);
+/// `spmcal estimate --dataset D --out O` on a simulated session of 100,000 poses (four markers
+/// each, 7 + 26 MB of CSV), written once.
+fn estimate_command(c: &mut Criterion) {
+    let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    sim.poses = 100_000;
+    let model = RobotModel::load(&sim.model).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session");
+    simulate(&sim, &model, &mut |_| {}).unwrap().0.write(&session).unwrap();
+    let out = dir.path().join("orientations.csv");
+    let binary = std::env::var("SPMCAL_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_spmcal").to_string());
+    let mut group = c.benchmark_group("estimate_command");
+    group.sample_size(10).measurement_time(std::time::Duration::from_secs(20));
+    group.bench_function("100000", |b| {
+        b.iter(|| {
+            let run = Command::new(&binary)
+                .args(["estimate", "--dataset", session.to_str().unwrap(), "--out", out.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, vision, estimate_command);
 criterion_main!(benches);

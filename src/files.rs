@@ -154,6 +154,15 @@ impl Outputs {
     }
 }
 
+/// `a()` and `b()` at the same time, `b` on a second thread (reading the files of a session).
+pub(crate) fn in_parallel<A: Send, B: Send>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B + Send) -> (A, B) {
+    std::thread::scope(|s| {
+        let second = s.spawn(b);
+        let first = a();
+        (first, second.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)))
+    })
+}
+
 /// The folder a file is written in (`.` for a bare file name).
 pub(crate) fn parent_folder(path: &Path) -> &Path {
     match path.parent() {
@@ -170,11 +179,20 @@ pub(crate) fn read_text(path: &Path) -> Result<String, FileError> {
     std::fs::read_to_string(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))
 }
 
-/// A number for a text file: shortest text that reads back to the same `f64`, in plain
-/// notation where that is readable and in exponent notation for very small or large values.
+/// A number for a text file: the shortest text that reads back to the same `f64` (Ryū), in
+/// plain notation where that is readable and in exponent notation for very small or large values.
 pub(crate) fn number(x: f64) -> String {
-    let a = x.abs();
-    if a == 0.0 || (1e-4..1e7).contains(&a) { format!("{x}") } else { format!("{x:e}") }
+    ryu::Buffer::new().format(x).to_owned()
+}
+
+/// Append `,x` for each of `values` to a CSV line, each as [`number`] writes it, without
+/// allocating (tables of a long recording have millions of numbers).
+pub(crate) fn push_numbers(line: &mut String, values: &[f64]) {
+    let mut buffer = ryu::Buffer::new();
+    for &x in values {
+        line.push(',');
+        line.push_str(buffer.format(x));
+    }
 }
 
 /// The path of `target` relative to the folder `from` (both must exist), e.g. `../../models/a.urdf`.
@@ -215,6 +233,22 @@ mod tests {
         assert_eq!(tidy_path(Path::new("configs/../models/a.urdf")), Path::new("models/a.urdf"));
         assert_eq!(tidy_path(Path::new("../../models/./a.urdf")), Path::new("../../models/a.urdf"));
         assert_eq!(tidy_path(Path::new("/x/y/../../z")), Path::new("/z"));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_number_reads_back_exactly(bits in proptest::num::u64::ANY) {
+            let x = f64::from_bits(bits);
+            let mut line = String::new();
+            push_numbers(&mut line, &[x, -x]);
+            let back: Vec<f64> = line[1..].split(',').map(|t| t.parse().unwrap()).collect();
+            if x.is_nan() {
+                proptest::prop_assert!(back.iter().all(|b| b.is_nan()));
+            } else {
+                proptest::prop_assert_eq!(back, vec![x, -x]);
+                proptest::prop_assert_eq!(number(x).parse::<f64>().unwrap(), x);
+            }
+        }
     }
 
     #[test]

@@ -50,5 +50,6 @@ pub mod so3;
 pub(crate) mod table;
 
 pub use files::{FileError, Outputs, Slot};
+pub(crate) use files::in_parallel;
 pub mod vision;
 mod yaml;

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::calib::{CalibrationReport, Convergence, ErrorSummary, FitLevel, MarkerFitReport};
 use crate::compare::SetComparison;
 use crate::dataset::{JointReading, OrientationRecord};
-use crate::files::number;
+use crate::files::push_numbers;
 use crate::model::{FdaError, Spm, conditioning_index};
 use crate::sim::SimSummary;
 use crate::so3;
@@ -238,8 +238,9 @@ pub fn estimate_csv(result: &SessionEstimate) -> String {
         let q = so3::to_wxyz(&e.rotation);
         let t = e.translation;
         let angle = so3::log(&e.rotation).norm().to_degrees();
-        let fields = [q[0], q[1], q[2], q[3], angle, e.error, t.x, t.y, t.z].map(number);
-        table.push_str(&format!("{pose},{}\n", fields.join(",")));
+        table.push_str(&pose.to_string());
+        push_numbers(&mut table, &[q[0], q[1], q[2], q[3], angle, e.error, t.x, t.y, t.z]);
+        table.push('\n');
     }
     table
 }

@@ -144,6 +144,14 @@ where
 /// The proper rotation nearest to `m` in the Frobenius norm (via SVD), or `None` when
 /// `m` is rank-deficient (no unique nearest rotation).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
+    // With det m > 8ε‖m‖³ (so σ_min > 8ε σ_max: σ1σ2σ3 ≤ σ_max²σ_min) the answer is the orthogonal
+    // polar factor, which Higham's iteration finds about five times faster than the SVD.
+    let scale = m.norm();
+    if m.determinant() > 8.0 * f64::EPSILON * scale * scale * scale {
+        if let Ok(p) = crate::polar::polar(m) {
+            return Some(Rotation3::from_matrix_unchecked(p.q));
+        }
+    }
     let svd = bounded_svd(m, true, true)?;
     let (u, vt) = (svd.u?, svd.v_t?);
     if svd.singular_values.min() <= f64::EPSILON * svd.singular_values.max() * 8.0 {

@@ -1,14 +1,13 @@
 //! `joints.csv`: `pose,theta1_rad,theta2_rad,theta3_rad`, optional `time_s` and `station`; other
 //! extra columns are allowed and ignored.
 
-use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::files::{FileError, number, write_atomic};
-use crate::table::Table;
+use crate::files::{FileError, push_numbers, write_atomic};
+use crate::table::{Table, first_repeat};
 
 /// Joint readings of one pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,17 +33,19 @@ const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
 /// A [`FileError`] naming the line and column of the first bad value, missing column or repeated pose.
 pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
     let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s", "station"])?;
-    let mut seen = HashSet::new();
     let mut out = Vec::new();
-    for row in table.all_rows()? {
-        let pose = table.index(&row, 0)?;
-        if !seen.insert(pose) {
-            return Err(table.error(&row, 0, format!("pose {pose} appears twice")));
+    while let Some(row) = table.next_row()? {
+        if out.is_empty() {
+            out.reserve(row.expected_rows());
         }
-        let joints = Vector3::new(table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?);
-        let time_s = table.optional_number(&row, 4)?;
-        let station = if row.fields[5].trim().is_empty() { None } else { Some(table.index(&row, 5)?) };
+        let pose = row.index(0)?;
+        let joints = Vector3::new(row.number(1)?, row.number(2)?, row.number(3)?);
+        let time_s = row.optional_number(4)?;
+        let station = if row.field(5).is_empty() { None } else { Some(row.index(5)?) };
         out.push(JointReading { pose, line: row.line, joints, time_s, station });
+    }
+    if let Some((pose, line)) = first_repeat(out.iter().map(|r| (r.pose, r.line))) {
+        return Err(table.error_at(line, 0, format!("pose {pose} appears twice")));
     }
     Ok(out)
 }
@@ -58,9 +59,10 @@ pub fn joints_csv(readings: &[JointReading]) -> String {
     text += if timed { ",time_s" } else { "" };
     text += if stations { ",station\n" } else { "\n" };
     for r in readings {
-        let _ = write!(text, "{},{},{},{}", r.pose, number(r.joints[0]), number(r.joints[1]), number(r.joints[2]));
+        let _ = write!(text, "{}", r.pose);
+        push_numbers(&mut text, r.joints.as_slice());
         if let (true, Some(t)) = (timed, r.time_s) {
-            let _ = write!(text, ",{}", number(t));
+            push_numbers(&mut text, &[t]);
         }
         if let (true, Some(s)) = (stations, r.station) {
             let _ = write!(text, ",{s}");

@@ -1,14 +1,13 @@
 //! `markers.csv`: `pose,marker,x_m,y_m,z_m`, marker centres in the camera frame; a marker the
 //! camera did not see has no row.
 
-use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::files::{FileError, number, write_atomic};
-use crate::table::Table;
+use crate::files::{FileError, push_numbers, write_atomic};
+use crate::table::{Table, first_repeat};
 
 /// One marker measurement.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,19 +29,18 @@ pub struct MarkerRow {
 /// A [`FileError`] naming the line and column of the first bad value, unknown marker or repeated pair.
 pub fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, FileError> {
     let mut table = Table::open(path, &["pose", "marker", "x_m", "y_m", "z_m"])?;
-    let mut seen = HashSet::new();
     let mut out = Vec::new();
-    for row in table.all_rows()? {
-        let pose = table.index(&row, 0)?;
-        let name = &row.fields[1];
-        let marker = names.iter().position(|n| n == name).ok_or_else(|| {
-            table.error(&row, 1, format!("unknown marker `{name}` (session.yaml lists {})", names.join(", ")))
-        })?;
-        if !seen.insert((pose, marker)) {
-            return Err(table.error(&row, 1, format!("marker `{name}` of pose {pose} appears twice")));
+    while let Some(row) = table.next_row()? {
+        if out.is_empty() {
+            out.reserve(row.expected_rows());
         }
-        let position = Vector3::new(table.number(&row, 2)?, table.number(&row, 3)?, table.number(&row, 4)?);
+        let pose = row.index(0)?;
+        let marker = row.marker(1, names)?;
+        let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
         out.push(MarkerRow { pose, marker, position, line: row.line });
+    }
+    if let Some(((pose, marker), line)) = first_repeat(out.iter().map(|r| ((r.pose, r.marker), r.line))) {
+        return Err(table.error_at(line, 1, format!("marker `{}` of pose {pose} appears twice", names[marker])));
     }
     Ok(out)
 }
@@ -51,8 +49,9 @@ pub fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, Fil
 pub fn markers_csv(rows: &[MarkerRow], names: &[String]) -> String {
     let mut text = String::from("pose,marker,x_m,y_m,z_m\n");
     for r in rows {
-        let p = r.position;
-        let _ = writeln!(text, "{},{},{},{},{}", r.pose, names[r.marker], number(p.x), number(p.y), number(p.z));
+        let _ = write!(text, "{},{}", r.pose, names[r.marker]);
+        push_numbers(&mut text, r.position.as_slice());
+        text.push('\n');
     }
     text
 }

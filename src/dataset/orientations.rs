@@ -6,7 +6,7 @@ use std::path::Path;
 
 use nalgebra::Rotation3;
 
-use crate::files::{FileError, number};
+use crate::files::{FileError, push_numbers};
 use crate::so3;
 use crate::table::Table;
 
@@ -31,13 +31,15 @@ pub struct OrientationRecord {
 /// A [`FileError`] naming the line and column of the first bad value or non-unit quaternion.
 pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
     let mut table = Table::open(path, &["pose", "qw", "qx", "qy", "qz"])?;
-    let rows: Vec<_> = table.rows().collect::<Result<_, _>>()?;
-    let mut out = Vec::with_capacity(rows.len());
-    for row in rows {
-        let pose = table.index(&row, 0)?;
-        let q = [table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?, table.number(&row, 4)?];
+    let mut out = Vec::new();
+    while let Some(row) = table.next_row()? {
+        if out.is_empty() {
+            out.reserve(row.expected_rows());
+        }
+        let pose = row.index(0)?;
+        let q = [row.number(1)?, row.number(2)?, row.number(3)?, row.number(4)?];
         let rotation = so3::from_wxyz(q)
-            .ok_or_else(|| table.error(&row, 1, format!("quaternion {q:?} does not have unit norm")))?;
+            .ok_or_else(|| row.error(1, format!("quaternion {q:?} does not have unit norm")))?;
         out.push(OrientationRecord { pose, mode: None, rotation, extra: Vec::new(), line: row.line });
     }
     Ok(out)
@@ -60,9 +62,7 @@ pub fn write_orientations(records: &[OrientationRecord]) -> String {
         if with_mode {
             let _ = write!(text, ",{}", r.mode.unwrap_or(0));
         }
-        for c in so3::to_wxyz(&r.rotation) {
-            let _ = write!(text, ",{}", number(c));
-        }
+        push_numbers(&mut text, &so3::to_wxyz(&r.rotation));
         for (_, value) in &r.extra {
             let _ = write!(text, ",{value}");
         }

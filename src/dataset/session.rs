@@ -21,7 +21,7 @@ use super::joints::{JointReading, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
 use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
-use crate::files::{FileError, relative_path, write_atomic};
+use crate::files::{FileError, in_parallel, relative_path, write_atomic};
 use crate::model::Parameters;
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
@@ -189,12 +189,15 @@ impl Session {
             };
             return Ok(session.at_latency(0.0));
         }
-        let readings = read_joints(&joints_path)?;
+        let markers_path = dir.join("markers.csv");
+        // The files are independent: the biggest is read on a second core.
+        let ((readings, truth), rows) =
+            in_parallel(|| (read_joints(&joints_path), read_truth(dir)), || read_markers(&markers_path, &file.markers));
+        let readings = readings?;
         if readings.is_empty() {
             return Err(FileError::new(&joints_path, "empty session: no poses"));
         }
-        let markers_path = dir.join("markers.csv");
-        let rows = read_markers(&markers_path, &file.markers)?;
+        let rows = rows?;
         let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
         // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
         // Default: the first pose that sees enough markers for the estimator, else the first.
@@ -204,7 +207,7 @@ impl Session {
             return Err(at("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")));
         }
         let warnings = Vec::new();
-        let truth = read_truth(dir)?;
+        let truth = truth?;
         let session = Session {
             name: file.name,
             description: file.description,
@@ -376,7 +379,7 @@ fn assemble_poses(
             station: r.station,
         })
         .collect();
-    let index: HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
+    let index: foldhash::HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
     for row in rows {
         let k = index.get(&row.pose).ok_or_else(|| {
             FileError::new(markers_path, format!("markers for pose {}, which joints.csv does not have", row.pose))

@@ -7,15 +7,14 @@
 //! a gap in the encoder stream longer than the limit (the interpolation would bridge motion it
 //! never saw), a capture outside the encoder stream for every latency within the bound.
 
-use std::collections::HashSet;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
 use std::fmt::Write as _;
 
-use crate::files::{FileError, number};
-use crate::table::Table;
+use crate::files::{FileError, number, push_numbers};
+use crate::table::{Table, first_repeat};
 
 /// One encoder sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,20 +75,21 @@ pub struct Streams {
 pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSample>, FileError> {
     let mut table = Table::open(path, &["time_s", "theta1_rad", "theta2_rad", "theta3_rad"])?;
     let mut out: Vec<EncoderSample> = Vec::new();
-    for row in table.all_rows()? {
-        let time_s = table.number(&row, 0)?;
+    while let Some(row) = table.next_row()? {
+        if out.is_empty() {
+            out.reserve(row.expected_rows());
+        }
+        let time_s = row.number(0)?;
         if let Some(last) = out.last() {
             if time_s <= last.time_s {
                 let what = if time_s == last.time_s { "repeats" } else { "goes back from" };
-                return Err(table.error(
-                    &row,
+                return Err(row.error(
                     0,
                     format!("time {time_s} s {what} the previous sample's {} s", last.time_s),
                 ));
             }
             if time_s - last.time_s > limits.max_encoder_gap_s {
-                return Err(table.error(
-                    &row,
+                return Err(row.error(
                     0,
                     format!(
                         "a gap of {:.4} s in the encoder stream (from {} s), longer than the limit of {} s",
@@ -100,7 +100,7 @@ pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSa
                 ));
             }
         }
-        let joints = Vector3::new(table.number(&row, 1)?, table.number(&row, 2)?, table.number(&row, 3)?);
+        let joints = Vector3::new(row.number(1)?, row.number(2)?, row.number(3)?);
         out.push(EncoderSample { time_s, joints });
     }
     if out.len() < 2 {
@@ -117,25 +117,26 @@ pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSa
 pub fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, FileError> {
     let mut table = Table::open(path, &["time_s", "marker", "x_m", "y_m", "z_m"])?;
     let mut out: Vec<Capture> = Vec::new();
-    let mut seen = HashSet::new();
-    for row in table.all_rows()? {
-        let time_s = table.number(&row, 0)?;
+    while let Some(row) = table.next_row()? {
+        if out.is_empty() {
+            out.reserve(row.expected_rows());
+        }
+        let time_s = row.number(0)?;
         if let Some(last) = out.last().filter(|l| time_s < l.time_s) {
-            return Err(table.error(
-                &row,
+            return Err(row.error(
                 0,
                 format!("time {time_s} s goes back from the previous capture's {} s", last.time_s),
             ));
         }
-        let name = &row.fields[1];
-        let marker = names.iter().position(|n| n == name).ok_or_else(|| {
-            table.error(&row, 1, format!("unknown marker `{name}` (session.yaml lists {})", names.join(", ")))
-        })?;
-        if !seen.insert((time_s.to_bits(), marker)) {
-            return Err(table.error(&row, 1, format!("marker `{name}` is captured twice at {time_s} s")));
-        }
-        let position = Vector3::new(table.number(&row, 2)?, table.number(&row, 3)?, table.number(&row, 4)?);
+        let marker = row.marker(1, names)?;
+        let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
         out.push(Capture { time_s, marker, position, line: row.line });
+    }
+    // Time never goes back, so a repeat is within one frame: its time stamp's bits and marker.
+    let keys = out.iter().map(|c| ((c.time_s.to_bits(), c.marker), c.line));
+    if let Some(((bits, marker), line)) = first_repeat(keys) {
+        let time_s = f64::from_bits(bits);
+        return Err(table.error_at(line, 1, format!("marker `{}` is captured twice at {time_s} s", names[marker])));
     }
     Ok(out)
 }
@@ -198,8 +199,9 @@ impl Streams {
 pub fn encoders_csv(samples: &[EncoderSample]) -> String {
     let mut text = String::from("time_s,theta1_rad,theta2_rad,theta3_rad\n");
     for e in samples {
-        let j = e.joints;
-        let _ = writeln!(text, "{},{},{},{}", number(e.time_s), number(j[0]), number(j[1]), number(j[2]));
+        text.push_str(&number(e.time_s));
+        push_numbers(&mut text, e.joints.as_slice());
+        text.push('\n');
     }
     text
 }
@@ -208,9 +210,9 @@ pub fn encoders_csv(samples: &[EncoderSample]) -> String {
 pub fn captures_csv(captures: &[Capture], names: &[String]) -> String {
     let mut text = String::from("time_s,marker,x_m,y_m,z_m\n");
     for c in captures {
-        let p = c.position;
-        let _ =
-            writeln!(text, "{},{},{},{},{}", number(c.time_s), names[c.marker], number(p.x), number(p.y), number(p.z));
+        let _ = write!(text, "{},{}", number(c.time_s), names[c.marker]);
+        push_numbers(&mut text, c.position.as_slice());
+        text.push('\n');
     }
     text
 }

@@ -2,7 +2,7 @@
 //! the centre of rotation `o`. Its least-squares residual measures how far the MP's motion is
 //! from a pure rotation about one point: axis non-concurrency plus camera error.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 use super::pose::PoseEstimate;
 
@@ -22,38 +22,40 @@ pub struct CentreOfRotation {
     pub conditioning: f64,
 }
 
-/// Least squares over the poses, `(I − Q_j) o = c_j − Q_j c_0`, by the SVD of the stacked system
-/// (which also gives its conditioning).
+/// Least squares over the poses, `(I − Q_j) o = c_j − Q_j c_0`, by its 3 × 3 normal equations
+/// (a session has hundreds of thousands of poses; the stacked system's SVD would copy them all
+/// and cost 30 times more, and with the conditioning required below the normal equations lose
+/// at most six of sixteen digits).
 /// `None` when the rotations leave `o` undetermined (all about one axis, or too few poses).
-pub fn centre_of_rotation(estimates: &[PoseEstimate]) -> Option<CentreOfRotation> {
-    let n = estimates.len();
-    let mut a = DMatrix::zeros(3 * n, 3);
-    let mut b = DVector::zeros(3 * n);
-    for (k, e) in estimates.iter().enumerate() {
-        let q = e.rotation.matrix();
-        a.view_mut((3 * k, 0), (3, 3)).copy_from(&(Matrix3::identity() - q));
-        b.rows_mut(3 * k, 3).copy_from(&(e.centroid - q * e.reference_centroid));
+pub fn centre_of_rotation<'a>(estimates: impl Iterator<Item = &'a PoseEstimate> + Clone) -> Option<CentreOfRotation> {
+    let (mut normal, mut rhs, mut n) = (Matrix3::zeros(), Vector3::zeros(), 0_usize);
+    for e in estimates.clone() {
+        let a = Matrix3::identity() - e.rotation.matrix();
+        normal += a.transpose() * a;
+        rhs += a.transpose() * (e.centroid - e.rotation * e.reference_centroid);
+        n += 1;
     }
-    let svd = crate::so3::bounded_svd(&a, true, true)?;
-    let conditioning = svd.singular_values.min() / svd.singular_values.max().max(f64::MIN_POSITIVE);
+    let eigen = crate::so3::bounded_symmetric_eigen(&normal)?;
+    let (smallest, largest) = (eigen.eigenvalues.min().max(0.0), eigen.eigenvalues.max());
+    // The singular values of the stacked system are the square roots of the eigenvalues.
+    let conditioning = (smallest / largest.max(f64::MIN_POSITIVE)).sqrt();
     if n < 2 || conditioning < 1e-3 {
         return None;
     }
-    let o = svd.solve(&b, 0.0).ok()?;
-    // (AᵀA)⁻¹ = V Σ⁻² Vᵀ.
-    let v_t = svd.v_t.as_ref()?;
-    let inv_normal = Matrix3::<f64>::from_fn(|i, k| {
-        (0..3).map(|m| v_t[(m, i)] * v_t[(m, k)] / svd.singular_values[m].powi(2)).sum::<f64>()
-    });
-    let o = Vector3::new(o[0], o[1], o[2]);
-    let residuals: Vec<f64> =
-        estimates.iter().map(|e| (e.centroid - o - e.rotation * (e.reference_centroid - o)).norm()).collect();
-    let variance = residuals.iter().map(|r| r * r).sum::<f64>() / (3 * n - 3).max(1) as f64;
+    let inverse = eigen.eigenvectors * Matrix3::from_diagonal(&eigen.eigenvalues.map(|l| 1.0 / l)) * eigen.eigenvectors.transpose();
+    let o = inverse * rhs;
+    let residual = |e: &PoseEstimate| (e.centroid - o - e.rotation * (e.reference_centroid - o)).norm();
+    let (mut squares, mut max_residual_m) = (0.0, 0.0_f64);
+    for r in estimates.map(residual) {
+        squares += r * r;
+        max_residual_m = max_residual_m.max(r);
+    }
+    let variance = squares / (3 * n - 3).max(1) as f64;
     Some(CentreOfRotation {
-        std_error_m: [0, 1, 2].map(|i| (variance * inv_normal[(i, i)]).sqrt()),
+        std_error_m: [0, 1, 2].map(|i| (variance * inverse[(i, i)]).sqrt()),
         position_m: o.into(),
-        rms_residual_m: (residuals.iter().map(|r| r * r).sum::<f64>() / n as f64).sqrt(),
-        max_residual_m: residuals.iter().fold(0.0, |m, r| m.max(*r)),
+        rms_residual_m: (squares / n as f64).sqrt(),
+        max_residual_m,
         conditioning,
     })
 }

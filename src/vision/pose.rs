@@ -159,6 +159,17 @@ impl Reference {
         self.columns.len() - usize::from(self.planar)
     }
 
+    /// The estimates of both methods from one least-squares solve: `(paper, Kabsch)`, which
+    /// differ only in the rotation.
+    ///
+    /// # Errors
+    /// As [`Reference::estimate`].
+    pub fn estimate_both(&self, points: &[Vector3<f64>]) -> Result<(PoseEstimate, PoseEstimate), MarkerError> {
+        let paper = self.estimate(points, Method::Paper)?;
+        let kabsch = PoseEstimate { rotation: self.kabsch(points, &paper.centroid)?, ..paper };
+        Ok((paper, kabsch))
+    }
+
     /// Estimate the rotation from this reference to `points` (the same markers, same order).
     /// No heap allocation: the per-pose work is a few 3×3 products.
     ///

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::centre::{CentreOfRotation, centre_of_rotation};
 use super::pose::{MarkerError, Method, PoseEstimate, Reference};
-use crate::dataset::{MIN_MARKERS, Session};
+use crate::dataset::{MIN_MARKERS, Session, SessionPose};
 use crate::so3;
 
 /// A pose the estimator could not use, and why.
@@ -86,17 +86,53 @@ fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, 
         return Err(VisionError { pose: best.id, reason: MarkerError::NoPoseWithThree { most: best.seen() } });
     }
     let reference = session.reference();
+    // Poses are estimated independently: big sessions in two halves, one per core.
+    let half = if session.poses.len() >= PARALLEL_ABOVE { session.poses.len() / 2 } else { 0 };
+    let (first, second) = session.poses.split_at(half);
+    let (first, second) =
+        crate::in_parallel(|| estimate_some(first, reference, method), || estimate_some(second, reference, method));
+    let (mut all, second) = (first?, second?);
+    all.poses.extend(second.poses);
+    all.method_difference.extend(second.method_difference);
+    all.skipped.extend(second.skipped);
+    Ok(SessionEstimate {
+        method,
+        reference_pose: reference.id,
+        centre: centre_of_rotation(all.poses.iter().map(|(_, e)| e)),
+        poses: all.poses,
+        method_difference: all.method_difference,
+        skipped: all.skipped,
+    })
+}
+
+/// Sessions with more poses than this are estimated on two cores.
+const PARALLEL_ABOVE: usize = 4096;
+
+/// The estimates of some of a session's poses.
+#[derive(Default)]
+struct Estimates {
+    poses: Vec<(u64, PoseEstimate)>,
+    method_difference: Vec<f64>,
+    skipped: Vec<VisionError>,
+}
+
+/// Estimate `poses` against `reference`, each from the markers both saw (one factorisation of the
+/// reference per set of markers). A failure of the reference pose itself is an error.
+fn estimate_some(poses: &[SessionPose], reference: &SessionPose, method: Method) -> Result<Estimates, VisionError> {
+    let markers = reference.markers.len();
     let mut factors: HashMap<Vec<usize>, Reference> = HashMap::new();
-    let mut poses = Vec::with_capacity(session.poses.len());
-    let mut method_difference = Vec::with_capacity(session.poses.len());
-    let mut skipped = Vec::new();
-    let mut points: Vec<Vector3<f64>> = Vec::with_capacity(session.markers.len());
-    for pose in &session.poses {
-        let used: Vec<usize> = (0..session.markers.len())
-            .filter(|&k| pose.markers[k].is_some() && reference.markers[k].is_some())
-            .collect();
+    let mut out = Estimates {
+        poses: Vec::with_capacity(poses.len()),
+        method_difference: Vec::with_capacity(poses.len()),
+        skipped: Vec::new(),
+    };
+    let mut points: Vec<Vector3<f64>> = Vec::with_capacity(markers);
+    let mut used: Vec<usize> = Vec::with_capacity(markers);
+    for pose in poses {
+        used.clear();
+        used.extend((0..markers).filter(|&k| pose.markers[k].is_some() && reference.markers[k].is_some()));
         let fail = |reason| VisionError { pose: pose.id, reason };
-        let factor = match factors.get(&used) {
+        let factor = match factors.get(used.as_slice()) {
             Some(f) => f,
             None => {
                 let reference_points: Vec<_> = used.iter().map(|&k| reference.markers[k].expect("seen")).collect();
@@ -104,7 +140,7 @@ fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, 
                     Ok(f) => factors.entry(used.clone()).or_insert(f),
                     Err(reason) if pose.id == reference.id => return Err(fail(reason)),
                     Err(reason) => {
-                        skipped.push(fail(reason));
+                        out.skipped.push(fail(reason));
                         continue;
                     }
                 }
@@ -112,22 +148,14 @@ fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, 
         };
         points.clear();
         points.extend(used.iter().map(|&k| pose.markers[k].expect("seen")));
-        match (factor.estimate(&points, Method::Paper), factor.estimate(&points, Method::Kabsch)) {
-            (Ok(paper), Ok(kabsch)) => {
-                method_difference.push(so3::geodesic_angle(&paper.rotation, &kabsch.rotation));
-                poses.push((pose.id, if method == Method::Paper { paper } else { kabsch }));
+        match factor.estimate_both(&points) {
+            Ok((paper, kabsch)) => {
+                out.method_difference.push(so3::geodesic_angle(&paper.rotation, &kabsch.rotation));
+                out.poses.push((pose.id, if method == Method::Paper { paper } else { kabsch }));
             }
-            (Err(reason), _) | (_, Err(reason)) if pose.id == reference.id => return Err(fail(reason)),
-            (Err(reason), _) | (_, Err(reason)) => skipped.push(fail(reason)),
+            Err(reason) if pose.id == reference.id => return Err(fail(reason)),
+            Err(reason) => out.skipped.push(fail(reason)),
         }
     }
-    let estimates: Vec<PoseEstimate> = poses.iter().map(|(_, e)| *e).collect();
-    Ok(SessionEstimate {
-        method,
-        reference_pose: reference.id,
-        centre: centre_of_rotation(&estimates),
-        poses,
-        method_difference,
-        skipped,
-    })
+    Ok(out)
 }
