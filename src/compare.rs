@@ -1,34 +1,58 @@
-//! FDA against vision: per pose, the angle between the orientation the model predicts from the
-//! joints and the one the camera measured, for one or more parameter sets.
+//! Model against camera, per pose, for one or more parameter sets: at the orientation level (the
+//! angle between the orientation the model predicts from the joints and the one the per-pose
+//! estimator measured, degrees) or at the marker level (the distance between predicted and
+//! measured markers, millimetres) — the only one possible when no pose sees three markers, as in
+//! a free-motion recording with one marker per camera frame.
 //!
-//! A parameter set without a camera registration (the nominal model) gets the best-fit
-//! registration alone, so that a camera misalignment is not blamed on the mechanism. With a
-//! registration (a calibrated file) only the reference rotation `A` is fitted: it belongs to the
-//! session (where its reference pose was), not to the device.
+//! Registrations: see [`crate::calib::pose_errors`] and [`crate::calib::marker_pose_errors`].
 
 use serde::Serialize;
 
-use crate::calib::pose_errors;
+use crate::calib::{marker_pose_errors, pose_errors};
 use crate::dataset::Session;
-use crate::model::Parameters;
-use crate::vision::{Method, VisionError, estimate_session};
+use crate::model::{Parameters, RobotModel};
+use crate::vision::{MarkerError, Method, Stats, VisionError, estimate_session};
+
+/// What is compared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Level {
+    /// Orientations, per pose, from the per-pose estimator (needs three markers per pose).
+    Orientations,
+    /// Marker positions, every observation.
+    Markers,
+}
+
+impl Level {
+    /// The unit of the per-pose errors.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Level::Orientations => "deg",
+            Level::Markers => "mm",
+        }
+    }
+}
 
 /// The comparison of one parameter set.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SetComparison {
     /// Name of the parameter set (`nominal`, `calibrated`, a file name).
     pub label: String,
+    /// What was compared.
+    pub level: Level,
+    /// Unit of the errors: `deg` (orientations) or `mm` (markers, RMS over a pose's markers).
+    pub unit: &'static str,
     /// How the camera registration was obtained.
     pub registration: &'static str,
-    /// `(pose, angle in degrees)`.
+    /// `(pose, error)`.
     pub per_pose: Vec<(u64, f64)>,
-    /// RMS angle, degrees.
-    pub rms_deg: f64,
-    /// Median angle, degrees.
-    pub median_deg: f64,
-    /// Largest angle, degrees.
-    pub max_deg: f64,
-    /// Poses whose forward kinematics failed with this set, and why.
+    /// RMS error.
+    pub rms: f64,
+    /// Median error.
+    pub median: f64,
+    /// Largest error.
+    pub max: f64,
+    /// Poses left out with this set, and why.
     pub excluded: Vec<String>,
 }
 
@@ -49,34 +73,64 @@ pub enum CompareError {
     },
 }
 
-/// Compare each `(label, parameters)` set with the camera on `session`.
+/// Compare each `(label, parameters)` set with the camera on `session`, at `level`; `None`:
+/// orientations where the per-pose estimator can work, markers where no pose sees three.
 ///
 /// # Errors
 /// A [`CompareError`] when the vision estimate fails or a parameter set cannot be registered or predicts no pose.
 pub fn compare(
     session: &Session,
+    model: &RobotModel,
     sets: &[(String, Parameters)],
     method: Method,
+    level: Option<Level>,
 ) -> Result<Vec<SetComparison>, CompareError> {
-    let vision = estimate_session(session, method)?;
-    sets.iter().map(|(label, params)| compare_one(session, &vision, label, params)).collect()
+    let vision = match level {
+        Some(Level::Markers) => None,
+        Some(Level::Orientations) => Some(estimate_session(session, method)?),
+        None => match estimate_session(session, method) {
+            Ok(v) => Some(v),
+            Err(VisionError { reason: MarkerError::NoPoseWithThree { .. }, .. }) => None,
+            Err(e) => return Err(e.into()),
+        },
+    };
+    sets.iter()
+        .map(|(label, params)| {
+            let set_error = |reason| CompareError::Set { label: label.clone(), reason };
+            let (level, errors) = match &vision {
+                Some(v) => {
+                    let e = pose_errors(session, v, params).map_err(set_error)?;
+                    (Level::Orientations, (e.registration, e.per_pose, e.excluded))
+                }
+                None => {
+                    let e = marker_pose_errors(session, model, params).map_err(set_error)?;
+                    (Level::Markers, (e.registration, e.per_pose, e.excluded))
+                }
+            };
+            Ok(SetComparison::new(label, level, errors))
+        })
+        .collect()
 }
 
-fn compare_one(
-    session: &Session,
-    vision: &crate::vision::SessionEstimate,
-    label: &str,
-    params: &Parameters,
-) -> Result<SetComparison, CompareError> {
-    let e = pose_errors(session, vision, params)
-        .map_err(|reason| CompareError::Set { label: label.to_string(), reason })?;
-    Ok(SetComparison {
-        label: label.to_string(),
-        registration: e.registration,
-        rms_deg: e.summary.rms_deg,
-        median_deg: e.summary.median_deg,
-        max_deg: e.summary.max_deg,
-        per_pose: e.per_pose,
-        excluded: e.excluded,
-    })
+impl SetComparison {
+    fn new(
+        label: &str,
+        level: Level,
+        (registration, per_pose, excluded): (&'static str, Vec<(u64, f64)>, Vec<String>),
+    ) -> Self {
+        let values: Vec<f64> = per_pose.iter().map(|(_, e)| *e).collect();
+        let stats = Stats::of(&values).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
+        let rms = (values.iter().map(|e| e * e).sum::<f64>() / values.len().max(1) as f64).sqrt();
+        SetComparison {
+            label: label.to_string(),
+            level,
+            unit: level.unit(),
+            registration,
+            per_pose,
+            rms,
+            median: stats.median,
+            max: stats.max,
+            excluded,
+        }
+    }
 }

@@ -49,7 +49,7 @@ pub mod sim;
 pub mod so3;
 pub(crate) mod table;
 
-pub use files::{FileError, Outputs, Slot};
 pub(crate) use files::in_parallel;
+pub use files::{FileError, Outputs, Slot};
 pub mod vision;
 mod yaml;

@@ -28,10 +28,22 @@ fn main() -> ExitCode {
         // A closed standard output (`spmcal … | head`) ends the program quietly, as other tools do.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", describe(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes, a cause only where the message so far does not already say it
+/// (errors that print their source and also return it would otherwise say it twice).
+fn describe(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1).map(|c| c.to_string()) {
+        if !text.contains(&cause) {
+            text = format!("{text}: {cause}");
+        }
+    }
+    text
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
@@ -252,8 +264,13 @@ fn compare(args: CompareArgs) -> Result<()> {
         let label = format!("{:?}", params.source).to_lowercase();
         sets.push((label, params));
     }
+    // A free-motion recording is drawn at the parameters' latency (each set is compared at its own).
+    let session = match sets.last().and_then(|(_, p)| p.latency_s) {
+        Some(latency_s) => session.at_latency(latency_s).0,
+        None => session,
+    };
     let method: Method = args.method.into();
-    let result = spmcal::compare::compare(&session, &sets, method)?;
+    let result = spmcal::compare::compare(&session, &model, &sets, method, args.level.map(Into::into))?;
     if let Some(slot) = rrd {
         record(&outputs, slot, &spmcal::record::comparison_scene(&session, &model, &sets, &result, method)?)?;
     }
@@ -276,6 +293,10 @@ fn replay(args: ReplayArgs) -> Result<()> {
     let (session, warnings) = args.session.load()?;
     let model = RobotModel::load(&session.model)?;
     let params = args.params.as_deref().map(Parameters::read).transpose()?;
+    let session = match params.as_ref().and_then(|p| p.latency_s) {
+        Some(latency_s) => session.at_latency(latency_s).0,
+        None => session,
+    };
     let summary = record(&outputs, slot, &spmcal::record::replay_scene(&session, &model, params.as_ref())?)?;
     outputs.commit()?;
     if args.json {

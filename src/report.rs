@@ -250,7 +250,7 @@ pub fn estimate_csv(result: &SessionEstimate) -> String {
 pub fn comparison_csv(results: &[SetComparison]) -> String {
     let mut table = String::from("pose");
     for c in results {
-        table.push_str(&format!(",{}_deg", c.label));
+        table.push_str(&format!(",{}_{}", c.label, c.unit));
     }
     table.push('\n');
     let poses: std::collections::BTreeSet<u64> =
@@ -268,13 +268,14 @@ pub fn comparison_csv(results: &[SetComparison]) -> String {
 
 impl fmt::Display for SetComparison {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let unit = if self.unit == "deg" { "°" } else { " mm" };
         writeln!(
             f,
-            "{:<11} RMS {:.4}°, median {:.4}°, max {:.4}° over {} poses (registration: {})",
+            "{:<11} RMS {:.4}{unit}, median {:.4}{unit}, max {:.4}{unit} over {} poses (registration: {})",
             self.label,
-            self.rms_deg,
-            self.median_deg,
-            self.max_deg,
+            self.rms,
+            self.median,
+            self.max,
             self.per_pose.len(),
             self.registration
         )

@@ -147,10 +147,10 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     // With det m > 8ε‖m‖³ (so σ_min > 8ε σ_max: σ1σ2σ3 ≤ σ_max²σ_min) the answer is the orthogonal
     // polar factor, which Higham's iteration finds about five times faster than the SVD.
     let scale = m.norm();
-    if m.determinant() > 8.0 * f64::EPSILON * scale * scale * scale {
-        if let Ok(p) = crate::polar::polar(m) {
-            return Some(Rotation3::from_matrix_unchecked(p.q));
-        }
+    if m.determinant() > 8.0 * f64::EPSILON * scale * scale * scale
+        && let Ok(p) = crate::polar::polar(m)
+    {
+        return Some(Rotation3::from_matrix_unchecked(p.q));
     }
     let svd = bounded_svd(m, true, true)?;
     let (u, vt) = (svd.u?, svd.v_t?);
@@ -214,6 +214,23 @@ mod tests {
         let (a, b) = (Vector3::new(0.2, 0.9, -0.3), Vector3::new(-0.5, 0.1, 0.8));
         let c = carry(&a, &b, &(r * a), &(r * b));
         assert!(geodesic_angle(&c, &r) < 1e-14);
+    }
+
+    #[test]
+    fn nearest_rotation_by_polar_iteration_agrees_with_the_svd() {
+        // Well and badly conditioned matrices of either determinant sign.
+        for (k, stretch) in [[1.0, 1.0, 1.0], [3.0, 0.2, 1e-6], [1.0, -0.5, 2.0], [1e3, 1e-9, 1.0]].iter().enumerate() {
+            let r = exp(&Vector3::new(0.4 + k as f64, -0.2, 0.9));
+            let s = exp(&Vector3::new(-0.3, 0.7 * k as f64, 0.1));
+            let m = r.matrix() * Matrix3::from_diagonal(&Vector3::from(*stretch)) * s.matrix();
+            let svd = bounded_svd(&m, true, true).unwrap();
+            let (u, vt) = (svd.u.unwrap(), svd.v_t.unwrap());
+            let mut d = Matrix3::identity();
+            d[(2, 2)] = (u * vt).determinant().signum();
+            let by_svd = Rotation3::from_matrix_unchecked(u * d * vt);
+            let near = nearest_rotation(&m).unwrap();
+            assert!(geodesic_angle(&by_svd, &near) < 1e-9, "{stretch:?}: {}", geodesic_angle(&by_svd, &near));
+        }
     }
 
     #[test]

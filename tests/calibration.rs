@@ -345,8 +345,19 @@ fn too_few_usable_poses_are_an_error_not_a_panic() {
     assert!(err.contains("usable poses") && err.contains("21 parameters"), "{err}");
     session.poses.truncate(2);
     let sets = [("nominal".to_string(), spmcal::model::Parameters::nominal(&model.spm, None))];
-    let err = spmcal::compare::compare(&session, &sets, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
+    let err = spmcal::compare::compare(&session, &model, &sets, spmcal::vision::Method::Kabsch, None)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("only 2 poses"), "{err}");
+    // Two poses of four markers still register at the marker level; no marker at all does not.
+    let markers = Some(spmcal::compare::Level::Markers);
+    let compared = spmcal::compare::compare(&session, &model, &sets, spmcal::vision::Method::Kabsch, markers).unwrap();
+    assert_eq!((compared[0].per_pose.len(), compared[0].unit), (2, "mm"));
+    session.poses.iter_mut().for_each(|p| p.markers.iter_mut().for_each(|m| *m = None));
+    let err = spmcal::compare::compare(&session, &model, &sets, spmcal::vision::Method::Kabsch, markers)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("only 0 marker observations"), "{err}");
     assert!(spmcal::record::replay_scene(&session, &model, None).is_err());
 }
 

@@ -155,12 +155,13 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     let sets = v["results"].as_array().unwrap();
     assert_eq!((sets[0]["label"].as_str(), sets[1]["label"].as_str()), (Some("nominal"), Some("calibrated")));
     for set in sets {
-        for key in ["rms_deg", "median_deg", "max_deg"] {
+        for key in ["rms", "median", "max"] {
             assert!(set[key].as_f64().unwrap() > 0.0, "{key}");
         }
         assert_eq!(set["per_pose"].as_array().unwrap().len(), 20);
     }
-    assert!(sets[1]["rms_deg"].as_f64().unwrap() < sets[0]["rms_deg"].as_f64().unwrap());
+    assert!(sets[1]["rms"].as_f64().unwrap() < sets[0]["rms"].as_f64().unwrap());
+    assert!(sets.iter().all(|s| s["level"] == "orientations" && s["unit"] == "deg"));
 
     // The calibrated file drives the kinematics commands.
     let fda = spmcal(&["fda", "--joints", "datasets/joystick_circle/joints.csv", "--params", params.to_str().unwrap()]);
@@ -207,4 +208,19 @@ fn calibrate_reports_a_bad_config_with_its_line() {
         + 1;
     assert!(!run.status.success() && err.contains(&format!("c.yaml:{line}")) && err.contains("cauchy"), "{err}");
     assert!(!out.exists(), "no parameters file after a failure");
+}
+
+#[test]
+fn compare_on_a_free_motion_recording_compares_markers_and_says_a_reason_once() {
+    let dataset = "datasets/agile_wrist_free_motion_120s";
+    let json = spmcal(&["compare", "--dataset", dataset, "--json"]);
+    assert!(json.status.success(), "{}", String::from_utf8_lossy(&json.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let set = &v["results"][0];
+    assert_eq!((set["level"].as_str(), set["unit"].as_str()), (Some("markers"), Some("mm")));
+    assert!(set["rms"].as_f64().unwrap() > 1.0, "{set}");
+    // An error whose source is also in its message is printed once, not twice.
+    let out = spmcal(&["compare", "--dataset", dataset, "--level", "orientations"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.matches("no pose sees 3 markers").count() == 1, "{err}");
 }

@@ -258,3 +258,43 @@ fn captures_taken_while_the_joystick_moves_fast_are_flagged_and_down_weighted() 
     let calm = calibrate(&recording, &model, &relaxed, &mut |_| {}).unwrap();
     assert!(calm.report.markers.as_ref().unwrap().fast_captures.is_empty());
 }
+
+#[test]
+fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recording() {
+    let (recording, model) = free_motion(40.0, 20.0);
+    let config = CalibConfig { folds: 0, ..CalibConfig::default() };
+    let calibration = calibrate(&recording, &model, &config, &mut |_| {}).unwrap();
+    // The frames used do not depend on where the latency starts: those inside the stream for
+    // every latency within the bound.
+    let from_100ms =
+        calibrate(&recording, &model, &CalibConfig { latency_s: 0.1, ..config.clone() }, &mut |_| {}).unwrap();
+    let observations = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().observations;
+    assert_eq!(observations(&calibration), observations(&from_100ms));
+    let tau = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().latency.unwrap().value_s;
+    assert!((tau(&calibration) - tau(&from_100ms)).abs() < 1e-6, "{} vs {}", tau(&calibration), tau(&from_100ms));
+
+    // No pose sees three markers: `compare` works with the markers (mm), each set at its latency.
+    let sets = [
+        ("nominal".to_string(), spmcal::model::Parameters::nominal(&model.spm, None)),
+        ("calibrated".to_string(), calibration.parameters.clone()),
+    ];
+    let method = spmcal::vision::Method::Kabsch;
+    let compared = spmcal::compare::compare(&recording, &model, &sets, method, None).unwrap();
+    assert!(compared.iter().all(|c| c.level == spmcal::compare::Level::Markers && c.unit == "mm"));
+    let (nominal, calibrated) = (&compared[0], &compared[1]);
+    eprintln!("markers: nominal {:.3} mm, calibrated {:.3} mm", nominal.rms, calibrated.rms);
+    // The calibrated file's prediction on its own recording is the fit's (same registration,
+    // markers and latency): its RMS over poses equals the fit's marker RMS (one marker per pose),
+    // and the nominal model with its best-fit registration is several times worse.
+    let fit_rms = calibration.report.markers.as_ref().unwrap().after.rms_mm;
+    assert!((calibrated.rms - fit_rms).abs() < 0.02 * fit_rms, "{} vs {fit_rms}", calibrated.rms);
+    assert!(nominal.rms > 3.0 * calibrated.rms, "{} vs {}", nominal.rms, calibrated.rms);
+    // Asking for orientations names why it cannot be done.
+    let orientations = Some(spmcal::compare::Level::Orientations);
+    let err = spmcal::compare::compare(&recording, &model, &sets, method, orientations).unwrap_err().to_string();
+    assert!(err.contains("no pose sees 3 markers"), "{err}");
+
+    // `replay` without a parameters file registers the nominal model to the markers itself.
+    let scene = spmcal::record::replay_scene(&recording, &model, None).unwrap();
+    assert!(scene.registration.is_some() && scene.series.iter().any(|s| s.name == "markers_mm/replayed"));
+}

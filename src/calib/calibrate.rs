@@ -241,8 +241,14 @@ pub fn calibrate(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
     config.check().map_err(|(key, reason)| CalibError::Config { key, reason })?;
-    // A free-motion recording's poses at the configured camera latency.
-    let resampled = session.streams.is_some().then(|| session.at_latency(config.latency_s));
+    // A free-motion recording's poses at the configured camera latency; when the marker-level fit
+    // estimates it, only frames inside the encoder stream for every latency within its bounds.
+    let tau = config.latency_s;
+    let range = match config.fit == FitLevel::Markers && !config.freeze.contains(&Group::Latency) {
+        true => (-config.latency_bound_s, config.latency_bound_s),
+        false => (tau, tau),
+    };
+    let resampled = session.streams.is_some().then(|| session.at_latency_within(tau, range));
     let (session, left_out) = match &resampled {
         Some((s, warnings)) => (s, warnings.as_slice()),
         None => (session, &[][..]),

@@ -371,7 +371,7 @@ pub(super) fn calibrate_markers(
 
 /// The nominal model with its best-fit registration (least squares, as `compare` fits it), with
 /// the full Jacobian at its solution for the identifiability analysis and the cross-validation.
-fn baseline(
+pub(super) fn baseline(
     p: &Parameterisation,
     observations: &[MarkerObservation],
     streams: Option<&Streams>,
@@ -447,7 +447,7 @@ fn fast_inflation(
 }
 
 /// The model's position of each of the session's markers.
-fn model_markers(session: &Session, model: &RobotModel) -> Result<Vec<Vector3<f64>>, CalibError> {
+pub(super) fn model_markers(session: &Session, model: &RobotModel) -> Result<Vec<Vector3<f64>>, CalibError> {
     session
         .markers
         .iter()
@@ -468,7 +468,7 @@ fn largest_rotation(rotations: &[Rotation3<f64>]) -> f64 {
 
 /// The rigid motion that best carries the nominal model's markers (in B) onto the measured ones
 /// (in C): Kabsch over every observation. Needs no pose with three markers.
-fn initial_registration(
+pub(super) fn initial_registration(
     observations: &[MarkerObservation],
     nominal: &[Rotation3<f64>],
     markers: &[Vector3<f64>],

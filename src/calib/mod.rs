@@ -5,6 +5,7 @@ mod calibrate;
 mod config;
 mod identify;
 mod marker_calibration;
+mod marker_pose_errors;
 mod markers;
 mod params;
 mod pose_errors;
@@ -21,6 +22,7 @@ pub use identify::{Direction, Identifiability, analyse};
 pub use marker_calibration::{
     CrossValidation, FlaggedObservation, Latency, MarkerErrors, MarkerFitReport, MarkerReport,
 };
+pub use marker_pose_errors::{MarkerPoseErrors, marker_pose_errors};
 pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use pose_errors::{PoseErrors, pose_errors};

@@ -211,9 +211,28 @@ pub(crate) struct CompareArgs {
     /// Vision estimator.
     #[arg(long, value_enum, default_value = "kabsch")]
     pub(crate) method: MethodArg,
+    /// Compare orientations (degrees, from the per-pose estimator) or markers (millimetres);
+    /// default: orientations where a pose sees three markers, markers otherwise.
+    #[arg(long, value_enum)]
+    pub(crate) level: Option<LevelArg>,
     /// Print a machine-readable summary (JSON).
     #[arg(long)]
     pub(crate) json: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum LevelArg {
+    Orientations,
+    Markers,
+}
+
+impl From<LevelArg> for spmcal::compare::Level {
+    fn from(l: LevelArg) -> Self {
+        match l {
+            LevelArg::Orientations => spmcal::compare::Level::Orientations,
+            LevelArg::Markers => spmcal::compare::Level::Markers,
+        }
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]

@@ -38,8 +38,8 @@ pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileErro
         }
         let pose = row.index(0)?;
         let q = [row.number(1)?, row.number(2)?, row.number(3)?, row.number(4)?];
-        let rotation = so3::from_wxyz(q)
-            .ok_or_else(|| row.error(1, format!("quaternion {q:?} does not have unit norm")))?;
+        let rotation =
+            so3::from_wxyz(q).ok_or_else(|| row.error(1, format!("quaternion {q:?} does not have unit norm")))?;
         out.push(OrientationRecord { pose, mode: None, rotation, extra: Vec::new(), line: row.line });
     }
     Ok(out)

@@ -227,19 +227,30 @@ impl Session {
     /// stream at that latency are left out, each with a warning naming its `captures.csv` line.
     /// A session without streams is returned as it is.
     pub fn at_latency(&self, latency_s: f64) -> (Session, Vec<Warning>) {
+        self.at_latency_within(latency_s, (latency_s, latency_s))
+    }
+
+    /// As [`Session::at_latency`], keeping only the frames that lie inside the encoder stream for
+    /// every latency in `range` (`lo ≤ latency_s ≤ hi`): a fit that estimates the latency within
+    /// those bounds then works on the same frames whatever value it tries.
+    pub fn at_latency_within(&self, latency_s: f64, (lo, hi): (f64, f64)) -> (Session, Vec<Warning>) {
         let Some(streams) = &self.streams else { return (self.clone(), Vec::new()) };
         let m = self.markers.len();
         let (mut poses, mut warnings): (Vec<SessionPose>, Vec<Warning>) = (Vec::new(), Vec::new());
         for frame in streams.captures.chunk_by(|a, b| a.time_s == b.time_s) {
             let time = frame[0].time_s;
-            let Some(joints) = streams.joints_at(time - latency_s) else {
+            let inside = streams.joints_at(time - lo).and(streams.joints_at(time - hi));
+            let Some(joints) = inside.and(streams.joints_at(time - latency_s)) else {
+                let at = if lo == hi {
+                    format!("at a latency of {lo} s")
+                } else {
+                    format!("for a latency in [{lo}, {hi}] s")
+                };
                 warnings.push(Warning {
                     path: streams.captures_path.clone(),
                     line: frame[0].line,
                     pose: poses.len() as u64,
-                    message: format!(
-                        "the frame at {time} s falls outside the encoder stream at a latency of {latency_s} s: left out"
-                    ),
+                    message: format!("the frame at {time} s falls outside the encoder stream {at}: left out"),
                 });
                 continue;
             };

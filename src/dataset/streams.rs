@@ -83,10 +83,7 @@ pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSa
         if let Some(last) = out.last() {
             if time_s <= last.time_s {
                 let what = if time_s == last.time_s { "repeats" } else { "goes back from" };
-                return Err(row.error(
-                    0,
-                    format!("time {time_s} s {what} the previous sample's {} s", last.time_s),
-                ));
+                return Err(row.error(0, format!("time {time_s} s {what} the previous sample's {} s", last.time_s)));
             }
             if time_s - last.time_s > limits.max_encoder_gap_s {
                 return Err(row.error(
@@ -123,10 +120,9 @@ pub fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, File
         }
         let time_s = row.number(0)?;
         if let Some(last) = out.last().filter(|l| time_s < l.time_s) {
-            return Err(row.error(
-                0,
-                format!("time {time_s} s goes back from the previous capture's {} s", last.time_s),
-            ));
+            return Err(
+                row.error(0, format!("time {time_s} s goes back from the previous capture's {} s", last.time_s))
+            );
         }
         let marker = row.marker(1, names)?;
         let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);

@@ -7,11 +7,11 @@ use std::fmt::Write as _;
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::{PoseFrames, Scene, Series};
-use crate::calib::{Calibration, initial_registration, observations};
-use crate::compare::SetComparison;
+use crate::calib::{Calibration, initial_registration, marker_pose_errors, observations};
+use crate::compare::{Level, SetComparison};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
-use crate::vision::{Method, SessionEstimate, VisionError, estimate_session};
+use crate::vision::{MarkerError, Method, SessionEstimate, VisionError, estimate_session};
 
 /// Why a scene could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -23,6 +23,9 @@ pub enum SceneError {
     #[error("parameters: {0}")]
     /// A parameter set makes no valid manipulator.
     Parameters(#[from] crate::model::SpmError),
+    #[error("marker-level comparison: {0}")]
+    /// The markers cannot be compared with the model (see [`crate::calib::marker_pose_errors`]).
+    Markers(String),
     #[error("the camera registration cannot be estimated: too few poses, or every pose rotates about one axis")]
     /// No camera registration can be estimated.
     Registration,
@@ -133,25 +136,33 @@ pub fn replay_scene<'a>(
 ) -> Result<Scene<'a>, SceneError> {
     match estimate_session(session, Method::Kabsch) {
         Ok(estimate) => vision_scene(session, model, params, &estimate),
-        // Nothing for the per-pose estimator (one marker at a time): the mechanism and the measured
-        // markers through the parameters' own registration still show the session.
-        Err(e) => match params.and_then(|p| p.camera.map(|c| (p, c))) {
-            Some((p, camera)) => {
-                let spm = p.spm()?;
-                Ok(Scene {
-                    session,
-                    model,
-                    frames: vec![fda_frames("fda_calibrated", &spm, session)],
-                    mechanism: spm,
-                    registration: Some(camera),
-                    series: Vec::new(),
-                    iterations: Vec::new(),
-                    documents: vec![("used".to_string(), parameters_markdown("Parameters used", p))],
-                    fitted_markers: fitted_markers(session, p),
-                })
-            }
-            None => Err(e.into()),
-        },
+        // Nothing for the per-pose estimator (one marker at a time): the mechanism, and the
+        // measured markers through the parameters' registration (or the best-fit one), with each
+        // pose's marker error.
+        Err(VisionError { reason: MarkerError::NoPoseWithThree { .. }, .. }) => {
+            let nominal = Parameters::nominal(&model.spm, None);
+            let (label, p) = match params {
+                Some(p) => ("fda_calibrated", p),
+                None => ("fda_nominal", &nominal),
+            };
+            let errors = marker_pose_errors(session, model, p).map_err(SceneError::Markers)?;
+            let spm = p.spm()?;
+            Ok(Scene {
+                session,
+                model,
+                frames: vec![fda_frames(label, &spm, session)],
+                mechanism: spm,
+                registration: Some(errors.camera),
+                series: vec![Series {
+                    name: "markers_mm/replayed".into(),
+                    values: errors.per_pose.into_iter().collect(),
+                }],
+                iterations: Vec::new(),
+                documents: vec![("used".to_string(), parameters_markdown("Parameters used", p))],
+                fitted_markers: fitted_markers(session, p),
+            })
+        }
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -349,17 +360,33 @@ pub fn comparison_scene<'a>(
     method: Method,
 ) -> Result<Scene<'a>, SceneError> {
     let last = sets.last().map(|(_, p)| p);
-    let estimate = estimate_session(session, method)?;
-    let mut scene = vision_scene(session, model, last.filter(|p| p.camera.is_some()), &estimate)?;
-    scene.frames.retain(|f| f.name == "vision");
+    let mut scene = if results.iter().any(|r| r.level == Level::Markers) {
+        // The measured markers through the last set's registration, as `replay` shows them.
+        let mut scene = replay_scene(session, model, last)?;
+        scene.frames.clear();
+        scene.series.clear();
+        scene
+    } else {
+        let estimate = estimate_session(session, method)?;
+        let mut scene = vision_scene(session, model, last.filter(|p| p.camera.is_some()), &estimate)?;
+        scene.frames.retain(|f| f.name == "vision");
+        scene
+    };
     for (label, params) in sets {
         scene.frames.push(fda_frames(&format!("fda_{label}"), &params.spm()?, session));
         scene.documents.push((label.clone(), parameters_markdown(label, params)));
     }
     for r in results {
-        scene
-            .series
-            .push(Series { name: format!("fda_vs_vision/{}", r.label), values: r.per_pose.iter().copied().collect() });
+        scene.series.push(Series { name: comparison_series(r), values: r.per_pose.iter().copied().collect() });
     }
     Ok(scene)
+}
+
+/// The entity of a comparison's per-pose errors: `fda_vs_vision/LABEL` (degrees) or
+/// `markers_mm/LABEL`.
+fn comparison_series(r: &SetComparison) -> String {
+    match r.level {
+        Level::Orientations => format!("fda_vs_vision/{}", r.label),
+        Level::Markers => format!("markers_mm/{}", r.label),
+    }
 }

@@ -42,7 +42,9 @@ pub fn centre_of_rotation<'a>(estimates: impl Iterator<Item = &'a PoseEstimate> 
     if n < 2 || conditioning < 1e-3 {
         return None;
     }
-    let inverse = eigen.eigenvectors * Matrix3::from_diagonal(&eigen.eigenvalues.map(|l| 1.0 / l)) * eigen.eigenvectors.transpose();
+    let inverse = eigen.eigenvectors
+        * Matrix3::from_diagonal(&eigen.eigenvalues.map(|l| 1.0 / l))
+        * eigen.eigenvectors.transpose();
     let o = inverse * rhs;
     let residual = |e: &PoseEstimate| (e.centroid - o - e.rotation * (e.reference_centroid - o)).norm();
     let (mut squares, mut max_residual_m) = (0.0, 0.0_f64);
