@@ -42,6 +42,7 @@ pub mod constellation;
 pub mod dataset;
 mod files;
 pub mod model;
+pub mod plan;
 pub mod polar;
 pub mod record;
 pub mod report;

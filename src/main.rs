@@ -19,6 +19,7 @@ use spmcal::{Outputs, Slot};
 
 mod cli {
     pub(crate) mod args;
+    pub(crate) mod plan;
 }
 use cli::args::*;
 
@@ -59,6 +60,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Calibrate(args) => calibrate(args),
         Command::Compare(args) => compare(args),
         Command::Replay(args) => replay(args),
+        Command::Plan(args) => cli::plan::plan(args),
     }
 }
 
@@ -154,6 +156,11 @@ fn simulate(args: SimulateArgs) -> Result<()> {
     config.seed = args.seed.unwrap_or(config.seed);
     config.poses = args.poses.unwrap_or(config.poses);
     config.name = args.name.unwrap_or(config.name);
+    if let Some(path) = &args.plan {
+        let plan = spmcal::plan::read_plan(path)?;
+        config.poses = plan.len();
+        config.plan = Some(plan.iter().map(|p| p.rotation).collect());
+    }
     if let Some(model) = args.model {
         config.model = model;
     }

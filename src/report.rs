@@ -532,3 +532,41 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
     }
     Ok(())
 }
+
+impl fmt::Display for crate::plan::PlanSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = self;
+        if let Some((session, poses)) = &s.augments {
+            writeln!(f, "adding to session {session} ({poses} poses)")?;
+        }
+        writeln!(
+            f,
+            "plan: {} poses chosen from {} candidates for {} parameters (marker-level fit)",
+            s.poses, s.candidates, s.parameters
+        )?;
+        writeln!(f, "predicted orientation error after calibration, over the workspace:")?;
+        writeln!(f, "  {:<34} {:>9} {:>9} {:>10}", "", "RMS (°)", "worst (°)", "log det M")?;
+        let row = |f: &mut fmt::Formatter<'_>, label: &str, p: &crate::plan::Predicted| {
+            writeln!(f, "  {label:<34} {:>9.4} {:>9.4} {:>10.2}", p.rms_deg, p.worst_deg, p.log_det)
+        };
+        row(f, "continuous optimum (bound)", &s.continuous_optimum)?;
+        row(f, "this plan", &s.plan)?;
+        row(f, &format!("{} random reachable poses", s.poses), &s.random)?;
+        writeln!(
+            f,
+            "plan efficiency {:.1}% of the continuous optimum ({} support points, equivalence ratio {:.4} after {} iterations; {} exchanges)",
+            100.0 * s.efficiency,
+            s.support,
+            s.equivalence_ratio,
+            s.iterations,
+            s.exchanges
+        )?;
+        match s.random_poses_needed {
+            Some(n) => writeln!(f, "random poses needed for the plan's accuracy: {n}")?,
+            None => {
+                writeln!(f, "random poses needed for the plan's accuracy: more than all {} candidates", s.candidates)?
+            }
+        }
+        writeln!(f, "tour from home and back: {:.0}° of joystick travel", s.travel_deg)
+    }
+}

@@ -224,3 +224,40 @@ fn compare_on_a_free_motion_recording_compares_markers_and_says_a_reason_once() 
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.matches("no pose sees 3 markers").count() == 1, "{err}");
 }
+
+#[test]
+fn plan_writes_the_poses_in_order_a_summary_and_a_recording_and_simulate_captures_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plan, rrd) = (dir.path().join("plan.csv"), dir.path().join("plan.rrd"));
+    let args = ["plan", "--poses", "12", "--candidates", "400", "--out", plan.to_str().unwrap()];
+    let run = spmcal(&[&args[..], &["--rrd", rrd.to_str().unwrap(), "--json"]].concat());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!((v["command"].as_str(), v["results"]["poses"].as_u64()), (Some("plan"), Some(12)));
+    let (planned, random) =
+        (v["results"]["plan"]["rms_deg"].as_f64().unwrap(), v["results"]["random"]["rms_deg"].as_f64().unwrap());
+    assert!(planned < random, "{planned} vs {random}");
+    let text = std::fs::read_to_string(&plan).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad");
+    assert_eq!(lines.len(), 13);
+    assert!(lines[1..].iter().enumerate().all(|(k, l)| l.starts_with(&format!("{},", k + 1))));
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 0);
+    let session = dir.path().join("planned");
+    let sim = spmcal(&[
+        "simulate",
+        "--config",
+        "configs/simulate_agile_wrist.yaml",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        session.to_str().unwrap(),
+    ]);
+    assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    let joints = std::fs::read_to_string(session.join("joints.csv")).unwrap();
+    assert_eq!(joints.lines().count(), 13, "{joints}");
+    // A human summary without --json.
+    let human = spmcal(&args);
+    let text = String::from_utf8_lossy(&human.stdout);
+    assert!(text.contains("random poses needed") && text.contains("tour from home"), "{text}");
+}

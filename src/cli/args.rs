@@ -32,6 +32,36 @@ pub(crate) enum Command {
     Compare(CompareArgs),
     /// Write a session, pose by pose, as a Rerun recording to open offline.
     Replay(ReplayArgs),
+    /// Choose the poses to capture that buy the most accuracy, in an order to follow.
+    Plan(PlanArgs),
+}
+
+#[derive(Args)]
+pub(crate) struct PlanArgs {
+    /// Poses to plan.
+    #[arg(long)]
+    pub(crate) poses: usize,
+    #[command(flatten)]
+    pub(crate) geometry: GeometryArgs,
+    /// Simulation settings (YAML) giving the workspace, the camera and its noise; default:
+    /// `configs/simulate_agile_wrist.yaml`'s values.
+    #[arg(long)]
+    pub(crate) config: Option<PathBuf>,
+    /// Candidate poses drawn from the workspace.
+    #[arg(long, default_value_t = 2000)]
+    pub(crate) candidates: usize,
+    /// Plan the poses that add most to this session.
+    #[arg(long)]
+    pub(crate) augment: Option<PathBuf>,
+    /// The plan to write (`step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad`).
+    #[arg(long)]
+    pub(crate) out: PathBuf,
+    /// Also write a Rerun recording of the plan here (open it with `rerun FILE`).
+    #[arg(long)]
+    pub(crate) rrd: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
 }
 
 #[derive(Args)]
@@ -61,6 +91,13 @@ pub(crate) struct GeometryArgs {
 }
 
 impl GeometryArgs {
+    /// The model, and the parameters file when one is given (its `model`, else `--model`).
+    pub(crate) fn model_and_params(&self) -> Result<(RobotModel, Option<Parameters>)> {
+        let params = self.params.as_deref().map(Parameters::read).transpose()?;
+        let path = params.as_ref().and_then(|p| p.model.clone()).map_or_else(|| self.model.clone(), PathBuf::from);
+        Ok((RobotModel::load(&path)?, params))
+    }
+
     pub(crate) fn spm(&self) -> Result<Spm> {
         match &self.params {
             Some(path) => {
@@ -128,6 +165,9 @@ pub(crate) struct SimulateArgs {
     /// Session name (overrides the config's).
     #[arg(long)]
     pub(crate) name: Option<String>,
+    /// Capture exactly the poses of this plan (`spmcal plan`), in its order.
+    #[arg(long, conflicts_with = "poses")]
+    pub(crate) plan: Option<PathBuf>,
     /// The URDF model (overrides the config's).
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,

@@ -25,7 +25,7 @@ use crate::dataset::Session;
 use crate::model::{CameraRegistration, RobotModel, Spm};
 
 pub use scenes::{
-    SceneError, calibration_scene, comparison_scene, estimate_scene, parameters_markdown, replay_scene,
+    SceneError, calibration_scene, comparison_scene, estimate_scene, parameters_markdown, plan_scene, replay_scene,
     simulation_scene,
 };
 

@@ -246,6 +246,37 @@ pub fn simulation_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Resu
     })
 }
 
+/// `spmcal plan --rrd`: the planned poses in capture order (the mechanism drawn at each, the MP
+/// frame where it should be), the predicted orientation error after calibration at each, and
+/// the map of that error over the workspace. `session` is [`crate::plan::Plan::session`].
+///
+/// # Errors
+/// A [`SceneError`] when `params` make no valid manipulator.
+pub fn plan_scene<'a>(
+    session: &'a Session,
+    model: &'a RobotModel,
+    plan: &crate::plan::Plan,
+    params: Option<&Parameters>,
+) -> Result<Scene<'a>, SceneError> {
+    let spm = params.map(Parameters::spm).transpose()?.unwrap_or_else(|| model.spm.clone());
+    let rotations = plan.poses.iter().map(|p| (p.step, p.rotation)).collect();
+    let at_pose = |p: &crate::plan::PlannedPose| {
+        let candidate = plan.candidates.iter().position(|c| c.rotation == p.rotation);
+        (p.step, candidate.map_or(f64::NAN, |c| plan.uncertainty_deg[c]))
+    };
+    Ok(Scene {
+        session,
+        model,
+        mechanism: spm,
+        registration: params.and_then(|p| p.camera),
+        frames: vec![PoseFrames { name: "planned".into(), rotations }],
+        series: vec![Series { name: "predicted_error_deg".into(), values: plan.poses.iter().map(at_pose).collect() }],
+        iterations: Vec::new(),
+        documents: vec![("uncertainty_map".into(), plan.uncertainty_map())],
+        fitted_markers: None,
+    })
+}
+
 /// Per-pose FDA-vs-vision angles (degrees) of a fitted parameter vector, fitted and held-out poses.
 fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Series {
     let p = &calibration.parameterisation;

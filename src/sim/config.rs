@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use nalgebra::Rotation3;
 use serde::{Deserialize, Serialize};
 
 use crate::files::FileError;
@@ -56,6 +57,10 @@ pub struct SimConfig {
     pub capture: Capture,
     /// A free-motion recording (encoder and camera streams) instead of static poses.
     pub recording: Option<Recording>,
+    /// The orientations to capture, in order, instead of drawing them (`simulate --plan`; not
+    /// read from the file).
+    #[serde(skip)]
+    pub plan: Option<Vec<Rotation3<f64>>>,
 }
 
 /// Standard deviations of the true geometry around the nominal model.
@@ -187,6 +192,7 @@ impl Default for SimConfig {
             encoders: Encoders::default(),
             capture: Capture::default(),
             recording: None,
+            plan: None,
         }
     }
 }

@@ -9,4 +9,4 @@ mod simulator;
 pub use camera::{Measurement, lenses, looking_down, measure};
 pub use config::{Camera, Capture, DEFAULT_MODEL, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
 pub use scene::{BodyRotations, Scene};
-pub use simulator::{SimError, SimSummary, simulate};
+pub use simulator::{Candidate, SimError, SimSummary, candidates, simulate};

@@ -127,6 +127,72 @@ pub fn simulate(
     Ok((session, sim.summary))
 }
 
+/// A pose the capture checks accept: its orientation, the joint readings there and the markers
+/// both lenses see.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Candidate {
+    /// MP orientation (P → B).
+    pub rotation: Rotation3<f64>,
+    /// Joint readings of the working mode there.
+    pub joints: Vector3<f64>,
+    /// Markers (indices into the model's) both lenses see.
+    pub visible: Vec<usize>,
+}
+
+/// Up to `count` orientations drawn from `config`'s workspace as `simulate` draws its poses
+/// (home first, then random, seeded by `config.seed`), kept when they pass its checks on the
+/// geometry `spm` — reachable in the working mode, away from singularities, no link collisions —
+/// each with the markers (at `markers`, in P) the camera at `camera` sees. With a `margin`
+/// (radians) the checks must also pass, and the markers stay visible, `margin` further out in
+/// tilt and `margin` either way in yaw: a real mechanism, camera and operator are that far from
+/// the model. Gives up after `50 count + 100` draws.
+pub fn candidates(
+    config: &SimConfig,
+    model: &RobotModel,
+    spm: &Spm,
+    camera: &CameraRegistration,
+    markers: &[Vector3<f64>],
+    count: usize,
+    margin: f64,
+) -> Vec<Candidate> {
+    let mut sim = Simulator {
+        config,
+        model,
+        spm: spm.clone(),
+        camera: *camera,
+        markers: markers.to_vec(),
+        scene: Scene::new(model),
+        rng: ChaCha8Rng::seed_from_u64(config.seed),
+        summary: SimSummary::default(),
+    };
+    let max_attempts = 50 * count + 100;
+    let mut out = Vec::with_capacity(count);
+    for attempt in 0..max_attempts {
+        if out.len() == count {
+            break;
+        }
+        let r = if attempt == 0 { Rotation3::identity() } else { sim.candidate(attempt, max_attempts) };
+        let Ok(joints) = sim.accept(&r) else { continue };
+        let mut visible = sim.visible(&r, &joints);
+        let tilt = so3::log(&r).xy().norm();
+        let outwards = if tilt > 1e-9 { so3::exp(&(so3::log(&r) * ((tilt + margin) / tilt))) } else { r };
+        let nearby = [outwards, r * so3::exp(&(Vector3::z() * margin)), r * so3::exp(&(Vector3::z() * -margin))];
+        let robust = margin == 0.0
+            || nearby.iter().all(|near| match sim.accept(near) {
+                Ok(j) => {
+                    let seen = sim.visible(near, &j);
+                    visible.retain(|k| seen.contains(k));
+                    true
+                }
+                Err(_) => false,
+            });
+        if robust {
+            out.push(Candidate { rotation: r, joints, visible });
+        }
+    }
+    out
+}
+
 fn random_rotation_vector<R: Rng + ?Sized>(sigma: f64, rng: &mut R) -> Vector3<f64> {
     let normal = Normal::new(0.0, sigma).expect("validated deviation");
     Vector3::from_fn(|_, _| normal.sample(rng))
@@ -156,19 +222,21 @@ impl Simulator<'_> {
 
     fn run(&mut self, progress: &mut dyn FnMut(usize)) -> Result<Session, SimError> {
         let wanted = self.config.poses;
-        let max_attempts = match self.config.workspace.trajectory {
-            Trajectory::Random => 50 * wanted + 100,
-            Trajectory::Spiral => wanted,
+        let plan = self.config.plan.as_deref();
+        let wanted = plan.map_or(wanted, <[_]>::len);
+        let max_attempts = match (plan, self.config.workspace.trajectory) {
+            (Some(_), _) | (None, Trajectory::Spiral) => wanted,
+            (None, Trajectory::Random) => 50 * wanted + 100,
         };
         let mut poses = Vec::with_capacity(wanted);
         let mut truth = BTreeMap::new();
         let mut stations = 0;
         while stations < wanted && self.summary.attempts < max_attempts {
             // The first candidate is home: a level MP makes the natural reference pose.
-            let r = if self.summary.attempts == 0 {
-                Rotation3::identity()
-            } else {
-                self.candidate(self.summary.attempts, max_attempts)
+            let r = match plan {
+                Some(plan) => plan[self.summary.attempts],
+                None if self.summary.attempts == 0 => Rotation3::identity(),
+                None => self.candidate(self.summary.attempts, max_attempts),
             };
             self.summary.attempts += 1;
             match self.accept(&r) {
@@ -191,12 +259,15 @@ impl Simulator<'_> {
                 Err(Rejection::Collision) => self.summary.rejected_collision += 1,
             }
         }
-        let enough = match self.config.workspace.trajectory {
-            Trajectory::Random => stations == wanted,
-            Trajectory::Spiral => stations >= wanted.min(MIN_MARKERS),
+        // A planned pose the true mechanism cannot take is counted, not replaced.
+        let enough = match (plan, self.config.workspace.trajectory) {
+            (None, Trajectory::Random) => stations == wanted,
+            _ => stations >= wanted.min(MIN_MARKERS),
         };
-        // Simultaneous capture makes home the per-pose estimator's reference: it must see enough.
-        let reference_blind = !self.config.capture.sequential && poses.first().is_some_and(|p| p.seen() < MIN_MARKERS);
+        // Simultaneous capture makes home the per-pose estimator's reference: it must see enough
+        // (a plan's first pose need not be home; the session then picks its reference).
+        let reference_blind =
+            plan.is_none() && !self.config.capture.sequential && poses.first().is_some_and(|p| p.seen() < MIN_MARKERS);
         if !enough || poses.is_empty() || reference_blind {
             let (cause, key) = self.dominant_rejection(poses.first());
             return Err(SimError::TooFewPoses { found: stations, wanted, attempts: self.summary.attempts, cause, key });
@@ -205,19 +276,20 @@ impl Simulator<'_> {
         self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();
         let parameters = self.truth_parameters(None);
         let description = self.config.description.clone().unwrap_or_else(|| {
+            let trajectory = if plan.is_some() { "planned" } else { self.config.workspace.trajectory.name() };
             format!(
-                "simulated by spmcal simulate (seed {}, {} poses, {} trajectory)",
+                "simulated by spmcal simulate (seed {}, {} poses, {trajectory} trajectory)",
                 self.config.seed,
-                poses.len(),
-                self.config.workspace.trajectory.name()
+                poses.len()
             )
         });
+        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
         Ok(Session {
             name: self.config.name.clone(),
             description: Some(description),
             model: self.model.urdf_path.clone(),
             markers: self.model.markers.iter().map(|m| m.name.clone()).collect(),
-            reference_pose: 0,
+            reference_pose,
             poses,
             truth: Some(Truth { parameters, orientations: truth }),
             streams: None,
@@ -432,6 +504,19 @@ impl Simulator<'_> {
             captures.push((pose, at));
         }
         captures
+    }
+
+    /// The markers both lenses see at a pose.
+    fn visible(&self, r: &Rotation3<f64>, joints: &Vector3<f64>) -> Vec<usize> {
+        let rotations = self.scene.body_rotations(&self.spm, joints, r);
+        let cam = &self.config.camera;
+        let lens = lenses(&self.camera, cam.baseline_m);
+        (0..self.markers.len())
+            .filter(|&k| {
+                let point = r * self.markers[k];
+                lens.iter().all(|l| self.scene.occluder(&rotations, &point, l, cam.marker_radius_m).is_none())
+            })
+            .collect()
     }
 
     /// Encoder readings and camera measurements of the markers `which` at a pose.

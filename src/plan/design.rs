@@ -1,0 +1,271 @@
+//! Optimal designs for the I-criterion `φ(M) = tr(L M⁻¹)`.
+//!
+//! The continuous design puts weights `w_c ≥ 0`, `Σ w_c = 1`, on the candidates, with information
+//! `M(w) = M₀ + Σ w_c M_c` (`M₀`: what an existing session already knows, per planned pose). It
+//! is found by the multiplicative algorithm `w_c ← w_c (d_c / Σ w d)^½`, `d_c = tr(M⁻¹ L M⁻¹ M_c)`
+//! (Silvey, Titterington & Torsney 1978; with the power ½ it decreases `φ` monotonically for
+//! A- and I-criteria, Yu 2010), and checked by the general equivalence theorem: `w` is optimal
+//! iff no candidate's directional derivative `d_c` exceeds `Σ w d` (= `φ` without `M₀`). On small
+//! candidate sets the same optimum comes from the second-order cone program of Sagnol (2011),
+//! solved by clarabel ([`cone_program`]), which checks the algorithm.
+//!
+//! The exact design takes N distinct candidates: the N heaviest of the continuous design, then
+//! exchanges (Fedorov) of a chosen pose for a better candidate while `φ` decreases.
+
+use nalgebra::DMatrix;
+
+/// A continuous design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContinuousDesign {
+    /// Weight of each candidate (sum 1).
+    pub weights: Vec<f64>,
+    /// `φ(M(w))` for one pose's worth of information (`Σ w = 1`).
+    pub criterion: f64,
+    /// `max_c d_c / Σ_c w_c d_c`: 1 at the optimum (the equivalence theorem), above 1 before.
+    pub equivalence_ratio: f64,
+    /// Iterations used.
+    pub iterations: usize,
+}
+
+/// `φ(M) = tr(L M⁻¹)`, infinite when `M` is not positive definite.
+pub fn criterion(m: &DMatrix<f64>, l: &DMatrix<f64>) -> f64 {
+    match m.clone().cholesky() {
+        Some(c) => c.inverse().dot(l),
+        None => f64::INFINITY,
+    }
+}
+
+/// The directional derivatives `d_c = tr(M⁻¹ L M⁻¹ M_c)` and `φ`, or `None` when `M` is singular.
+fn derivatives(m: &DMatrix<f64>, l: &DMatrix<f64>, info: &[DMatrix<f64>]) -> Option<(Vec<f64>, f64)> {
+    let inverse = m.clone().cholesky()?.inverse();
+    let b = &inverse * l * &inverse;
+    Some((info.iter().map(|mc| b.dot(mc)).collect(), inverse.dot(l)))
+}
+
+/// The I-optimal continuous design over `info` (one matrix per candidate) for weighting `l`,
+/// with prior information `m0` (zero for a fresh capture, scaled to one pose), iterated until
+/// the equivalence ratio is below `1 + tolerance` or `max_iterations`.
+pub fn multiplicative(
+    info: &[DMatrix<f64>],
+    l: &DMatrix<f64>,
+    m0: &DMatrix<f64>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> ContinuousDesign {
+    let n = info.len();
+    let mut w = vec![1.0 / n as f64; n];
+    let mut iterations = 0;
+    let information = |w: &[f64]| weighted_sum(info, w, m0);
+    loop {
+        let m = information(&w);
+        let Some((d, phi)) = derivatives(&m, l, info) else {
+            return ContinuousDesign {
+                weights: w,
+                criterion: f64::INFINITY,
+                equivalence_ratio: f64::INFINITY,
+                iterations,
+            };
+        };
+        let average: f64 = w.iter().zip(&d).map(|(wc, dc)| wc * dc).sum();
+        let ratio = d.iter().copied().fold(0.0, f64::max) / average;
+        if ratio <= 1.0 + tolerance || iterations == max_iterations {
+            return ContinuousDesign { weights: w, criterion: phi, equivalence_ratio: ratio, iterations };
+        }
+        for (wc, dc) in w.iter_mut().zip(&d) {
+            *wc *= (dc / average).max(0.0).sqrt();
+        }
+        let total: f64 = w.iter().sum();
+        w.iter_mut().for_each(|wc| *wc /= total);
+        iterations += 1;
+    }
+}
+
+/// `m0 + Σ_c w_c M_c`, accumulated in place.
+pub(super) fn weighted_sum(info: &[DMatrix<f64>], w: &[f64], m0: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut m = m0.clone();
+    for (mc, &wc) in info.iter().zip(w) {
+        if wc != 0.0 {
+            m.zip_apply(mc, |a, b| *a += wc * b);
+        }
+    }
+    m
+}
+
+/// An exact design: N distinct candidates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExactDesign {
+    /// The chosen candidates.
+    pub chosen: Vec<usize>,
+    /// `φ(N M₀ + Σ_chosen M_c)`.
+    pub criterion: f64,
+    /// Exchanges made after the start.
+    pub exchanges: usize,
+}
+
+/// N distinct candidates: the heaviest of `start`, improved by exchanges while `φ` decreases.
+/// `m0` is the prior information of one pose's worth (as for [`multiplicative`]).
+pub fn exact(info: &[DMatrix<f64>], l: &DMatrix<f64>, m0: &DMatrix<f64>, n: usize, start: &[f64]) -> ExactDesign {
+    let n = n.min(info.len());
+    let mut order: Vec<usize> = (0..info.len()).collect();
+    order.sort_by(|a, b| start[*b].total_cmp(&start[*a]));
+    let mut chosen: Vec<usize> = order[..n].to_vec();
+    let mut m = m0 * n as f64;
+    chosen.iter().for_each(|&c| m += &info[c]);
+    let mut phi = criterion(&m, l);
+    let mut exchanges = 0;
+    // Each sweep: the candidates with the largest directional derivatives are tried in place of
+    // every chosen pose; the best exchange is made. Stops when none improves φ.
+    for _ in 0..200 {
+        let Some((d, _)) = derivatives(&m, l, info) else { break };
+        let mut outside: Vec<usize> = (0..info.len()).filter(|c| !chosen.contains(c)).collect();
+        outside.sort_by(|a, b| d[*b].total_cmp(&d[*a]));
+        outside.truncate(EXCHANGE_CANDIDATES);
+        let mut best: Option<(usize, usize, f64, DMatrix<f64>)> = None;
+        let mut trial = m.clone();
+        for (slot, &out) in chosen.iter().enumerate() {
+            let without = &m - &info[out];
+            for &inside in &outside {
+                trial.copy_from(&without);
+                trial += &info[inside];
+                let value = criterion(&trial, l);
+                if value < best.as_ref().map_or(phi * (1.0 - 1e-9), |b| b.2) {
+                    best = Some((slot, inside, value, trial.clone()));
+                }
+            }
+        }
+        let Some((slot, inside, value, trial)) = best else { break };
+        chosen[slot] = inside;
+        (m, phi) = (trial, value);
+        exchanges += 1;
+    }
+    chosen.sort_unstable();
+    ExactDesign { chosen, criterion: phi, exchanges }
+}
+
+/// Candidates tried per sweep of the exchange (those the current design would gain most from).
+const EXCHANGE_CANDIDATES: usize = 12;
+
+/// The D-criterion `log det M`, `-∞` when singular.
+pub fn log_det(m: &DMatrix<f64>) -> f64 {
+    match m.clone().cholesky() {
+        Some(c) => 2.0 * c.l().diagonal().iter().map(|x| x.ln()).sum::<f64>(),
+        None => f64::NEG_INFINITY,
+    }
+}
+
+/// `φ` of a design of the given candidates (with `m0` scaled to their number).
+pub fn criterion_of(info: &[DMatrix<f64>], l: &DMatrix<f64>, m0: &DMatrix<f64>, chosen: &[usize]) -> f64 {
+    let mut m = m0 * chosen.len() as f64;
+    chosen.iter().for_each(|&c| m += &info[c]);
+    criterion(&m, l)
+}
+
+/// The continuous I-optimal design as the second-order cone program of Sagnol (2011), solved by
+/// clarabel: with `L = K Kᵀ` and `M_c = A_c A_cᵀ`,
+/// `min Σ t_c` over `w, t, Z_c` subject to `Σ_c A_c Z_c = K`, `‖Z_c‖²_F ≤ t_c w_c`, `Σ w_c = 1`;
+/// its optimum is `min_w tr(L M(w)⁻¹)` and its `w` an optimal design. Only without prior
+/// information (`M₀ = 0`). Practical up to a few hundred candidates.
+///
+/// # Errors
+/// Clarabel does not reach an optimum (its status, in words).
+pub fn cone_program(info: &[DMatrix<f64>], l: &DMatrix<f64>) -> Result<ContinuousDesign, String> {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+    let p = l.nrows();
+    let k = factor(l);
+    let a: Vec<DMatrix<f64>> = info.iter().map(factor).collect();
+    let r = k.ncols();
+    let n = info.len();
+    // Variables: w (n), t (n), then Z_c (l_c × r, column-major) for each candidate.
+    let mut offset = Vec::with_capacity(n);
+    let mut next = 2 * n;
+    for a_c in &a {
+        offset.push(next);
+        next += a_c.ncols() * r;
+    }
+    let variables = next;
+    let mut rows: Vec<(usize, usize, f64)> = Vec::new();
+    let mut b: Vec<f64> = Vec::new();
+    // Σ_c A_c Z_c = K: one equality per entry (i, j) of K.
+    for j in 0..r {
+        for i in 0..p {
+            let row = b.len();
+            for (c, a_c) in a.iter().enumerate() {
+                for q in 0..a_c.ncols() {
+                    if a_c[(i, q)] != 0.0 {
+                        rows.push((row, offset[c] + j * a_c.ncols() + q, a_c[(i, q)]));
+                    }
+                }
+            }
+            b.push(k[(i, j)]);
+        }
+    }
+    let row = b.len();
+    for c in 0..n {
+        rows.push((row, c, 1.0));
+    }
+    b.push(1.0);
+    let equalities = b.len();
+    // (t + w, t − w, 2 Z) in the second-order cone ⇔ ‖Z‖² ≤ t w, t, w ≥ 0.
+    let mut cones = vec![SupportedConeT::ZeroConeT(equalities)];
+    for (c, a_c) in a.iter().enumerate() {
+        let first = b.len();
+        rows.push((first, n + c, -1.0));
+        rows.push((first, c, -1.0));
+        rows.push((first + 1, n + c, -1.0));
+        rows.push((first + 1, c, 1.0));
+        let size = a_c.ncols() * r;
+        for v in 0..size {
+            rows.push((first + 2 + v, offset[c] + v, -2.0));
+        }
+        b.extend(std::iter::repeat_n(0.0, 2 + size));
+        cones.push(SupportedConeT::SecondOrderConeT(2 + size));
+    }
+    let a_matrix = csc(b.len(), variables, rows);
+    let mut q = vec![0.0; variables];
+    q[n..2 * n].iter_mut().for_each(|x| *x = 1.0);
+    let p_matrix = CscMatrix::zeros((variables, variables));
+    let settings = DefaultSettingsBuilder::default().verbose(false).max_iter(200).build().map_err(|e| e.to_string())?;
+    let mut solver =
+        DefaultSolver::new(&p_matrix, &q, &a_matrix, &b, &cones, settings).map_err(|e| format!("{e:?}"))?;
+    solver.solve();
+    match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+        status => return Err(format!("the cone program ended {status:?}")),
+    }
+    let weights: Vec<f64> = solver.solution.x[..n].iter().map(|w| w.max(0.0)).collect();
+    let total: f64 = weights.iter().sum();
+    let weights: Vec<f64> = weights.iter().map(|w| w / total).collect();
+    let m = weighted_sum(info, &weights, &DMatrix::zeros(p, p));
+    let ratio = derivatives(&m, l, info).map_or(f64::INFINITY, |(d, phi)| d.iter().copied().fold(0.0, f64::max) / phi);
+    Ok(ContinuousDesign {
+        weights,
+        criterion: solver.solution.obj_val,
+        equivalence_ratio: ratio,
+        iterations: solver.solution.iterations as usize,
+    })
+}
+
+/// `F` with `F Fᵀ = S` for a symmetric positive semi-definite `S`, keeping the columns of
+/// eigenvalues above 1e-12 of the largest.
+fn factor(s: &DMatrix<f64>) -> DMatrix<f64> {
+    let Some(eigen) = crate::so3::bounded_symmetric_eigen(s) else { return DMatrix::zeros(s.nrows(), 0) };
+    let largest = eigen.eigenvalues.max().max(0.0);
+    let keep: Vec<usize> = (0..s.nrows()).filter(|&i| eigen.eigenvalues[i] > 1e-12 * largest).collect();
+    DMatrix::from_fn(s.nrows(), keep.len(), |i, j| eigen.eigenvectors[(i, keep[j])] * eigen.eigenvalues[keep[j]].sqrt())
+}
+
+/// A compressed sparse column matrix from `(row, column, value)` triplets.
+fn csc(rows: usize, columns: usize, mut triplets: Vec<(usize, usize, f64)>) -> clarabel::algebra::CscMatrix<f64> {
+    triplets.sort_by_key(|&(r, c, _)| (c, r));
+    let mut colptr = vec![0; columns + 1];
+    for &(_, c, _) in &triplets {
+        colptr[c + 1] += 1;
+    }
+    for c in 0..columns {
+        colptr[c + 1] += colptr[c];
+    }
+    let rowval = triplets.iter().map(|t| t.0).collect();
+    let nzval = triplets.iter().map(|t| t.2).collect();
+    clarabel::algebra::CscMatrix::new(rows, columns, colptr, rowval, nzval)
+}

@@ -1,0 +1,102 @@
+//! What each candidate pose would tell the marker-level fit, and what the user wants to know.
+//!
+//! A candidate's information is the Fisher information of its marker observations,
+//! `M_c = Σ_k J_kᵀ Σ_k⁻¹ J_k`, at the parameters planned around and under the config's stereo
+//! noise (`J_k` the Jacobian of marker `k`'s predicted camera position, `Σ_k` its stereo
+//! covariance). What the user wants is the mechanism's orientation over the workspace, so the
+//! design criterion weighs the parameters' covariance by `L = mean_e G_eᵀ G_e`, `G_e = ∂ω_e/∂x`
+//! the sensitivity of the orientation the model predicts at workspace pose `e` (the candidates
+//! themselves sample the workspace): `tr(L M⁻¹)` is the mean squared orientation error the
+//! calibration leaves (I-optimality).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::calib::{MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
+use crate::model::CameraRegistration;
+use crate::sim::Candidate;
+
+/// The candidates' information and the workspace weighting.
+#[derive(Debug, Clone)]
+pub struct Information {
+    /// `M_c` per candidate (p × p).
+    pub per_candidate: Vec<DMatrix<f64>>,
+    /// `G_c` per candidate (3 × p): the orientation's sensitivity to the parameters there.
+    pub sensitivities: Vec<DMatrix<f64>>,
+    /// `L = mean_c G_cᵀ G_c` (p × p).
+    pub workspace: DMatrix<f64>,
+}
+
+/// The information of each candidate's visible markers under `noise`, and the workspace weighting,
+/// at `x = 0` of `p` (the parameters planned around); `camera` places the markers in the camera
+/// frame as the model predicts them.
+///
+/// # Errors
+/// The model cannot be evaluated at a candidate (in words).
+pub fn information(
+    p: &Parameterisation,
+    camera: &CameraRegistration,
+    candidates: &[Candidate],
+    noise: &StereoNoise,
+) -> Result<Information, String> {
+    let x0 = DVector::zeros(p.len());
+    let observation = |c: usize, marker: usize| {
+        let candidate = &candidates[c];
+        let point = candidate.rotation * p.marker(&x0, marker);
+        MarkerObservation {
+            pose: c as u64,
+            marker,
+            joints: candidate.joints,
+            measured: camera.rotation * point + camera.translation,
+            line: 0,
+            station: None,
+            time_s: None,
+        }
+    };
+    let seen: Vec<MarkerObservation> = (0..candidates.len())
+        .flat_map(|c| candidates[c].visible.iter().map(move |&k| (c, k)))
+        .map(|(c, k)| observation(c, k))
+        .collect();
+    let model = MarkerModel::new(p, &seen);
+    let evaluation = model.evaluate(&x0, None, true).map_err(|e| e.to_string())?;
+    let jacobian = evaluation.jacobian.ok_or("no Jacobian")?;
+    let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
+    for (j, o) in seen.iter().enumerate() {
+        let block = model.whitening(j, noise) * jacobian.rows(3 * j, 3);
+        per_candidate[o.pose as usize] += block.transpose() * &block;
+    }
+    // One observation per candidate gives every candidate's orientation sensitivity, seen or not.
+    let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();
+    let sensitivities = MarkerModel::new(p, &every)
+        .evaluate(&x0, None, true)
+        .map_err(|e| e.to_string())?
+        .orientation_jacobians
+        .ok_or("no orientation sensitivities")?;
+    let mut workspace = DMatrix::zeros(p.len(), p.len());
+    for g in &sensitivities {
+        workspace += g.transpose() * g;
+    }
+    workspace /= candidates.len().max(1) as f64;
+    Ok(Information { per_candidate, sensitivities, workspace })
+}
+
+/// The noise model of a simulation config's camera.
+pub fn stereo_noise(camera: &crate::sim::Camera) -> StereoNoise {
+    StereoNoise {
+        reference_distance_m: camera.reference_distance_m,
+        lateral_m: camera.lateral_sigma_m,
+        lateral_std_error_m: 0.0,
+        depth_m: camera.depth_sigma_m,
+        depth_std_error_m: 0.0,
+    }
+}
+
+/// The predicted RMS orientation error (rad, the norm of the error vector) at each of the
+/// candidates' poses, for parameter covariance `covariance`.
+pub fn orientation_errors(info: &Information, covariance: &DMatrix<f64>) -> Vec<f64> {
+    info.sensitivities.iter().map(|g| (g * covariance * g.transpose()).trace().max(0.0).sqrt()).collect()
+}
+
+/// The markers no candidate shows (their positions cannot be calibrated).
+pub(super) fn unseen_markers(candidates: &[Candidate], markers: usize) -> Vec<usize> {
+    (0..markers).filter(|k| !candidates.iter().any(|c| c.visible.contains(k))).collect()
+}

@@ -1,0 +1,388 @@
+//! Capture planning (`spmcal plan`): which N poses to capture, in what order, and the accuracy
+//! they will buy.
+//!
+//! Candidates are drawn from the workspace as the simulator draws poses and kept when they pass
+//! its checks (working mode, away from singularities, no link collisions), each with the markers
+//! the camera sees ([`crate::sim::candidates`]). Each candidate's Fisher information for the
+//! marker-level fit and the workspace weighting are in [`information`]; the I-optimal design —
+//! the poses that minimise the mean predicted orientation variance over the workspace after
+//! calibration — in [`design`]; the capture order in [`route`].
+
+mod design;
+mod file;
+mod information;
+mod route;
+
+use nalgebra::{DMatrix, Rotation3, Vector3};
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use serde::Serialize;
+
+pub use design::{
+    ContinuousDesign, ExactDesign, cone_program, criterion, criterion_of, exact, log_det, multiplicative,
+};
+pub use file::{PlannedPose, plan_csv, read_plan};
+pub use information::{Information, information, orientation_errors, stereo_noise};
+pub use route::tour;
+
+use crate::calib::{CalibConfig, MarkerModel, Model as _, Parameterisation, marker_observations, marker_pose_errors};
+use crate::dataset::Session;
+use crate::model::{Parameters, RobotModel};
+use crate::sim::{Candidate, SimConfig, candidates, looking_down};
+
+/// What to plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanSettings {
+    /// Poses to choose.
+    pub poses: usize,
+    /// Candidates to draw from the workspace.
+    pub candidates: usize,
+    /// The multiplicative algorithm stops when no candidate's directional derivative exceeds the
+    /// design's by more than this fraction (the equivalence theorem's bound).
+    pub tolerance: f64,
+    /// ... or after this many iterations.
+    pub max_iterations: usize,
+    /// Random N-pose designs drawn to compare the plan with.
+    pub random_draws: usize,
+    /// Candidates must pass the workspace checks and keep their markers visible this far beyond
+    /// them (tilt outwards, yaw either way), degrees: the real mechanism, camera and hand are
+    /// about that far from the model (a plan of the model's extreme poses loses some to
+    /// collisions and occlusion otherwise).
+    pub margin_deg: f64,
+}
+
+impl Default for PlanSettings {
+    fn default() -> Self {
+        PlanSettings {
+            poses: 40,
+            candidates: 2000,
+            tolerance: 0.01,
+            max_iterations: 2000,
+            random_draws: 50,
+            margin_deg: 2.0,
+        }
+    }
+}
+
+/// Why no plan could be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlanError {
+    #[error(
+        "only {found} candidate poses pass the workspace checks (asked for {wanted} poses): loosen `workspace` in the config"
+    )]
+    /// Too few candidates pass the simulator's checks.
+    TooFewCandidates {
+        /// Candidates found.
+        found: usize,
+        /// Poses asked for.
+        wanted: usize,
+    },
+    #[error("no candidate lets the camera see marker `{0}`: its position cannot be calibrated")]
+    /// A marker no candidate shows.
+    UnseenMarker(String),
+    #[error("the parameters cannot be evaluated: {0}")]
+    /// The model, the parameters or the session cannot be used.
+    Model(String),
+    #[error("even all {0} candidates together leave some parameter undetermined")]
+    /// The information of every candidate together is singular.
+    Singular(usize),
+}
+
+/// Predicted orientation error after calibration over the workspace (degrees): RMS and worst.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Predicted {
+    /// RMS over the workspace of the orientation error's norm, `√(tr(L M⁻¹))`.
+    pub rms_deg: f64,
+    /// The worst workspace pose.
+    pub worst_deg: f64,
+    /// The D-criterion `log det M`.
+    pub log_det: f64,
+}
+
+/// What the plan buys, beside N random poses.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlanSummary {
+    /// Poses planned.
+    pub poses: usize,
+    /// Candidates it chose from.
+    pub candidates: usize,
+    /// Parameters of the marker-level fit.
+    pub parameters: usize,
+    /// The continuous optimum scaled to N poses (a bound no N-pose plan can beat).
+    pub continuous_optimum: Predicted,
+    /// Equivalence-theorem ratio of the continuous design (1 at the optimum).
+    pub equivalence_ratio: f64,
+    /// Iterations of the multiplicative algorithm.
+    pub iterations: usize,
+    /// Candidates carrying weight in the continuous design (above 1/(100 N)).
+    pub support: usize,
+    /// The plan.
+    pub plan: Predicted,
+    /// The plan's I-efficiency: continuous optimum over the plan's criterion (≤ 1).
+    pub efficiency: f64,
+    /// Exchanges made after rounding.
+    pub exchanges: usize,
+    /// N random reachable poses (mean criterion over the draws).
+    pub random: Predicted,
+    /// Random poses needed for the plan's mean accuracy (`None`: more than the candidates).
+    pub random_poses_needed: Option<usize>,
+    /// Joystick travel of the tour from home through the plan and back, degrees.
+    pub travel_deg: f64,
+    /// The session the plan adds to, with its poses.
+    pub augments: Option<(String, usize)>,
+}
+
+/// A capture plan.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The poses in capture order.
+    pub poses: Vec<PlannedPose>,
+    /// What it buys.
+    pub summary: PlanSummary,
+    /// The candidates it chose from.
+    pub candidates: Vec<Candidate>,
+    /// Predicted orientation error after calibration at each candidate (degrees): the map of the
+    /// plan's accuracy over the workspace.
+    pub uncertainty_deg: Vec<f64>,
+}
+
+impl Plan {
+    /// The plan as a session (its poses, numbered by step, with the joint readings the model
+    /// expects and no markers), for recordings.
+    pub fn session(&self, model: &RobotModel) -> Session {
+        let markers = model.markers.len();
+        let poses = self
+            .poses
+            .iter()
+            .map(|p| crate::dataset::SessionPose {
+                id: p.step,
+                joints: p.joints,
+                time_s: None,
+                markers: vec![None; markers],
+                line: 0,
+                marker_lines: vec![0; markers],
+                station: None,
+            })
+            .collect();
+        Session {
+            name: "plan".into(),
+            description: Some(format!("a capture plan of {} poses", self.poses.len())),
+            model: model.urdf_path.clone(),
+            markers: model.markers.iter().map(|m| m.name.clone()).collect(),
+            reference_pose: self.poses.first().map_or(0, |p| p.step),
+            poses,
+            truth: None,
+            streams: None,
+        }
+    }
+
+    /// The predicted orientation error after calibration over the workspace, as a markdown table:
+    /// the mean (and worst) over the candidates in each band of tilt and yaw.
+    pub fn uncertainty_map(&self) -> String {
+        let bands = [0.0, 10.0, 20.0, 30.0, f64::INFINITY];
+        let label = |k: usize| match bands[k + 1] {
+            b if b.is_finite() => format!("{}–{}°", bands[k], b),
+            _ => format!("> {}°", bands[k]),
+        };
+        let mut cells = vec![vec![(0.0, 0.0_f64, 0usize); 4]; 4];
+        for (c, e) in self.candidates.iter().zip(&self.uncertainty_deg) {
+            let (tilt, yaw) = tilt_and_yaw(&c.rotation);
+            let band = |x: f64| bands.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
+            let cell = &mut cells[band(tilt)][band(yaw)];
+            *cell = (cell.0 + e, cell.1.max(*e), cell.2 + 1);
+        }
+        let mut text =
+            String::from("Predicted orientation error after calibration (mean / worst, degrees)\n\n| tilt \\ yaw |");
+        for k in 0..4 {
+            text += &format!(" {} |", label(k));
+        }
+        text += "\n|---|---|---|---|---|\n";
+        for (k, row) in cells.iter().enumerate() {
+            text += &format!("| {} |", label(k));
+            for &(sum, worst, n) in row {
+                text += &if n == 0 { " – |".to_string() } else { format!(" {:.3} / {:.3} |", sum / n as f64, worst) };
+            }
+            text += "\n";
+        }
+        text
+    }
+}
+
+/// Tilt of the MP's z axis from the base's and yaw about it (degrees), `R = exp(tilt) exp(yaw z)`.
+fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
+    let z = r * Vector3::z();
+    let tilt = z.z.clamp(-1.0, 1.0).acos();
+    let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
+    let yaw = crate::so3::log(&(tilting.inverse() * r)).z;
+    (tilt.to_degrees(), yaw.to_degrees())
+}
+
+/// Plan `settings.poses` poses for `model` (or `params`: geometry, registration and markers
+/// where it has them) with the workspace, camera and noise of `config`; `augment`: a session the
+/// plan adds to (its information counts, its registration is fitted when `params` has none).
+///
+/// # Errors
+/// A [`PlanError`] when too few candidates pass the checks, a marker is never seen, the model or
+/// the session cannot be evaluated, or the parameters stay undetermined.
+pub fn plan(
+    model: &RobotModel,
+    params: Option<&Parameters>,
+    config: &SimConfig,
+    settings: &PlanSettings,
+    augment: Option<&Session>,
+) -> Result<Plan, PlanError> {
+    let nominal = Parameters::nominal(&model.spm, None);
+    let params = params.unwrap_or(&nominal);
+    let spm = params.spm().map_err(|e| PlanError::Model(e.to_string()))?;
+    let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
+    let markers: Vec<Vector3<f64>> = model
+        .markers
+        .iter()
+        .map(|m| params.markers.iter().find(|f| f.name == m.name).map_or(m.position, |f| f.position))
+        .collect();
+    let camera = match (params.camera, augment) {
+        (Some(c), _) => c,
+        (None, Some(session)) => marker_pose_errors(session, model, params).map_err(PlanError::Model)?.camera,
+        (None, None) => looking_down(config.camera.height_m),
+    };
+    let pool =
+        candidates(config, model, &spm, &camera, &markers, settings.candidates, settings.margin_deg.to_radians());
+    if pool.len() < settings.poses.max(2) {
+        return Err(PlanError::TooFewCandidates { found: pool.len(), wanted: settings.poses });
+    }
+    if let Some(&k) = information::unseen_markers(&pool, markers.len()).first() {
+        return Err(PlanError::UnseenMarker(names[k].clone()));
+    }
+    let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &CalibConfig::default().bounds);
+    let noise = stereo_noise(&config.camera);
+    let info = information(&p, &camera, &pool, &noise).map_err(PlanError::Model)?;
+    let n = settings.poses;
+    let prior = match augment {
+        Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
+        None => DMatrix::zeros(p.len(), p.len()),
+    };
+    let l = &info.workspace;
+    let every = design::weighted_sum(&info.per_candidate, &vec![1.0; pool.len()], &prior);
+    if !criterion(&every, l).is_finite() {
+        return Err(PlanError::Singular(pool.len()));
+    }
+    let continuous = multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations);
+    let chosen = exact(&info.per_candidate, l, &prior, n, &continuous.weights);
+    let mut m_plan = &prior * n as f64;
+    chosen.chosen.iter().for_each(|&c| m_plan += &info.per_candidate[c]);
+    let m_continuous = design::weighted_sum(&info.per_candidate, &continuous.weights, &prior) * n as f64;
+    let predicted = |m: &DMatrix<f64>| {
+        let covariance = m.clone().cholesky().map(|c| c.inverse());
+        let errors = covariance.map(|c| orientation_errors(&info, &c)).unwrap_or_default();
+        Predicted {
+            rms_deg: criterion(m, l).sqrt().to_degrees(),
+            worst_deg: errors.iter().copied().fold(0.0, f64::max).to_degrees(),
+            log_det: log_det(m),
+        }
+    };
+    let (random, random_poses_needed) = random_designs(&info, &prior, n, chosen.criterion, settings.random_draws);
+    let rotations: Vec<Rotation3<f64>> = chosen.chosen.iter().map(|&c| pool[c].rotation).collect();
+    let (order, travel) = tour(&rotations);
+    let poses = order
+        .iter()
+        .enumerate()
+        .map(|(step, &k)| {
+            let c = &pool[chosen.chosen[k]];
+            PlannedPose { step: step as u64 + 1, rotation: c.rotation, joints: c.joints }
+        })
+        .collect();
+    let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::Singular(n))?;
+    let uncertainty_deg = orientation_errors(&info, &covariance).iter().map(|e| e.to_degrees()).collect();
+    let summary = PlanSummary {
+        poses: n,
+        candidates: pool.len(),
+        parameters: p.len(),
+        continuous_optimum: predicted(&m_continuous),
+        equivalence_ratio: continuous.equivalence_ratio,
+        iterations: continuous.iterations,
+        support: continuous.weights.iter().filter(|&&w| w > 0.01 / n as f64).count(),
+        plan: predicted(&m_plan),
+        efficiency: (continuous.criterion / n as f64) / chosen.criterion,
+        exchanges: chosen.exchanges,
+        random,
+        random_poses_needed,
+        travel_deg: travel.to_degrees(),
+        augments: augment.map(|s| (s.name.clone(), s.poses.len())),
+    };
+    Ok(Plan { poses, summary, candidates: pool, uncertainty_deg })
+}
+
+/// The Fisher information of an existing session's marker observations at `p`'s parameters.
+fn session_information(
+    session: &Session,
+    p: &Parameterisation,
+    spm: &crate::model::Spm,
+    noise: &crate::calib::StereoNoise,
+) -> Result<DMatrix<f64>, PlanError> {
+    let (observations, _) = marker_observations(session, spm);
+    let model = MarkerModel::new(p, &observations);
+    let x0 = nalgebra::DVector::zeros(p.len());
+    let jacobian = model
+        .evaluate(&x0, None, true)
+        .map_err(|e| PlanError::Model(e.to_string()))?
+        .jacobian
+        .ok_or_else(|| PlanError::Model("no Jacobian".into()))?;
+    let mut m = DMatrix::zeros(p.len(), p.len());
+    for j in 0..observations.len() {
+        let block = model.whitening(j, noise) * jacobian.rows(3 * j, 3);
+        m += block.transpose() * &block;
+    }
+    Ok(m)
+}
+
+/// N random candidates, `draws` times: the mean criterion's prediction, and the fewest random
+/// poses whose mean criterion reaches `target` (searched by doubling then bisection).
+fn random_designs(
+    info: &Information,
+    prior: &DMatrix<f64>,
+    n: usize,
+    target: f64,
+    draws: usize,
+) -> (Predicted, Option<usize>) {
+    let all = info.per_candidate.len();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x9a11);
+    let mut indices: Vec<usize> = (0..all).collect();
+    let total_prior = prior * n as f64;
+    // Mean criterion (and, when asked, worst error and log det) of random designs of `size`.
+    let mut mean_over = |size: usize, full: bool| -> (f64, f64, f64) {
+        let (mut phi, mut worst, mut logdet) = (0.0, 0.0, 0.0);
+        for _ in 0..draws {
+            indices.shuffle(&mut rng);
+            let mut m = total_prior.clone();
+            indices[..size].iter().for_each(|&c| m += &info.per_candidate[c]);
+            phi += criterion(&m, &info.workspace);
+            if full {
+                logdet += log_det(&m);
+                if let Some(c) = m.clone().cholesky() {
+                    worst += orientation_errors(info, &c.inverse()).iter().copied().fold(0.0, f64::max);
+                }
+            }
+        }
+        let d = draws as f64;
+        (phi / d, worst / d, logdet / d)
+    };
+    let (phi, worst, logdet) = mean_over(n, true);
+    let random = Predicted { rms_deg: phi.sqrt().to_degrees(), worst_deg: worst.to_degrees(), log_det: logdet };
+    // The mean criterion falls as poses are added: find the first size that reaches the target.
+    let reaches =
+        |size: usize, mean_over: &mut dyn FnMut(usize, bool) -> (f64, f64, f64)| mean_over(size, false).0 <= target;
+    let (mut low, mut high) = (n, n);
+    while !reaches(high, &mut mean_over) {
+        if high == all {
+            return (random, None);
+        }
+        low = high;
+        high = (high * 2).min(all);
+    }
+    while high - low > 1 {
+        let mid = (low + high) / 2;
+        if reaches(mid, &mut mean_over) { high = mid } else { low = mid }
+    }
+    (random, Some(high))
+}

@@ -1,0 +1,132 @@
+//! Capture planning: the continuous design meets the equivalence theorem and agrees with the
+//! cone program, the rounded plan is near the continuous bound and far better than random poses,
+//! its prediction matches what calibrating on it achieves, the plan file round-trips and the
+//! simulator captures exactly its poses.
+
+use std::path::Path;
+
+use spmcal::calib::{CalibConfig, Parameterisation};
+use spmcal::model::RobotModel;
+use spmcal::plan::{PlanSettings, cone_program, information, multiplicative, plan, plan_csv, read_plan, stereo_noise};
+use spmcal::sim::{SimConfig, candidates, looking_down};
+
+#[path = "../examples/plan_study/study.rs"]
+mod study;
+
+fn setup() -> (SimConfig, RobotModel) {
+    let config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    let model = RobotModel::load(&config.model).unwrap();
+    (config, model)
+}
+
+#[test]
+fn the_continuous_design_meets_the_equivalence_theorem_and_the_cone_programs_optimum() {
+    let (config, model) = setup();
+    let camera = looking_down(config.camera.height_m);
+    let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
+    let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
+    let pool = candidates(&config, &model, &model.spm, &camera, &markers, 80, 2f64.to_radians());
+    let p =
+        Parameterisation::for_markers(*model.spm.geometry(), &camera, &markers, &names, &CalibConfig::default().bounds);
+    let info = information(&p, &camera, &pool, &stereo_noise(&config.camera)).unwrap();
+    let zero = nalgebra::DMatrix::zeros(p.len(), p.len());
+    let design = multiplicative(&info.per_candidate, &info.workspace, &zero, 1e-4, 100_000);
+    // The general equivalence theorem: no candidate's directional derivative exceeds the
+    // design's by more than the tolerance — the design is optimal to that tolerance, and its
+    // criterion within it of the optimum (φ(w) − φ* ≤ (max d − Σ w d) = tolerance · φ).
+    assert!(design.equivalence_ratio <= 1.0 + 1e-4, "{}", design.equivalence_ratio);
+    let cone = cone_program(&info.per_candidate, &info.workspace).unwrap();
+    eprintln!(
+        "multiplicative φ = {:.6e} ({} iterations), cone program φ = {:.6e} (equivalence ratio {:.5})",
+        design.criterion, design.iterations, cone.criterion, cone.equivalence_ratio
+    );
+    // Both optimal: criteria agree within the theorem's bound plus clarabel's tolerance (1e-8
+    // relative gap; its weights' own equivalence ratio shows how well it converged).
+    assert!(
+        (design.criterion - cone.criterion).abs() <= 2e-4 * cone.criterion,
+        "{} vs {}",
+        design.criterion,
+        cone.criterion
+    );
+    assert!(cone.equivalence_ratio < 1.01, "{}", cone.equivalence_ratio);
+}
+
+#[test]
+fn a_plan_predicts_what_calibrating_on_it_achieves_and_beats_twice_as_many_random_poses() {
+    let (config, model) = setup();
+    let settings = PlanSettings { poses: 40, ..PlanSettings::default() };
+    let planned = plan(&model, None, &config, &settings, None).unwrap();
+    let s = &planned.summary;
+    assert_eq!(planned.poses.len(), 40);
+    // Rounding to 40 distinct poses keeps most of the continuous optimum's value.
+    assert!(s.efficiency > 0.85 && s.efficiency <= 1.0 + 1e-9, "{}", s.efficiency);
+    assert!(s.plan.rms_deg < 0.5 * s.random.rms_deg, "{:?} vs {:?}", s.plan, s.random);
+    assert!(s.random_poses_needed.unwrap() >= 80, "{:?}", s.random_poses_needed);
+    // Calibrated on 10 true geometries: the plan's 40 poses against 80 random ones.
+    let rotations: Vec<_> = planned.poses.iter().map(|p| p.rotation).collect();
+    let errors = |poses: usize, plan: Option<&[nalgebra::Rotation3<f64>]>| {
+        let mut c = config.clone();
+        c.poses = poses;
+        study::pooled((0..10).map(|g| study::calibrated_error(&c, &model, 30_000 + g, plan).unwrap()))
+    };
+    let (achieved, random) = (errors(40, Some(&rotations)), errors(80, None));
+    eprintln!("plan: predicted {:.4}°, achieved {achieved:.4}°; 80 random poses {random:.4}°", s.plan.rms_deg);
+    assert!(achieved < random, "{achieved} vs {random}");
+    // The prediction is the expected RMS; 10 geometries estimate it to about ±10% (measured
+    // spread), so within 20%.
+    assert!((achieved / s.plan.rms_deg - 1.0).abs() < 0.2, "{achieved} vs {}", s.plan.rms_deg);
+}
+
+#[test]
+fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
+    let (mut config, model) = setup();
+    let settings = PlanSettings { poses: 12, candidates: 400, ..PlanSettings::default() };
+    let planned = plan(&model, None, &config, &settings, None).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plan.csv");
+    std::fs::write(&path, plan_csv(&planned.poses)).unwrap();
+    let back = read_plan(&path).unwrap();
+    for (a, b) in back.iter().zip(&planned.poses) {
+        // Numbers read back exactly; the rotation goes through its quaternion (rounding only).
+        assert_eq!((a.step, a.joints), (b.step, b.joints));
+        assert!(spmcal::so3::geodesic_angle(&a.rotation, &b.rotation) < 1e-14);
+    }
+    assert_eq!(back.iter().map(|p| p.step).collect::<Vec<_>>(), (1..=12).collect::<Vec<u64>>());
+    // The joints in the file are the model's IK of the orientations.
+    for p in &back {
+        assert!((model.spm.ik(&p.rotation).unwrap() - p.joints).amax() < 1e-12);
+    }
+    config.plan = Some(back.iter().map(|p| p.rotation).collect());
+    let (session, _) = spmcal::sim::simulate(&config, &model, &mut |_| {}).unwrap();
+    let truth = &session.truth.as_ref().unwrap().orientations;
+    let visited: Vec<_> = session.poses.iter().map(|p| truth[&p.id]).collect();
+    assert_eq!(visited, back.iter().map(|p| p.rotation).collect::<Vec<_>>());
+    // Bad plan files are located errors.
+    let text = plan_csv(&planned.poses);
+    let mut lines: Vec<&str> = text.lines().collect();
+    let repeated = lines[2].replacen("2,", "1,", 1);
+    lines[2] = &repeated;
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let err = read_plan(&path).unwrap_err().to_string();
+    assert!(err.contains("plan.csv:3: column `step`: step 1 appears twice"), "{err}");
+    std::fs::write(&path, "step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad\n1,0.9,0,0,0,0,0,0\n").unwrap();
+    let err = read_plan(&path).unwrap_err().to_string();
+    assert!(err.contains("plan.csv:2: column `qw`") && err.contains("unit norm"), "{err}");
+}
+
+#[test]
+fn a_plan_that_augments_a_session_counts_what_the_session_already_knows() {
+    let (config, model) = setup();
+    let (session, _) = spmcal::dataset::Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();
+    let settings = PlanSettings { poses: 10, candidates: 600, ..PlanSettings::default() };
+    let fresh = plan(&model, None, &config, &settings, None).unwrap();
+    let added = plan(&model, None, &config, &settings, Some(&session)).unwrap();
+    assert_eq!(added.summary.augments, Some(("agile_wrist_sim_20".to_string(), 20)));
+    // 20 poses already captured plus 10 planned predict better than the 10 alone.
+    assert!(
+        added.summary.plan.rms_deg < fresh.summary.plan.rms_deg,
+        "{:?} vs {:?}",
+        added.summary.plan,
+        fresh.summary.plan
+    );
+}
