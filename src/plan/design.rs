@@ -35,16 +35,19 @@ pub fn criterion(m: &DMatrix<f64>, l: &DMatrix<f64>) -> f64 {
     }
 }
 
-/// The directional derivatives `d_c = tr(M⁻¹ L M⁻¹ M_c)` and `φ`, or `None` when `M` is singular.
+/// The directional derivatives `d_c = tr(M⁻¹ L M⁻¹ M_c)` of every candidate and `φ`, or `None`
+/// when `M` is singular.
 fn derivatives(m: &DMatrix<f64>, l: &DMatrix<f64>, info: &[DMatrix<f64>]) -> Option<(Vec<f64>, f64)> {
-    let inverse = m.clone().cholesky()?.inverse();
-    let b = &inverse * l * &inverse;
-    Some((info.iter().map(|mc| b.dot(mc)).collect(), inverse.dot(l)))
+    derivatives_of(m, l, info, &(0..info.len()).collect::<Vec<_>>())
 }
 
 /// The I-optimal continuous design over `info` (one matrix per candidate) for weighting `l`,
 /// with prior information `m0` (zero for a fresh capture, scaled to one pose), iterated until
-/// the equivalence ratio is below `1 + tolerance` or `max_iterations`.
+/// the equivalence ratio over every candidate is below `1 + tolerance` or `max_iterations`.
+///
+/// Weights that fall below 1e-6 of the largest are set to zero and their candidates left out of
+/// the iterations (a multiplicative update never brings a weight back from that far); the final
+/// check covers every candidate, and one that would improve the design comes back.
 pub fn multiplicative(
     info: &[DMatrix<f64>],
     l: &DMatrix<f64>,
@@ -54,11 +57,11 @@ pub fn multiplicative(
 ) -> ContinuousDesign {
     let n = info.len();
     let mut w = vec![1.0 / n as f64; n];
+    let mut active: Vec<usize> = (0..n).collect();
     let mut iterations = 0;
-    let information = |w: &[f64]| weighted_sum(info, w, m0);
     loop {
-        let m = information(&w);
-        let Some((d, phi)) = derivatives(&m, l, info) else {
+        let m = weighted_sum(info, &w, m0);
+        let Some((d, phi)) = derivatives_of(&m, l, info, &active) else {
             return ContinuousDesign {
                 weights: w,
                 criterion: f64::INFINITY,
@@ -66,29 +69,72 @@ pub fn multiplicative(
                 iterations,
             };
         };
-        let average: f64 = w.iter().zip(&d).map(|(wc, dc)| wc * dc).sum();
+        let average: f64 = active.iter().zip(&d).map(|(&c, dc)| w[c] * dc).sum();
         let ratio = d.iter().copied().fold(0.0, f64::max) / average;
-        if ratio <= 1.0 + tolerance || iterations == max_iterations {
-            return ContinuousDesign { weights: w, criterion: phi, equivalence_ratio: ratio, iterations };
+        if ratio <= 1.0 + tolerance || iterations >= max_iterations {
+            // Converged on the active candidates: check them all.
+            let (all, _) = derivatives_of(&m, l, info, &(0..n).collect::<Vec<_>>()).expect("M was invertible");
+            let ratio_all = all.iter().copied().fold(0.0, f64::max) / average;
+            let comeback: Vec<usize> =
+                (0..n).filter(|&c| w[c] == 0.0 && all[c] > (1.0 + tolerance) * average).collect();
+            if comeback.is_empty() || iterations >= max_iterations {
+                return ContinuousDesign { weights: w, criterion: phi, equivalence_ratio: ratio_all, iterations };
+            }
+            for c in comeback {
+                w[c] = 1.0 / n as f64;
+                active.push(c);
+            }
+            active.sort_unstable();
+            let total: f64 = w.iter().sum();
+            w.iter_mut().for_each(|wc| *wc /= total);
+            continue;
         }
-        for (wc, dc) in w.iter_mut().zip(&d) {
-            *wc *= (dc / average).max(0.0).sqrt();
+        for (&c, dc) in active.iter().zip(&d) {
+            w[c] *= (dc / average).max(0.0).sqrt();
         }
         let total: f64 = w.iter().sum();
         w.iter_mut().for_each(|wc| *wc /= total);
+        let largest = w.iter().copied().fold(0.0, f64::max);
+        for &c in &active {
+            if w[c] < 1e-6 * largest {
+                w[c] = 0.0;
+            }
+        }
+        active.retain(|&c| w[c] > 0.0);
         iterations += 1;
     }
 }
 
-/// `m0 + Σ_c w_c M_c`, accumulated in place.
+/// The directional derivatives `d_c` of `active` candidates (in that order) and `φ`.
+fn derivatives_of(
+    m: &DMatrix<f64>,
+    l: &DMatrix<f64>,
+    info: &[DMatrix<f64>],
+    active: &[usize],
+) -> Option<(Vec<f64>, f64)> {
+    let inverse = m.clone().cholesky()?.inverse();
+    let b = &inverse * l * &inverse;
+    let part = |of: &[usize]| of.iter().map(|&c| b.dot(&info[c])).collect::<Vec<f64>>();
+    let (half, rest) = active.split_at(active.len() / 2);
+    let (mut d, second) = crate::in_parallel(|| part(half), || part(rest));
+    d.extend(second);
+    Some((d, inverse.dot(l)))
+}
+
+/// `m0 + Σ_c w_c M_c`, accumulated in place, half the candidates on each of two cores.
 pub(super) fn weighted_sum(info: &[DMatrix<f64>], w: &[f64], m0: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut m = m0.clone();
-    for (mc, &wc) in info.iter().zip(w) {
-        if wc != 0.0 {
-            m.zip_apply(mc, |a, b| *a += wc * b);
+    let part = |info: &[DMatrix<f64>], w: &[f64], mut m: DMatrix<f64>| {
+        for (mc, &wc) in info.iter().zip(w) {
+            if wc != 0.0 {
+                m.zip_apply(mc, |a, b| *a += wc * b);
+            }
         }
-    }
-    m
+        m
+    };
+    let h = info.len() / 2;
+    let zero = DMatrix::zeros(m0.nrows(), m0.ncols());
+    let (a, b) = crate::in_parallel(|| part(&info[..h], &w[..h], m0.clone()), || part(&info[h..], &w[h..], zero));
+    a + b
 }
 
 /// An exact design: N distinct candidates.

@@ -167,28 +167,19 @@ pub fn candidates(
     };
     let max_attempts = 50 * count + 100;
     let mut out = Vec::with_capacity(count);
-    for attempt in 0..max_attempts {
-        if out.len() == count {
-            break;
-        }
-        let r = if attempt == 0 { Rotation3::identity() } else { sim.candidate(attempt, max_attempts) };
-        let Ok(joints) = sim.accept(&r) else { continue };
-        let mut visible = sim.visible(&r, &joints);
-        let tilt = so3::log(&r).xy().norm();
-        let outwards = if tilt > 1e-9 { so3::exp(&(so3::log(&r) * ((tilt + margin) / tilt))) } else { r };
-        let nearby = [outwards, r * so3::exp(&(Vector3::z() * margin)), r * so3::exp(&(Vector3::z() * -margin))];
-        let robust = margin == 0.0
-            || nearby.iter().all(|near| match sim.accept(near) {
-                Ok(j) => {
-                    let seen = sim.visible(near, &j);
-                    visible.retain(|k| seen.contains(k));
-                    true
-                }
-                Err(_) => false,
-            });
-        if robust {
-            out.push(Candidate { rotation: r, joints, visible });
-        }
+    let mut attempts = 0;
+    // Drawn in order (the random stream decides), checked in batches on two cores, kept in order.
+    while out.len() < count && attempts < max_attempts {
+        let batch: Vec<Rotation3<f64>> = (attempts..max_attempts.min(attempts + (count - out.len()).max(64)))
+            .map(|k| if k == 0 { Rotation3::identity() } else { sim.candidate(k, max_attempts) })
+            .collect();
+        attempts += batch.len();
+        let (first, second) = batch.split_at(batch.len() / 2);
+        let check = |rotations: &[Rotation3<f64>]| -> Vec<Option<Candidate>> {
+            rotations.iter().map(|r| sim.robust_candidate(r, margin)).collect()
+        };
+        let (a, b) = crate::in_parallel(|| check(first), || check(second));
+        out.extend(a.into_iter().chain(b).flatten().take(count - out.len()));
     }
     out
 }
@@ -504,6 +495,23 @@ impl Simulator<'_> {
             captures.push((pose, at));
         }
         captures
+    }
+
+    /// `r` as a planning candidate: passing the checks there and `margin` beyond (see
+    /// [`candidates`]), with the markers seen at all of them.
+    fn robust_candidate(&self, r: &Rotation3<f64>, margin: f64) -> Option<Candidate> {
+        let joints = self.accept(r).ok()?;
+        let mut visible = self.visible(r, &joints);
+        if margin > 0.0 {
+            let tilt = so3::log(r).xy().norm();
+            let outwards = if tilt > 1e-9 { so3::exp(&(so3::log(r) * ((tilt + margin) / tilt))) } else { *r };
+            for near in [outwards, r * so3::exp(&(Vector3::z() * margin)), r * so3::exp(&(Vector3::z() * -margin))] {
+                let j = self.accept(&near).ok()?;
+                let seen = self.visible(&near, &j);
+                visible.retain(|k| seen.contains(k));
+            }
+        }
+        Some(Candidate { rotation: *r, joints, visible })
     }
 
     /// The markers both lenses see at a pose.
