@@ -554,9 +554,10 @@ impl fmt::Display for crate::plan::PlanSummary {
         row(f, &format!("{} random reachable poses", s.poses), &s.random)?;
         writeln!(
             f,
-            "plan efficiency {:.1}% of the continuous optimum ({} support points, equivalence ratio {:.4} after {} iterations; {} exchanges)",
+            "plan efficiency {:.1}% of the continuous optimum ({} support points; {}, equivalence ratio {:.4} after {} iterations; {} exchanges)",
             100.0 * s.efficiency,
             s.support,
+            s.solver,
             s.equivalence_ratio,
             s.iterations,
             s.exchanges

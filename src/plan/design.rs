@@ -73,7 +73,9 @@ pub fn multiplicative(
         let ratio = d.iter().copied().fold(0.0, f64::max) / average;
         if ratio <= 1.0 + tolerance || iterations >= max_iterations {
             // Converged on the active candidates: check them all.
-            let (all, _) = derivatives_of(&m, l, info, &(0..n).collect::<Vec<_>>()).expect("M was invertible");
+            let Some((all, _)) = derivatives_of(&m, l, info, &(0..n).collect::<Vec<_>>()) else {
+                return ContinuousDesign { weights: w, criterion: phi, equivalence_ratio: ratio, iterations };
+            };
             let ratio_all = all.iter().copied().fold(0.0, f64::max) / average;
             let comeback: Vec<usize> =
                 (0..n).filter(|&c| w[c] == 0.0 && all[c] > (1.0 + tolerance) * average).collect();

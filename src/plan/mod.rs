@@ -111,9 +111,12 @@ pub struct PlanSummary {
     pub parameters: usize,
     /// The continuous optimum scaled to N poses (a bound no N-pose plan can beat).
     pub continuous_optimum: Predicted,
+    /// What found the continuous design: the cone program (small candidate sets) or the
+    /// multiplicative algorithm.
+    pub solver: &'static str,
     /// Equivalence-theorem ratio of the continuous design (1 at the optimum).
     pub equivalence_ratio: f64,
-    /// Iterations of the multiplicative algorithm.
+    /// Iterations of the solver.
     pub iterations: usize,
     /// Candidates carrying weight in the continuous design (above 1/(100 N)).
     pub support: usize,
@@ -267,7 +270,14 @@ pub fn plan(
     if !criterion(&every, l).is_finite() {
         return Err(PlanError::Singular(pool.len()));
     }
-    let continuous = multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations);
+    // Small fresh candidate sets: the cone program (exact to clarabel's tolerance); otherwise, or
+    // should clarabel fail, the multiplicative algorithm.
+    let by_cone = (augment.is_none() && pool.len() <= CONE_PROGRAM_MAX_CANDIDATES)
+        .then(|| cone_program(&info.per_candidate, l).ok())
+        .flatten();
+    let solver = if by_cone.is_some() { "cone program (clarabel)" } else { "multiplicative algorithm" };
+    let continuous = by_cone
+        .unwrap_or_else(|| multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations));
     let chosen = exact(&info.per_candidate, l, &prior, n, &continuous.weights);
     let mut m_plan = &prior * n as f64;
     chosen.chosen.iter().for_each(|&c| m_plan += &info.per_candidate[c]);
@@ -299,6 +309,7 @@ pub fn plan(
         candidates: pool.len(),
         parameters: p.len(),
         continuous_optimum: predicted(&m_continuous),
+        solver,
         equivalence_ratio: continuous.equivalence_ratio,
         iterations: continuous.iterations,
         support: continuous.weights.iter().filter(|&&w| w > 0.01 / n as f64).count(),
@@ -335,6 +346,10 @@ fn session_information(
     }
     Ok(m)
 }
+
+/// Up to this many candidates (and no session to augment) the continuous design comes from the
+/// cone program (a few seconds at 150); beyond, from the multiplicative algorithm.
+const CONE_PROGRAM_MAX_CANDIDATES: usize = 150;
 
 /// Random designs whose worst workspace error is averaged.
 const WORST_DRAWS: usize = 10;
