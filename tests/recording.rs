@@ -232,9 +232,14 @@ fn the_default_blueprint_shows_only_panels_with_data() {
     let model = RobotModel::load(&session.model).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let settings = spmcal::plan::PlanSettings { poses: 12, candidates: 300, ..Default::default() };
+    let config = spmcal::sim::SimConfig::default();
+    let plan = spmcal::plan::plan(&model, None, &config, &settings, None).unwrap();
+    let planned = plan.session(&model);
     for (name, scene) in [
         ("replay", spmcal::record::replay_scene(&session, &model, None).unwrap()),
         ("calibration", spmcal::record::calibration_scene(&session, &model, &calibration).unwrap()),
+        ("plan", spmcal::record::plan_scene(&planned, &model, &plan, None).unwrap()),
     ] {
         let path = dir.path().join(format!("{name}.rrd"));
         spmcal::record::write_recording(&path, &scene).unwrap();

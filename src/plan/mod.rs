@@ -195,15 +195,19 @@ impl Plan {
             let cell = &mut cells[band(tilt)][band(yaw)];
             *cell = (cell.0 + e, cell.1.max(*e), cell.2 + 1);
         }
+        // Only the bands the workspace reaches.
+        let rows: Vec<usize> = (0..4).filter(|&k| cells[k].iter().any(|c| c.2 > 0)).collect();
+        let columns: Vec<usize> = (0..4).filter(|&k| cells.iter().any(|row| row[k].2 > 0)).collect();
         let mut text =
             String::from("Predicted orientation error after calibration (mean / worst, degrees)\n\n| tilt \\ yaw |");
-        for k in 0..4 {
+        for &k in &columns {
             text += &format!(" {} |", label(k));
         }
-        text += "\n|---|---|---|---|---|\n";
-        for (k, row) in cells.iter().enumerate() {
-            text += &format!("| {} |", label(k));
-            for &(sum, worst, n) in row {
+        text += &format!("\n|---|{}\n", "---|".repeat(columns.len()));
+        for &r in &rows {
+            text += &format!("| {} |", label(r));
+            for &k in &columns {
+                let (sum, worst, n) = cells[r][k];
                 text += &if n == 0 { " – |".to_string() } else { format!(" {:.3} / {:.3} |", sum / n as f64, worst) };
             }
             text += "\n";

@@ -173,6 +173,13 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
     if has("e_j") {
         panels.push(TimeSeriesView::new("e_j").with_origin("errors/e_j").into());
     }
+    if has("predicted_error_deg") {
+        panels.push(
+            TimeSeriesView::new("predicted orientation error after calibration (deg)")
+                .with_origin("errors/predicted_error_deg")
+                .into(),
+        );
+    }
     let mut documents: Vec<rerun::blueprint::ContainerLike> = Vec::new();
     if !scene.iterations.is_empty() {
         documents.push(TextDocumentView::new("fit").with_origin(FIT_TABLE).into());
