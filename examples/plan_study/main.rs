@@ -2,7 +2,7 @@
 //! plan of N poses (made once on the nominal model) and N, 2N and 4N random reachable poses,
 //! each calibrated on several true geometries; the RMS orientation error against the truth,
 //! beside the plan's own prediction. Writes `examples/plan_study/plan_study.svg`.
-//! Run: `cargo run --release --example plan_study [geometries]` (default 20). A failed fit is
+//! Run: `cargo run --release --example plan_study [geometries]` (default 40). A failed fit is
 //! counted, not hidden.
 
 use std::collections::BTreeMap;
@@ -17,7 +17,7 @@ mod study;
 use study::{calibrated_error, pooled};
 
 fn main() {
-    let geometries: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(20);
+    let geometries: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(40);
     let config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).expect("shipped config");
     let model = RobotModel::load(&config.model).expect("shipped model");
     let mut random: BTreeMap<usize, f64> = BTreeMap::new();
