@@ -6,7 +6,8 @@
 //! the camera sees ([`crate::sim::candidates`]). Each candidate's Fisher information for the
 //! marker-level fit and the workspace weighting are in [`information`]; the I-optimal design —
 //! the poses that minimise the mean predicted orientation variance over the workspace after
-//! calibration — in [`design`]; the capture order in [`route`].
+//! calibration — continuous by [`multiplicative`] (or [`cone_program`]), rounded by [`exact`];
+//! the capture order by [`tour`].
 
 mod design;
 mod file;
