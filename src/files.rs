@@ -62,6 +62,7 @@ impl FileError {
 ///
 /// # Errors
 /// A [`FileError`] when the temporary file cannot be created, written or renamed.
+#[cfg(feature = "full")]
 pub(crate) fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(path)?;
@@ -73,15 +74,18 @@ pub(crate) fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError
 /// failed run changes no existing file: every destination is checked first (not a folder, its
 /// folder takes new files) by creating its temporary file; [`Outputs::commit`] renames them all
 /// into place only when every one was written.
+#[cfg(feature = "full")]
 #[derive(Debug, Default)]
 pub struct Outputs {
     staged: Vec<(PathBuf, tempfile::NamedTempFile)>,
 }
 
 /// A reserved output of an [`Outputs`].
+#[cfg(feature = "full")]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Slot(usize);
 
+#[cfg(feature = "full")]
 impl Outputs {
     /// No outputs yet.
     pub fn new() -> Self {
@@ -155,6 +159,7 @@ impl Outputs {
 }
 
 /// `a()` and `b()` at the same time, `b` on a second thread (reading the files of a session).
+#[cfg(feature = "full")]
 pub(crate) fn in_parallel<A: Send, B: Send>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B + Send) -> (A, B) {
     std::thread::scope(|s| {
         let second = s.spawn(b);
@@ -164,6 +169,7 @@ pub(crate) fn in_parallel<A: Send, B: Send>(a: impl FnOnce() -> A + Send, b: imp
 }
 
 /// The folder a file is written in (`.` for a bare file name).
+#[cfg(feature = "full")]
 pub(crate) fn parent_folder(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -181,12 +187,14 @@ pub(crate) fn read_text(path: &Path) -> Result<String, FileError> {
 
 /// A number for a text file: the shortest text that reads back to the same `f64` (Ryū), in
 /// plain notation where that is readable and in exponent notation for very small or large values.
+#[cfg(feature = "full")]
 pub(crate) fn number(x: f64) -> String {
     ryu::Buffer::new().format(x).to_owned()
 }
 
 /// Append `,x` for each of `values` to a CSV line, each as [`number`] writes it, without
 /// allocating (tables of a long recording have millions of numbers).
+#[cfg(feature = "full")]
 pub(crate) fn push_numbers(line: &mut String, values: &[f64]) {
     let mut buffer = ryu::Buffer::new();
     for &x in values {
@@ -199,6 +207,7 @@ pub(crate) fn push_numbers(line: &mut String, values: &[f64]) {
 ///
 /// # Errors
 /// A [`FileError`] when either path cannot be resolved.
+#[cfg(feature = "full")]
 pub(crate) fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
     let canon = |p: &Path| p.canonicalize().map_err(|e| FileError::new(p, format!("cannot resolve: {e}")));
     let (from, target) = (canon(from)?, canon(target)?);
@@ -209,6 +218,7 @@ pub(crate) fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileE
 }
 
 /// `a/b/../c` → `a/c`, without touching the file system (for paths recorded in files).
+#[cfg(feature = "full")]
 pub(crate) fn tidy_path(path: &Path) -> PathBuf {
     use std::path::Component;
     let mut out = PathBuf::new();
@@ -224,6 +234,7 @@ pub(crate) fn tidy_path(path: &Path) -> PathBuf {
     out
 }
 
+#[cfg(feature = "full")]
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -36,21 +36,36 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod calib;
-pub mod compare;
-pub mod constellation;
-pub mod dataset;
+// The lean core (always): the model, the parameters file and their plumbing.
 mod files;
 pub mod model;
-pub mod plan;
 pub mod polar;
-pub mod record;
-pub mod report;
-pub mod sim;
 pub mod so3;
-pub(crate) mod table;
-
-pub(crate) use files::in_parallel;
-pub use files::{FileError, Outputs, Slot};
-pub mod vision;
 mod yaml;
+pub use files::FileError;
+
+// Everything else: feature `full` (the default).
+#[cfg(feature = "full")]
+pub mod calib;
+#[cfg(feature = "full")]
+pub mod compare;
+#[cfg(feature = "full")]
+pub mod constellation;
+#[cfg(feature = "full")]
+pub mod dataset;
+#[cfg(feature = "full")]
+pub mod plan;
+#[cfg(feature = "full")]
+pub mod record;
+#[cfg(feature = "full")]
+pub mod report;
+#[cfg(feature = "full")]
+pub mod sim;
+#[cfg(feature = "full")]
+pub(crate) mod table;
+#[cfg(feature = "full")]
+pub mod vision;
+#[cfg(feature = "full")]
+pub(crate) use files::in_parallel;
+#[cfg(feature = "full")]
+pub use files::{Outputs, Slot};

@@ -173,6 +173,7 @@ pub(crate) fn parse<T: DeserializeOwned>(path: &Path, text: &str) -> Result<(T, 
     Ok((value, keys))
 }
 
+#[cfg(feature = "full")]
 /// Read a YAML settings file into `T`, then `check` it; a value `check` refuses, as
 /// `(key path, reason)`, is reported at the line of its key.
 pub(crate) fn read_checked<T: DeserializeOwned>(

@@ -4,18 +4,23 @@
 mod assembly;
 mod geometry;
 mod params;
+#[cfg(feature = "full")]
 mod perturb;
 mod spm;
+#[cfg(feature = "full")]
 mod urdf;
+#[cfg(feature = "full")]
 mod urdf_check;
 
 pub use assembly::AssemblyMode;
 pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};
 pub use params::{CameraRegistration, MarkerPosition, PARAMETERS_FORMAT, ParameterSource, Parameters};
+#[cfg(feature = "full")]
 pub use perturb::{GeometrySpread, perturb, tilt};
 pub use spm::{
     Branch, FdaError, FdaSettings, IK_SINGULAR_SINE, IkError, Jacobians, Spm, SpmError, conditioning_index, wrap_angle,
 };
+#[cfg(feature = "full")]
 pub use urdf::{
     Body, BodyShape, CLOSURE_TOLERANCE_RAD, CONCURRENCY_TOLERANCE_M, Marker, ModelError, RobotModel, Shape,
     companion_path,

@@ -25,7 +25,9 @@ use serde::{Deserialize, Serialize};
 
 use super::geometry::LegGeometry;
 use super::spm::Spm;
-use crate::files::{FileError, write_atomic};
+use crate::files::FileError;
+#[cfg(feature = "full")]
+use crate::files::write_atomic;
 use crate::so3;
 
 /// The format tag written at the top of every parameters file.
@@ -295,6 +297,7 @@ impl Parameters {
     ///
     /// # Errors
     /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
+    #[cfg(feature = "full")]
     pub fn write(&self, path: &Path) -> Result<(), FileError> {
         write_atomic(path, self.to_yaml().as_bytes())
     }
