@@ -10,18 +10,17 @@
 //! a person reads numbers them 1, 2, 3 — messages (`leg 2: …`), parameter names (`alpha1_2`),
 //! recording entities (`world/legs/leg2`).
 //!
-//! Using a (calibrated) model at run time, e.g. in a 1 kHz haptic loop:
+//! Using a (calibrated) model at run time, e.g. in a 1 kHz haptic loop — all a controller needs is
+//! the lean core, `spmcal = { version = "0.1", default-features = false }` (the model and the
+//! parameters file on nalgebra, serde and thiserror; the default feature `full` adds the rest):
 //!
 //! ```
 //! use nalgebra::Vector3;
-//! use spmcal::model::{Parameters, RobotModel};
+//! use spmcal::model::Parameters;
 //!
-//! // The nominal model, or a calibrated one: `Parameters::read(path)?.spm()?`.
-//! let spm = RobotModel::load(std::path::Path::new("models/agile_wrist.urdf"))?.spm;
-//! # let dir = tempfile::tempdir()?;
-//! # let path = dir.path().join("params.yaml");
-//! # Parameters::nominal(&spm, None).write(&path)?;
-//! let spm = Parameters::read(&path)?.spm()?;
+//! // A parameters file: calibrated (`spmcal calibrate --out params.yaml`) or any other; here the
+//! // true geometry of a simulated session.
+//! let spm = Parameters::read(std::path::Path::new("datasets/agile_wrist_sim_20/truth.yaml"))?.spm()?;
 //!
 //! // Once: the working-mode orientation, by continuation from home (≈2 µs).
 //! let mut r = spm.forward(&Vector3::new(0.10, -0.05, 0.02))?;
