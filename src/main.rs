@@ -19,6 +19,7 @@ use spmcal::{Outputs, Slot};
 
 mod cli {
     pub(crate) mod args;
+    pub(crate) mod export;
     pub(crate) mod plan;
 }
 use cli::args::*;
@@ -61,6 +62,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Compare(args) => compare(args),
         Command::Replay(args) => replay(args),
         Command::Plan(args) => cli::plan::plan(args),
+        Command::Export(args) => cli::export::export(args),
     }
 }
 

@@ -261,3 +261,33 @@ fn plan_writes_the_poses_in_order_a_summary_and_a_recording_and_simulate_capture
     let text = String::from_utf8_lossy(&human.stdout);
     assert!(text.contains("random poses needed") && text.contains("tour from home"), "{text}");
 }
+
+#[test]
+fn export_writes_a_urdf_and_companion_that_drive_fda_as_the_parameters_file_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let (params, urdf) = (dir.path().join("p.yaml"), dir.path().join("calibrated.urdf"));
+    let cal = spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap()]);
+    assert!(cal.status.success(), "{}", String::from_utf8_lossy(&cal.stderr));
+    let run = spmcal(&["export", "--params", params.to_str().unwrap(), "--urdf", urdf.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(dir.path().join("calibrated.yaml").exists());
+    let joints = "datasets/joystick_circle/joints.csv";
+    let by_model = spmcal(&["fda", "--joints", joints, "--model", urdf.to_str().unwrap(), "--json"]);
+    let by_params = spmcal(&["fda", "--joints", joints, "--params", params.to_str().unwrap(), "--json"]);
+    let quaternions = |out: &std::process::Output| -> Vec<f64> {
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["results"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|p| p["q_wxyz"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
+            .collect()
+    };
+    let (a, b) = (quaternions(&by_model), quaternions(&by_params));
+    assert_eq!(a.len(), 36 * 4);
+    assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12));
+    // A destination folder that does not exist is an error naming it, and writes nothing.
+    let missing = dir.path().join("no/such/folder/x.urdf");
+    let err = spmcal(&["export", "--params", params.to_str().unwrap(), "--urdf", missing.to_str().unwrap()]);
+    assert!(!err.status.success() && String::from_utf8_lossy(&err.stderr).contains("no/such/folder"));
+}

@@ -162,3 +162,50 @@ fn parameters_file_errors_name_file_line_and_reason() {
     let err = Parameters::read(&path).unwrap_err();
     assert!(err.line.is_some(), "a YAML typo must carry its line: {err}");
 }
+
+#[test]
+fn an_exported_urdf_gives_the_parameters_files_forward_kinematics_and_check_urdf_accepts_it() {
+    use rand::{Rng, SeedableRng};
+    // A calibrated-like parameter set: the true geometry of a simulated session (axes tilted,
+    // link angles and encoder offsets off nominal) with its misplaced markers.
+    let params =
+        spmcal::model::Parameters::read(std::path::Path::new("datasets/agile_wrist_sim_400/truth.yaml")).unwrap();
+    let model = spmcal::model::RobotModel::load(std::path::Path::new("models/agile_wrist.urdf")).unwrap();
+    let provenance = vec!["test export -- with a double dash".to_string(), "and\na newline".to_string()];
+    let exported = spmcal::model::export(&model, &params, &provenance).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = dir.path().join("calibrated.urdf");
+    std::fs::write(&urdf, &exported.urdf).unwrap();
+    std::fs::write(spmcal::model::companion_path(&urdf), &exported.companion).unwrap();
+    let loaded = spmcal::model::RobotModel::load(&urdf).unwrap();
+    assert_eq!(
+        loaded.markers.iter().map(|m| m.position).collect::<Vec<_>>(),
+        params.markers.iter().map(|m| m.position).collect::<Vec<_>>()
+    );
+    // The same FDA, from the same encoder readings, on 1,000 poses of the workspace.
+    let from_params = params.spm().unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+    let mut worst: f64 = 0.0;
+    let mut tested = 0;
+    while tested < 1000 {
+        let omega = nalgebra::Vector3::new(
+            rng.random_range(-0.45..0.45),
+            rng.random_range(-0.45..0.45),
+            rng.random_range(-0.5..0.5),
+        );
+        let Ok(joints) = from_params.ik(&spmcal::so3::exp(&omega)) else { continue };
+        let (Ok(a), Ok(b)) = (from_params.forward(&joints), loaded.spm.forward(&joints)) else { continue };
+        worst = worst.max(spmcal::so3::geodesic_angle(&a, &b));
+        tested += 1;
+    }
+    assert!(worst < 1e-12, "{worst:e} rad");
+    // The offsets are what the URDF's joints are ahead of the readings; home is all zeros there.
+    let home = from_params.ik(&nalgebra::Rotation3::identity()).unwrap();
+    assert!(exported.companion.contains("encoder_offsets_deg: ["), "{}", exported.companion);
+    assert!(home.iter().any(|t| t.abs() > 1e-3), "the truth's home readings are not zero: {home:?}");
+    // urdfdom's parser (an independent one) accepts it, where installed.
+    match std::process::Command::new("check_urdf").arg(&urdf).output() {
+        Ok(out) => assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stdout)),
+        Err(_) => eprintln!("skipped: check_urdf not installed"),
+    }
+}

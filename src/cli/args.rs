@@ -34,6 +34,24 @@ pub(crate) enum Command {
     Replay(ReplayArgs),
     /// Choose the poses to capture that buy the most accuracy, in an order to follow.
     Plan(PlanArgs),
+    /// Write a calibrated URDF and its companion from a parameters file.
+    Export(ExportArgs),
+}
+
+#[derive(Args)]
+pub(crate) struct ExportArgs {
+    /// The (calibrated) parameters file.
+    #[arg(long)]
+    pub(crate) params: PathBuf,
+    /// The URDF to write; its companion `.yaml` is written beside it.
+    #[arg(long)]
+    pub(crate) urdf: PathBuf,
+    /// The model whose URDF is copied (default: the parameters file's `model`, else the nominal one).
+    #[arg(long)]
+    pub(crate) model: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
 }
 
 #[derive(Args)]

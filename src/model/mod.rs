@@ -2,6 +2,8 @@
 //! analysis (tracking, continuation, all assembly modes) and Jacobians.
 
 mod assembly;
+#[cfg(feature = "full")]
+mod export;
 mod geometry;
 mod params;
 #[cfg(feature = "full")]
@@ -13,6 +15,8 @@ mod urdf;
 mod urdf_check;
 
 pub use assembly::AssemblyMode;
+#[cfg(feature = "full")]
+pub use export::{ExportedModel, export};
 pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};
 pub use params::{CameraRegistration, MarkerPosition, PARAMETERS_FORMAT, ParameterSource, Parameters};
 #[cfg(feature = "full")]

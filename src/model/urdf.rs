@@ -5,7 +5,8 @@
 //! is closed, and gives the marker positions in P. The geometry of DESIGN.md is read off the
 //! tree at the zero configuration (all joint values 0 = the home pose `R = I`):
 //! `u` = actuated axis, `w(0)` = intermediate axis, `v0` = platform axis, all in B;
-//! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, `δ = 0`.
+//! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, and `δ` the
+//! companion's `encoder_offsets_deg` (0 when absent: joint value = encoder reading + offset).
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -172,21 +173,25 @@ pub enum ModelError {
     },
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct Companion {
-    platform_link: String,
-    legs: Vec<CompanionLeg>,
-    markers_m: BTreeMap<String, [f64; 3]>,
+pub(super) struct Companion {
+    pub(super) platform_link: String,
+    pub(super) legs: Vec<CompanionLeg>,
+    pub(super) markers_m: BTreeMap<String, [f64; 3]>,
+    /// Per leg, what the URDF joint value of `theta_i` is ahead of the encoder reading (joint value
+    /// = reading + offset), degrees; absent: 0 (a calibrated URDF has them).
+    #[serde(default)]
+    pub(super) encoder_offsets_deg: Option<[f64; 3]>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct CompanionLeg {
-    actuated: String,
-    intermediate: String,
-    platform: String,
-    closes_on: Option<String>,
+pub(super) struct CompanionLeg {
+    pub(super) actuated: String,
+    pub(super) intermediate: String,
+    pub(super) platform: String,
+    pub(super) closes_on: Option<String>,
 }
 
 /// The companion file of a URDF: same folder and stem, extension `.yaml`.
@@ -207,7 +212,7 @@ impl PlacedJoint<'_> {
     }
 }
 
-fn origin_isometry(pose: &urdf_rs::Pose) -> Isometry3<f64> {
+pub(super) fn origin_isometry(pose: &urdf_rs::Pose) -> Isometry3<f64> {
     let [r, p, y] = pose.rpy.0;
     Isometry3::from_parts(Translation3::from(Vector3::from(pose.xyz.0)), UnitQuaternion::from_euler_angles(r, p, y))
 }
@@ -238,7 +243,7 @@ fn companion_error(e: FileError) -> ModelError {
     ModelError::File(e)
 }
 
-fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
+pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
     let (companion, keys) = crate::yaml::read::<Companion>(path).map_err(|e| match e.line {
         None if e.reason.starts_with("cannot read") => ModelError::Unreadable {
             path: path.to_path_buf(),
@@ -249,6 +254,10 @@ fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
     if companion.legs.len() != 3 {
         let reason = format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len());
         return Err(companion_error(keys.error(path, "legs", reason)));
+    }
+    if companion.encoder_offsets_deg.is_some_and(|o| !o.iter().all(|d| d.is_finite() && d.abs() <= 360.0)) {
+        let reason = "every encoder offset must be a finite angle within ±360°".to_string();
+        return Err(companion_error(keys.error(path, "encoder_offsets_deg", reason)));
     }
     let points: Vec<Vector3<f64>> = companion.markers_m.values().map(|p| Vector3::from(*p)).collect();
     for (name, p) in &companion.markers_m {
@@ -272,9 +281,9 @@ fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
     Ok((companion, keys))
 }
 
-struct Loader<'a> {
-    path: &'a Path,
-    robot: &'a urdf_rs::Robot,
+pub(super) struct Loader<'a> {
+    pub(super) path: &'a Path,
+    pub(super) robot: &'a urdf_rs::Robot,
 }
 
 impl<'a> Loader<'a> {
@@ -287,7 +296,7 @@ impl<'a> Loader<'a> {
     }
 
     /// Pose in B of every link at the zero configuration, from the tree's root.
-    fn link_frames(&self) -> Result<HashMap<&'a str, Isometry3<f64>>, ModelError> {
+    pub(super) fn link_frames(&self) -> Result<HashMap<&'a str, Isometry3<f64>>, ModelError> {
         let children: std::collections::HashSet<&str> =
             self.robot.joints.iter().map(|j| j.child.link.as_str()).collect();
         let roots: Vec<&str> =
@@ -345,7 +354,7 @@ impl<'a> Loader<'a> {
         Ok(placed)
     }
 
-    fn build(&self, companion: Companion) -> Result<RobotModel, ModelError> {
+    pub(super) fn build(&self, companion: Companion) -> Result<RobotModel, ModelError> {
         let frames = self.link_frames()?;
         let platform = frames
             .get(companion.platform_link.as_str())
@@ -379,7 +388,7 @@ impl<'a> Loader<'a> {
                 alpha1,
                 alpha2: w0.dot(&(platform.rotation * v0)).clamp(-1.0, 1.0).acos(),
                 v0,
-                delta: 0.0,
+                delta: companion.encoder_offsets_deg.map_or(0.0, |o| o[i].to_radians()),
             };
             leg_links.push([actuated.joint.child.link.clone(), intermediate.joint.child.link.clone()]);
         }

@@ -1,0 +1,45 @@
+//! `spmcal export`: a calibrated URDF and its companion, written together (atomically).
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use spmcal::Outputs;
+use spmcal::model::{Parameters, RobotModel, companion_path, export as export_model};
+use spmcal::report::Envelope;
+
+use super::args::ExportArgs;
+use crate::out;
+
+pub(crate) fn export(args: ExportArgs) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let companion = companion_path(&args.urdf);
+    let (urdf_slot, companion_slot) = (outputs.reserve(&args.urdf)?, outputs.reserve(&companion)?);
+    let params = Parameters::read(&args.params)?;
+    let model_path = args
+        .model
+        .clone()
+        .or_else(|| params.model.clone().map(PathBuf::from))
+        .unwrap_or_else(|| PathBuf::from("models/agile_wrist.urdf"));
+    let model = RobotModel::load(&model_path)?;
+    let mut provenance = vec![
+        format!("Calibrated model exported by spmcal {} from {}", env!("CARGO_PKG_VERSION"), args.params.display()),
+        format!("(parameters: {:?}; copied from the model {})", params.source, model_path.display()),
+    ];
+    if let Some(serde_yaml::Value::Mapping(fit)) = &params.fit {
+        for (key, value) in fit {
+            let value = serde_json::to_string(value).unwrap_or_default();
+            provenance.push(format!("fit {}: {value}", key.as_str().unwrap_or("?")));
+        }
+    }
+    let exported = export_model(&model, &params, &provenance)?;
+    outputs.write(urdf_slot, exported.urdf.as_bytes())?;
+    outputs.write(companion_slot, exported.companion.as_bytes())?;
+    outputs.commit()?;
+    let (urdf, companion) = (args.urdf.display().to_string(), companion.display().to_string());
+    if args.json {
+        let summary =
+            serde_json::json!({ "urdf": urdf, "companion": companion, "model": model_path.display().to_string() });
+        return out(&(Envelope::new("export", summary).input("params", args.params.display()).to_json() + "\n"));
+    }
+    out(&format!("wrote {urdf} and {companion} (load it with --model {urdf})\n"))
+}

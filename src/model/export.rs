@@ -1,0 +1,113 @@
+//! A calibrated URDF (`spmcal export`): the calibrated joint axes written into a copy of the
+//! model's URDF, with a companion beside it (closures, markers as fitted, encoder offsets) —
+//! loading it gives the same forward kinematics as the parameters file.
+//!
+//! As in the nominal model, all joint values 0 is the home pose `R = I` and each joint axis in
+//! the file is its axis in B there: the actuated axis `u`, the intermediate axis `w` at home and
+//! the platform axis `v0` of each leg. The calibrated mechanism reaches home at encoder readings
+//! `θ_home` (not 0 in general), so the URDF's joint value of `theta_i` is the reading plus the
+//! companion's `encoder_offsets_deg[i] = −θ_home,i`.
+
+use nalgebra::{Rotation3, Vector3};
+
+use super::params::Parameters;
+use super::urdf::{Companion, Loader, ModelError, RobotModel, companion_path, read_companion};
+
+/// The two files of a calibrated model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportedModel {
+    /// The URDF text.
+    pub urdf: String,
+    /// The companion's text (`NAME.yaml` beside `NAME.urdf`).
+    pub companion: String,
+}
+
+/// The calibrated model of `params` (geometry, markers) as a URDF and companion, from `model`'s
+/// URDF (its links, shapes and joint names kept); `provenance` lines go into both files as
+/// comments. The result is checked by loading it back.
+///
+/// # Errors
+/// A [`ModelError`] when the model's files cannot be read, the parameters make no manipulator or
+/// do not reach home, or the exported model does not load.
+pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) -> Result<ExportedModel, ModelError> {
+    // One line each, and nothing that would end an XML comment.
+    let provenance: Vec<String> =
+        provenance.iter().map(|l| l.replace(['\n', '\r'], " ").replace("--", "- -")).collect();
+    let provenance = provenance.as_slice();
+    let path = &model.urdf_path;
+    let unreadable = |reason: String| ModelError::Unreadable { path: path.clone(), reason };
+    let mut robot = urdf_rs::read_file(path).map_err(|e| unreadable(e.to_string()))?;
+    let (mut companion, _) = read_companion(&companion_path(path))?;
+    let spm = params.spm().map_err(|source| ModelError::Geometry { path: path.clone(), source })?;
+    let home =
+        spm.ik(&Rotation3::identity()).map_err(|e| unreadable(format!("the parameters do not reach home: {e}")))?;
+    let mut axes: Vec<(String, Vector3<f64>)> = Vec::new();
+    for (i, (leg, names)) in params.legs.iter().zip(&companion.legs).enumerate() {
+        let phi = home[i] + leg.delta;
+        let w = leg.u * leg.alpha1.cos() + (leg.z * phi.cos() + leg.u.cross(&leg.z) * phi.sin()) * leg.alpha1.sin();
+        axes.push((names.actuated.clone(), leg.u));
+        axes.push((names.intermediate.clone(), w));
+        axes.push((names.platform.clone(), leg.v0));
+    }
+    // Each leg joint's axis in its own frame: the frame at the zero configuration is its parent
+    // link's, then its origin.
+    let local: Vec<Option<Vector3<f64>>> = {
+        let frames = Loader { path, robot: &robot }.link_frames()?;
+        robot
+            .joints
+            .iter()
+            .map(|joint| {
+                let (_, axis) = axes.iter().find(|(name, _)| *name == joint.name)?;
+                let frame = frames[joint.parent.link.as_str()] * super::urdf::origin_isometry(&joint.origin);
+                Some(frame.rotation.inverse() * axis.normalize())
+            })
+            .collect()
+    };
+    for (joint, axis) in robot.joints.iter_mut().zip(local) {
+        if let Some(a) = axis {
+            joint.axis.xyz = urdf_rs::Vec3([a.x, a.y, a.z]);
+        }
+    }
+    for (name, position) in companion.markers_m.iter_mut() {
+        if let Some(fitted) = params.markers.iter().find(|m| &m.name == name) {
+            *position = fitted.position.into();
+        }
+    }
+    companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -home[i].to_degrees()));
+    let comments: String = provenance.iter().map(|l| format!("  {l}\n")).collect();
+    let body = urdf_rs::write_to_string(&robot).map_err(|e| unreadable(e.to_string()))?;
+    let urdf = match body.strip_prefix("<?xml version=\"1.0\"?>") {
+        Some(rest) => format!("<?xml version=\"1.0\"?>\n<!--\n{comments}-->{rest}"),
+        None => format!("<!--\n{comments}-->\n{body}"),
+    };
+    let exported = ExportedModel { urdf, companion: companion_text(&companion, provenance) };
+    // Loaded back, it must be a valid model (axes through O, loops closed at home).
+    let back = urdf_rs::read_from_string(&exported.urdf).map_err(|e| unreadable(format!("exported URDF: {e}")))?;
+    let reread: Companion =
+        serde_yaml::from_str(&exported.companion).map_err(|e| unreadable(format!("exported companion: {e}")))?;
+    Loader { path, robot: &back }.build(reread)?;
+    Ok(exported)
+}
+
+/// The companion as YAML, numbers with every digit.
+fn companion_text(c: &Companion, provenance: &[String]) -> String {
+    let mut text: String = provenance.iter().map(|l| format!("# {l}\n")).collect();
+    text += "# The closures and markers of the URDF beside this file (see shared/DESIGN.md); the URDF's\n";
+    text += "# joint value of theta_i is the encoder reading plus encoder_offsets_deg[i].\n";
+    text += &format!("platform_link: {}\nlegs:\n", c.platform_link);
+    for leg in &c.legs {
+        text += &format!(
+            "  - {{ actuated: {}, intermediate: {}, platform: {}",
+            leg.actuated, leg.intermediate, leg.platform
+        );
+        text += &leg.closes_on.as_ref().map_or(" }\n".to_string(), |l| format!(", closes_on: {l} }}\n"));
+    }
+    text += "markers_m:\n";
+    for (name, p) in &c.markers_m {
+        text += &format!("  {name}: [{:?}, {:?}, {:?}]\n", p[0], p[1], p[2]);
+    }
+    if let Some(o) = c.encoder_offsets_deg {
+        text += &format!("encoder_offsets_deg: [{:?}, {:?}, {:?}]\n", o[0], o[1], o[2]);
+    }
+    text
+}
