@@ -53,6 +53,8 @@ pub mod constellation;
 #[cfg(feature = "full")]
 pub mod dataset;
 #[cfg(feature = "full")]
+pub mod html;
+#[cfg(feature = "full")]
 pub mod plan;
 #[cfg(feature = "full")]
 pub mod record;

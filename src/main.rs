@@ -5,7 +5,6 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use spmcal::calib::CalibConfig;
 use spmcal::dataset::{
     JointReading, OrientationRecord, Session, joints_csv, read_joints, read_orientations, write_orientations,
 };
@@ -19,6 +18,7 @@ use spmcal::{Outputs, Slot};
 
 mod cli {
     pub(crate) mod args;
+    pub(crate) mod calibrate;
     pub(crate) mod export;
     pub(crate) mod plan;
 }
@@ -58,7 +58,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Fda(args) => fda(args),
         Command::Simulate(args) => simulate(args),
         Command::Estimate(args) => estimate(args),
-        Command::Calibrate(args) => calibrate(args),
+        Command::Calibrate(args) => cli::calibrate::calibrate(args),
         Command::Compare(args) => compare(args),
         Command::Replay(args) => replay(args),
         Command::Plan(args) => cli::plan::plan(args),
@@ -214,52 +214,6 @@ fn estimate(args: EstimateArgs) -> Result<()> {
     }
     eprint!("{summary}");
     Ok(())
-}
-
-fn calibrate(args: CalibrateArgs) -> Result<()> {
-    let mut outputs = Outputs::new();
-    let (params_slot, rrd) = (outputs.reserve(&args.out)?, reserve(&mut outputs, args.rrd.as_deref())?);
-    let (session, warnings) = args.session.load()?;
-    let model = RobotModel::load(&session.model)?;
-    let config = match &args.config {
-        Some(path) => CalibConfig::read(path)?,
-        None => CalibConfig::default(),
-    };
-    let spinner = indicatif::ProgressBar::new_spinner();
-    if args.verbose {
-        eprintln!("iteration   RMS (°|mm)  step         radius         ratio   accepted");
-    }
-    let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |it| {
-        if args.verbose {
-            spinner.suspend(|| {
-                eprintln!(
-                    "{:9} {:11.5} {:12.3e} {:14.3e} {:7.3} {}",
-                    it.iteration, it.rms, it.step, it.radius, it.ratio, it.accepted
-                )
-            });
-        }
-        spinner.set_message(format!("iteration {}: RMS {:.4}, step {:.2e}", it.iteration, it.rms, it.step));
-        spinner.tick();
-    })
-    .with_context(|| match &args.config {
-        Some(path) => format!("calibrating {} with {}", args.session.dataset.display(), path.display()),
-        None => format!("calibrating {} with the built-in settings", args.session.dataset.display()),
-    })?;
-    spinner.finish_and_clear();
-    outputs.write(params_slot, calibration.parameters.to_yaml().as_bytes())?;
-    if let Some(slot) = rrd {
-        record(&outputs, slot, &spmcal::record::calibration_scene(&session, &model, &calibration)?)?;
-    }
-    outputs.commit()?;
-    if args.json {
-        let mut envelope = Envelope::new("calibrate", &calibration.report)
-            .input("dataset", args.session.dataset.display())
-            .input("out", args.out.display());
-        envelope.warnings = warnings;
-        out(&(envelope.to_json() + "\n"))
-    } else {
-        out(&format!("{}wrote {}\n", calibration.report, args.out.display()))
-    }
 }
 
 fn compare(args: CompareArgs) -> Result<()> {

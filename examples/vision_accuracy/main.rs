@@ -3,7 +3,6 @@
 //! and writes `examples/vision_accuracy/vision_accuracy.svg`.
 //! Run: `cargo run --release --example vision_accuracy`.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use spmcal::model::RobotModel;
@@ -43,72 +42,55 @@ fn main() {
     println!("figure: examples/vision_accuracy/vision_accuracy.svg");
 }
 
-/// A log–log plot of both methods' RMS error against the depth noise.
+/// A log–log plot of both methods' RMS error against the depth noise (plotters, as the HTML report).
 fn svg(rows: &[AccuracyRow]) -> String {
-    let (w, h, m) = (560.0, 360.0, 60.0);
-    let xs: Vec<f64> = rows.iter().map(|r| r.depth_sigma_mm.log10()).collect();
-    let ys: Vec<f64> = rows.iter().flat_map(|r| [r.paper_rms_deg, r.kabsch_rms_deg]).map(f64::log10).collect();
-    let (x0, x1) = (xs[0].floor(), xs[xs.len() - 1].ceil());
-    let (y0, y1) = (
-        ys.iter().cloned().fold(f64::INFINITY, f64::min).floor(),
-        ys.iter().cloned().fold(f64::NEG_INFINITY, f64::max).ceil(),
-    );
-    let px = |x: f64| m + (x - x0) / (x1 - x0) * (w - 1.5 * m);
-    let py = |y: f64| h - m - (y - y0) / (y1 - y0) * (h - 1.7 * m);
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-    );
-    for d in (x0 as i32)..=(x1 as i32) {
-        let x = px(d as f64);
-        let _ = writeln!(
-            s,
-            "<line x1=\"{x}\" y1=\"{}\" x2=\"{x}\" y2=\"{}\" stroke=\"#ddd\"/><text x=\"{x}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
-            py(y0),
-            py(y1),
-            h - m + 18.0,
-            10f64.powi(d)
-        );
-    }
-    for d in (y0 as i32)..=(y1 as i32) {
-        let y = py(d as f64);
-        let _ = writeln!(
-            s,
-            "<line x1=\"{}\" y1=\"{y}\" x2=\"{}\" y2=\"{y}\" stroke=\"#ddd\"/><text x=\"{}\" y=\"{}\" text-anchor=\"end\">{}</text>",
-            px(x0),
-            px(x1),
-            m - 6.0,
-            y + 4.0,
-            10f64.powi(d)
-        );
-    }
-    for (label, colour, pick, dy) in
-        [("paper (LS + polar)", "#d62728", 0, 0.0), ("kabsch (optimal)", "#1f77b4", 1, 18.0)]
+    use plotters::prelude::*;
+    let mut out = String::new();
     {
-        let points: Vec<String> = rows
-            .iter()
-            .map(|r| {
-                let y = if pick == 0 { r.paper_rms_deg } else { r.kabsch_rms_deg };
-                format!("{:.1},{:.1}", px(r.depth_sigma_mm.log10()), py(y.log10()))
-            })
-            .collect();
-        let _ = writeln!(
-            s,
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"2\"/>",
-            points.join(" ")
+        let root = SVGBackend::with_string(&mut out, (560, 360)).into_drawing_area();
+        root.fill(&WHITE).expect("draw");
+        let depth: Vec<f64> = rows.iter().map(|r| r.depth_sigma_mm).collect();
+        let errors: Vec<f64> = rows.iter().flat_map(|r| [r.paper_rms_deg, r.kabsch_rms_deg]).collect();
+        let (x0, x1) = (depth[0] / 1.5, depth[depth.len() - 1] * 1.5);
+        let (y0, y1) = (
+            errors.iter().copied().fold(f64::INFINITY, f64::min) / 1.5,
+            errors.iter().copied().fold(0.0, f64::max) * 1.5,
         );
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" fill=\"{colour}\">{label}</text>", m + 10.0, m - 20.0 + dy);
+        let mut chart = ChartBuilder::on(&root)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .expect("draw");
+        chart
+            .configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .x_desc("depth noise σ at 0.8 m (mm; lateral σ = depth σ / 4)")
+            .y_desc("RMS orientation error (°)")
+            .x_label_formatter(&|x| format!("{x}"))
+            .y_label_formatter(&|y| format!("{y}"))
+            .draw()
+            .expect("draw");
+        for (label, colour, pick) in
+            [("paper (LS + polar)", RGBColor(214, 39, 40), 0), ("kabsch (optimal)", RGBColor(31, 119, 180), 1)]
+        {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .map(|r| (r.depth_sigma_mm, if pick == 0 { r.paper_rms_deg } else { r.kabsch_rms_deg }))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+                .expect("draw")
+                .label(label)
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .border_style(BLACK)
+            .draw()
+            .expect("draw");
+        root.present().expect("draw");
     }
-    let _ = writeln!(
-        s,
-        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">depth noise σ at 0.8 m (mm; lateral σ = depth σ / 4)</text>",
-        w / 2.0,
-        h - 12.0
-    );
-    let _ = writeln!(
-        s,
-        "<text transform=\"translate(16,{}) rotate(-90)\" text-anchor=\"middle\">RMS orientation error (°)</text>",
-        h / 2.0
-    );
-    s.push_str("</svg>\n");
-    s
+    out
 }

@@ -89,6 +89,11 @@ pub struct CalibConfig {
     pub folds: usize,
     /// What to do when the calibrated model does not predict unseen data clearly better.
     pub if_not_better: IfNotBetter,
+    /// The HTML report (`calibrate --report`) passes a calibration whose cross-validated marker
+    /// error is at most this (mm; marker-level fit) and that is clearly better than nominal.
+    pub pass_held_out_mm: f64,
+    /// The same for the orientation-level fit's held-out FDA-vs-vision error (degrees).
+    pub pass_held_out_deg: f64,
     /// The camera's latency behind the encoders (s), for free-motion recordings: each capture's
     /// joints are interpolated at its time less this. The marker-level fit estimates it from here
     /// (within ±`latency_bound_s`) unless `latency` is frozen.
@@ -151,6 +156,8 @@ impl Default for CalibConfig {
             fit: FitLevel::Markers,
             folds: 5,
             if_not_better: IfNotBetter::Warn,
+            pass_held_out_mm: 1.0,
+            pass_held_out_deg: 0.5,
             latency_s: 0.0,
             latency_bound_s: 0.2,
             max_joint_speed_deg_s: 90.0,
@@ -197,6 +204,12 @@ impl CalibConfig {
             ("max_joint_speed_deg_s", self.max_joint_speed_deg_s),
         ];
         for (key, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err((key.into(), format!("`{key}` must be a positive number (got {value})")));
+            }
+        }
+        for (key, value) in [("pass_held_out_mm", self.pass_held_out_mm), ("pass_held_out_deg", self.pass_held_out_deg)]
+        {
             if !(value.is_finite() && value > 0.0) {
                 return Err((key.into(), format!("`{key}` must be a positive number (got {value})")));
             }

@@ -32,6 +32,8 @@ pub struct Identifiability {
     pub condition: f64,
     /// The three weakest directions.
     pub weakest: Vec<Direction>,
+    /// Every scaled singular value over the largest, largest first (the spectrum).
+    pub spectrum: Vec<f64>,
     /// Directions below the threshold.
     pub unidentifiable: Vec<Direction>,
     /// Those directions as unit vectors in the full parameter space (unscaled), for regularising.
@@ -110,6 +112,7 @@ pub(crate) fn analyse_gram(
         rank: free.len() - weak.len(),
         condition: s_max / s.min().max(f64::MIN_POSITIVE),
         weakest: order.iter().take(3).map(|&i| direction(i).0).collect(),
+        spectrum: order.iter().rev().map(|&i| s[i] / s_max).collect(),
         unidentifiable,
         null_vectors,
         scale: s_max * s_max,
@@ -125,6 +128,7 @@ impl Identifiability {
             rank: 0,
             condition: f64::INFINITY,
             weakest: Vec::new(),
+            spectrum: Vec::new(),
             unidentifiable: Vec::new(),
             null_vectors: Vec::new(),
             scale: 0.0,

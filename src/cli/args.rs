@@ -243,6 +243,9 @@ pub(crate) struct CalibrateArgs {
     /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
     #[arg(long)]
     pub(crate) rrd: Option<PathBuf>,
+    /// Also write a report a person can read and share here: one self-contained HTML file.
+    #[arg(long)]
+    pub(crate) report: Option<PathBuf>,
     #[command(flatten)]
     pub(crate) session: SessionArgs,
     /// Calibration settings (default: the built-in values, as in configs/calibrate.yaml).

@@ -1,0 +1,62 @@
+//! `spmcal calibrate`: the fit with a spinner (or every iteration with `-v`), the parameters
+//! file, and optionally a recording and a shareable HTML report, written together.
+
+use anyhow::{Context, Result};
+use spmcal::Outputs;
+use spmcal::calib::CalibConfig;
+use spmcal::model::RobotModel;
+use spmcal::report::Envelope;
+
+use super::args::CalibrateArgs;
+use crate::{out, record, reserve};
+
+pub(crate) fn calibrate(args: CalibrateArgs) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let (params_slot, rrd) = (outputs.reserve(&args.out)?, reserve(&mut outputs, args.rrd.as_deref())?);
+    let html = reserve(&mut outputs, args.report.as_deref())?;
+    let (session, warnings) = args.session.load()?;
+    let model = RobotModel::load(&session.model)?;
+    let config = match &args.config {
+        Some(path) => CalibConfig::read(path)?,
+        None => CalibConfig::default(),
+    };
+    let spinner = indicatif::ProgressBar::new_spinner();
+    if args.verbose {
+        eprintln!("iteration   RMS (°|mm)  step         radius         ratio   accepted");
+    }
+    let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |it| {
+        if args.verbose {
+            spinner.suspend(|| {
+                eprintln!(
+                    "{:9} {:11.5} {:12.3e} {:14.3e} {:7.3} {}",
+                    it.iteration, it.rms, it.step, it.radius, it.ratio, it.accepted
+                )
+            });
+        }
+        spinner.set_message(format!("iteration {}: RMS {:.4}, step {:.2e}", it.iteration, it.rms, it.step));
+        spinner.tick();
+    })
+    .with_context(|| match &args.config {
+        Some(path) => format!("calibrating {} with {}", args.session.dataset.display(), path.display()),
+        None => format!("calibrating {} with the built-in settings", args.session.dataset.display()),
+    })?;
+    spinner.finish_and_clear();
+    outputs.write(params_slot, calibration.parameters.to_yaml().as_bytes())?;
+    if let Some(slot) = rrd {
+        record(&outputs, slot, &spmcal::record::calibration_scene(&session, &model, &calibration)?)?;
+    }
+    if let Some(slot) = html {
+        let text = calibration.report.to_string();
+        outputs.write(slot, spmcal::html::calibration_html(&calibration, &config, &text).as_bytes())?;
+    }
+    outputs.commit()?;
+    if args.json {
+        let mut envelope = Envelope::new("calibrate", &calibration.report)
+            .input("dataset", args.session.dataset.display())
+            .input("out", args.out.display());
+        envelope.warnings = warnings;
+        out(&(envelope.to_json() + "\n"))
+    } else {
+        out(&format!("{}wrote {}\n", calibration.report, args.out.display()))
+    }
+}

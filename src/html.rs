@@ -1,0 +1,366 @@
+//! A report a person can read and share (`calibrate --report report.html`): one self-contained
+//! HTML file — inline SVG plots drawn with plotters, no script, no network — with the verdict
+//! first (pass or warn against the config's thresholds), then the plots and the tables of the
+//! text report.
+
+use std::fmt::Write as _;
+
+use nalgebra::Vector3;
+use plotters::prelude::*;
+
+use crate::calib::{CalibConfig, Calibration, FitLevel};
+use crate::so3;
+
+/// The sections of the report, in order: `(id, title)`.
+pub const SECTIONS: [(&str, &str); 7] = [
+    ("verdict", "Verdict"),
+    ("per-pose", "Model against camera, pose by pose"),
+    ("residuals", "Residuals by marker and camera axis"),
+    ("parameters", "Parameter changes (± 2σ)"),
+    ("identifiability", "Identifiability"),
+    ("coverage", "Workspace coverage"),
+    ("tables", "Tables"),
+];
+
+/// Whether the calibration passes the config's thresholds, and the sentence that says so.
+pub fn verdict(calibration: &Calibration, config: &CalibConfig) -> (bool, String) {
+    let report = &calibration.report;
+    match (report.fit, report.markers.as_ref().and_then(|m| m.cross_validation.as_ref())) {
+        (FitLevel::Markers, Some(cv)) => {
+            let pass = cv.clearly_better && cv.calibrated_rms_mm <= config.pass_held_out_mm;
+            let text = format!(
+                "On unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the markers to {:.3} mm RMS against the nominal model's {:.3} mm ({}; threshold {:.3} mm).",
+                cv.folds,
+                cv.observations,
+                cv.calibrated_rms_mm,
+                cv.nominal_rms_mm,
+                if cv.clearly_better { "clearly better" } else { "not clearly better" },
+                config.pass_held_out_mm
+            );
+            (pass, text)
+        }
+        _ => match (report.before.held_out, report.after.held_out) {
+            (Some(before), Some(after)) => {
+                let pass = after.rms_deg < before.rms_deg && after.rms_deg <= config.pass_held_out_deg;
+                let text = format!(
+                    "On held-out poses the calibrated model's FDA agrees with vision to {:.4}° RMS against the nominal model's {:.4}° (threshold {:.3}°).",
+                    after.rms_deg, before.rms_deg, config.pass_held_out_deg
+                );
+                (pass, text)
+            }
+            _ => (false, "No unseen poses were held out: nothing shows how the model predicts new data.".into()),
+        },
+    }
+}
+
+/// The whole report as one HTML document (well-formed XML: XHTML with inline SVG).
+pub fn calibration_html(calibration: &Calibration, config: &CalibConfig, text_report: &str) -> String {
+    let report = &calibration.report;
+    let (pass, sentence) = verdict(calibration, config);
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\"><head><meta charset=\"utf-8\"/>\
+         <title>spmcal calibration of {session}</title><style>{STYLE}</style></head><body>\
+         <h1>Calibration of {session}</h1><p class=\"meta\">{fit} fit, loss {loss:?}, {poses} poses; spmcal {version}</p>",
+        session = escape(&report.session),
+        fit = match report.fit {
+            FitLevel::Markers => "marker-level",
+            FitLevel::Orientations => "orientation-level",
+        },
+        loss = report.loss,
+        poses = report.poses,
+        version = env!("CARGO_PKG_VERSION"),
+    );
+    let mark = if pass { ("pass", "PASS") } else { ("warn", "WARN") };
+    let _ = write!(
+        html,
+        "<section id=\"verdict\"><h2>Verdict</h2><p class=\"{}\"><b>{}</b> — {}</p></section>",
+        mark.0,
+        mark.1,
+        escape(&sentence)
+    );
+    let plots = [
+        ("per-pose", per_pose(calibration)),
+        ("residuals", residuals(calibration)),
+        ("parameters", parameters(calibration)),
+        ("identifiability", identifiability(calibration)),
+        ("coverage", coverage(calibration)),
+    ];
+    for ((id, svg), (_, title)) in plots.iter().zip(&SECTIONS[1..6]) {
+        let _ = write!(html, "<section id=\"{id}\"><h2>{title}</h2>{svg}");
+        if *id == "identifiability" {
+            html += "<ul>";
+            for d in &report.identifiability.weakest {
+                let _ = write!(html, "<li>weak: {}</li>", escape(&d.describe()));
+            }
+            html += "</ul>";
+        }
+        html += "</section>";
+    }
+    let _ = writeln!(
+        html,
+        "<section id=\"tables\"><h2>Tables</h2><pre>{}</pre></section></body></html>",
+        escape(text_report)
+    );
+    html
+}
+
+const STYLE: &str = "body{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}\
+    .pass{background:#e6f4ea;border-left:6px solid #2e7d32;padding:.8em}\
+    .warn{background:#fff4e5;border-left:6px solid #ef6c00;padding:.8em}\
+    .meta{color:#666}pre{background:#f6f6f6;padding:1em;overflow-x:auto;font-size:12px}svg{display:block}";
+
+/// `&`, `<`, `>` and quotes escaped.
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// An SVG drawn by `draw` into a `width × height` canvas; a drawing error becomes a note.
+fn svg(
+    width: u32,
+    height: u32,
+    draw: impl for<'a> FnOnce(
+        &DrawingArea<SVGBackend<'a>, plotters::coord::Shift>,
+    ) -> Result<(), Box<dyn std::error::Error>>,
+) -> String {
+    let mut out = String::new();
+    let result = {
+        let root = SVGBackend::with_string(&mut out, (width, height)).into_drawing_area();
+        let drawn = root.fill(&WHITE).map_err(|e| e.to_string()).and_then(|()| draw(&root).map_err(|e| e.to_string()));
+        drawn.and_then(|()| root.present().map_err(|e| e.to_string()))
+    };
+    match result {
+        Ok(()) => out,
+        Err(e) => format!("<p>(plot not drawn: {})</p>", escape(&e)),
+    }
+}
+
+/// Per pose, before (nominal) and after calibration: the RMS marker error (mm) or the FDA-vs-vision
+/// angle (°).
+fn per_pose(c: &Calibration) -> String {
+    let (unit, before, after) = match c.report.fit {
+        FitLevel::Markers => {
+            let by_pose = |residuals: &[Vector3<f64>]| -> Vec<(f64, f64)> {
+                let mut poses: Vec<(u64, f64, usize)> = Vec::new();
+                for (o, r) in c.marker_observations.iter().zip(residuals) {
+                    match poses.last_mut() {
+                        Some((p, sum, n)) if *p == o.pose => {
+                            *sum += (r.norm() * 1e3).powi(2);
+                            *n += 1;
+                        }
+                        _ => poses.push((o.pose, (r.norm() * 1e3).powi(2), 1)),
+                    }
+                }
+                poses.iter().map(|(p, s, n)| (*p as f64, (s / *n as f64).sqrt())).collect()
+            };
+            ("mm", by_pose(&c.nominal.evaluation.residuals), by_pose(&c.calibrated.evaluation.residuals))
+        }
+        FitLevel::Orientations => {
+            let deg = |residuals: &[Vector3<f64>]| -> Vec<(f64, f64)> {
+                c.observations.iter().zip(residuals).map(|(o, r)| (o.pose as f64, r.norm().to_degrees())).collect()
+            };
+            ("°", deg(&c.nominal.evaluation.residuals), deg(&c.calibrated.evaluation.residuals))
+        }
+    };
+    let x_max = before.iter().map(|p| p.0).fold(1.0, f64::max);
+    let y_max = before.iter().chain(&after).map(|p| p.1).fold(1e-9, f64::max) * 1.1;
+    svg(900, 320, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
+        chart.configure_mesh().light_line_style(TRANSPARENT).x_desc("pose").y_desc(format!("error ({unit})")).draw()?;
+        let grey = RGBColor(160, 160, 160);
+        let blue = RGBColor(31, 119, 180);
+        chart
+            .draw_series(before.iter().map(|&p| Circle::new(p, 2, grey.filled())))?
+            .label("nominal (best-fit registration)")
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, grey.filled()));
+        chart
+            .draw_series(after.iter().map(|&p| Circle::new(p, 2, blue.filled())))?
+            .label("calibrated")
+            .legend(move |(x, y)| Circle::new((x + 8, y), 3, blue.filled()));
+        chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.9)).draw()?;
+        Ok(())
+    })
+}
+
+/// RMS of the calibrated residuals along each camera axis: per marker (marker-level fit, mm) or
+/// of the rotation vector (orientation-level, °).
+fn residuals(c: &Calibration) -> String {
+    let groups: Vec<(String, [f64; 3])> = match c.report.fit {
+        FitLevel::Markers => {
+            let names: Vec<String> = c
+                .report
+                .markers
+                .as_ref()
+                .map_or_else(Vec::new, |m| m.after.per_marker.iter().map(|(name, _, _)| name.clone()).collect());
+            names
+                .iter()
+                .enumerate()
+                .map(|(k, name)| {
+                    let of_k: Vec<&Vector3<f64>> = c
+                        .marker_observations
+                        .iter()
+                        .zip(&c.calibrated.evaluation.residuals)
+                        .filter(|(o, _)| o.marker == k)
+                        .map(|(_, r)| r)
+                        .collect();
+                    let rms = |axis: usize| {
+                        (of_k.iter().map(|r| (r[axis] * 1e3).powi(2)).sum::<f64>() / of_k.len().max(1) as f64).sqrt()
+                    };
+                    (name.clone(), [rms(0), rms(1), rms(2)])
+                })
+                .collect()
+        }
+        FitLevel::Orientations => {
+            let r = &c.calibrated.evaluation.residuals;
+            let rms = |axis: usize| {
+                (r.iter().map(|v| v[axis].to_degrees().powi(2)).sum::<f64>() / r.len().max(1) as f64).sqrt()
+            };
+            vec![("rotation".into(), [rms(0), rms(1), rms(2)])]
+        }
+    };
+    let unit = if c.report.fit == FitLevel::Markers { "mm" } else { "°" };
+    let y_max = groups.iter().flat_map(|g| g.1).fold(1e-9, f64::max) * 1.6;
+    let n = groups.len();
+    svg(900, 300, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d((0..3 * n.max(1)).into_segmented(), 0.0..y_max)?;
+        // Three bars per group (camera x, y, z); the group's name under the middle one.
+        let labels: Vec<String> = groups.iter().flat_map(|g| [String::new(), g.0.clone(), String::new()]).collect();
+        chart
+            .configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .x_labels(3 * n.max(1))
+            .x_label_formatter(&|x| category(x, &labels))
+            .y_desc(format!("RMS residual ({unit})"))
+            .draw()?;
+        let colours = [RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(31, 119, 180)];
+        for (axis, (colour, name)) in colours.iter().zip(["camera x", "camera y", "camera z (depth)"]).enumerate() {
+            let bars = groups.iter().enumerate().map(|(k, g)| {
+                let slot = 3 * k + axis;
+                Rectangle::new(
+                    [(SegmentValue::Exact(slot), 0.0), (SegmentValue::Exact(slot + 1), g.1[axis])],
+                    colour.filled(),
+                )
+            });
+            let colour = *colour;
+            chart
+                .draw_series(bars)?
+                .label(name)
+                .legend(move |(x, y)| Rectangle::new([(x, y - 4), (x + 10, y + 4)], colour.filled()));
+        }
+        chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.9)).draw()?;
+        Ok(())
+    })
+}
+
+/// The label of a category axis' value: the name at its centre, nothing elsewhere.
+fn category(value: &SegmentValue<usize>, names: &[String]) -> String {
+    match value {
+        SegmentValue::CenterOf(k) => names.get(*k).cloned().unwrap_or_default(),
+        _ => String::new(),
+    }
+}
+
+/// Each free parameter's change from nominal with ± 2 standard errors (degrees).
+fn parameters(c: &Calibration) -> String {
+    let rows: Vec<(String, f64, f64)> = c
+        .report
+        .parameters
+        .iter()
+        .filter(|p| !p.frozen)
+        .map(|p| (p.name.clone(), p.change_deg, 2.0 * p.std_error_deg.unwrap_or(0.0)))
+        .collect();
+    let reach = rows.iter().map(|r| r.1.abs() + r.2).fold(1e-6, f64::max) * 1.1;
+    let n = rows.len();
+    svg(900, 40 + 22 * n as u32, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(150)
+            .build_cartesian_2d(-reach..reach, (0..n.max(1)).into_segmented())?;
+        let names: Vec<String> = rows.iter().map(|r| r.0.clone()).collect();
+        chart
+            .configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .y_labels(n.max(1))
+            .y_label_formatter(&|y| category(y, &names))
+            .x_desc("change from nominal (°), ± 2 standard errors")
+            .draw()?;
+        let blue = RGBColor(31, 119, 180);
+        chart.draw_series(rows.iter().enumerate().map(|(k, r)| {
+            let y = SegmentValue::CenterOf(k);
+            PathElement::new([(r.1 - r.2, y.clone()), (r.1 + r.2, y)], blue.stroke_width(2))
+        }))?;
+        chart.draw_series(
+            rows.iter().enumerate().map(|(k, r)| Circle::new((r.1, SegmentValue::CenterOf(k)), 3, blue.filled())),
+        )?;
+        let axis = [(0.0, SegmentValue::Exact(0)), (0.0, SegmentValue::Exact(n))];
+        chart.draw_series(std::iter::once(PathElement::new(axis, BLACK.stroke_width(1))))?;
+        Ok(())
+    })
+}
+
+/// The scaled singular values of the identification Jacobian, largest first, log scale.
+fn identifiability(c: &Calibration) -> String {
+    let spectrum = &c.report.identifiability.spectrum;
+    let low = spectrum.iter().copied().filter(|s| *s > 0.0).fold(1.0, f64::min).min(1e-3) / 2.0;
+    let n = spectrum.len();
+    svg(900, 260, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(56)
+            .build_cartesian_2d(0.0..n.max(1) as f64, (low..1.5).log_scale())?;
+        chart
+            .configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .x_desc("direction (strongest first)")
+            .y_desc("σ / σmax")
+            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .draw()?;
+        let blue = RGBColor(31, 119, 180);
+        chart.draw_series(
+            spectrum.iter().enumerate().map(|(k, s)| Circle::new((k as f64 + 0.5, s.max(low)), 3, blue.filled())),
+        )?;
+        Ok(())
+    })
+}
+
+/// Where the poses are: the calibrated MP orientations' rotation vectors, x against y (degrees).
+fn coverage(c: &Calibration) -> String {
+    let points: Vec<(f64, f64)> = c
+        .calibrated
+        .evaluation
+        .orientations
+        .iter()
+        .map(|r| {
+            let w = so3::log(r);
+            (w.x.to_degrees(), w.y.to_degrees())
+        })
+        .collect();
+    let reach = points.iter().map(|p| p.0.abs().max(p.1.abs())).fold(1.0, f64::max) * 1.1;
+    svg(460, 440, |root| {
+        let mut chart = ChartBuilder::on(root)
+            .margin(10)
+            .x_label_area_size(36)
+            .y_label_area_size(48)
+            .build_cartesian_2d(-reach..reach, -reach..reach)?;
+        chart
+            .configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .x_desc("rotation about x (°)")
+            .y_desc("rotation about y (°)")
+            .draw()?;
+        let blue = RGBColor(31, 119, 180);
+        chart.draw_series(points.iter().map(|&p| Circle::new(p, 2, blue.filled())))?;
+        Ok(())
+    })
+}
