@@ -105,6 +105,20 @@ fn companion_typo_is_an_error_with_its_line() {
 }
 
 #[test]
+fn encoder_offsets_in_the_companion_are_read_and_a_bad_one_is_located() {
+    // Offsets shift every reading: the model with offsets δ at readings θ is the plain one at θ + δ.
+    let (_dir, path) = edited_model(NO_EDIT, ("\nmarkers_m:", "\nencoder_offsets_deg: [1.5, -2.0, 0.25]\nmarkers_m:"));
+    let shifted = RobotModel::load(&path).unwrap();
+    let plain = RobotModel::load(Path::new(URDF)).unwrap();
+    let joints = Vector3::new(0.1, -0.2, 0.05);
+    let offsets = Vector3::new(1.5f64, -2.0, 0.25).map(f64::to_radians);
+    let (a, b) = (shifted.spm.forward(&joints).unwrap(), plain.spm.forward(&(joints + offsets)).unwrap());
+    assert!(spmcal::so3::geodesic_angle(&a, &b) < 1e-12);
+    let (_, text) = load_error(NO_EDIT, ("\nmarkers_m:", "\nencoder_offsets_deg: [1.5, .nan, 0.25]\nmarkers_m:"));
+    assert!(text.contains("robot.yaml:") && text.contains("encoder_offsets_deg") && text.contains("finite"), "{text}");
+}
+
+#[test]
 fn urdf_passes_the_ros_checker_when_installed() {
     let Ok(out) = std::process::Command::new("check_urdf").arg(URDF).output() else {
         eprintln!("check_urdf not installed (Debian: liburdfdom-tools); skipped");
