@@ -260,6 +260,9 @@ fn plan_writes_the_poses_in_order_a_summary_and_a_recording_and_simulate_capture
     let human = spmcal(&args);
     let text = String::from_utf8_lossy(&human.stdout);
     assert!(text.contains("random poses needed") && text.contains("tour from home"), "{text}");
+    // A margin out of range is refused, naming the flag.
+    let bad = spmcal(&[&args[..], &["--margin-deg", "45"]].concat());
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("--margin-deg"));
 }
 
 #[test]

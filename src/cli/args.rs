@@ -71,6 +71,10 @@ pub(crate) struct PlanArgs {
     /// Plan the poses that add most to this session.
     #[arg(long)]
     pub(crate) augment: Option<PathBuf>,
+    /// Candidates must pass the workspace checks and keep their markers this far beyond (tilt
+    /// outwards, yaw either way), degrees: how far the real mechanism and hand may be from the model.
+    #[arg(long, default_value_t = 2.0)]
+    pub(crate) margin_deg: f64,
     /// The plan to write (`step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad`).
     #[arg(long)]
     pub(crate) out: PathBuf,

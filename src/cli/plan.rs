@@ -24,9 +24,17 @@ pub(crate) fn plan(args: PlanArgs) -> Result<()> {
     };
     let (model, params) = args.geometry.model_and_params()?;
     let augment = args.augment.as_deref().map(|dir| Session::load(dir, None)).transpose()?.map(|(s, _)| s);
-    let settings = PlanSettings { poses: args.poses, candidates: args.candidates, ..PlanSettings::default() };
+    let settings = PlanSettings {
+        poses: args.poses,
+        candidates: args.candidates,
+        margin_deg: args.margin_deg,
+        ..PlanSettings::default()
+    };
     if settings.poses == 0 {
         anyhow::bail!("--poses must be at least 1");
+    }
+    if !(settings.margin_deg.is_finite() && (0.0..=20.0).contains(&settings.margin_deg)) {
+        anyhow::bail!("--margin-deg must be between 0 and 20 degrees (got {})", settings.margin_deg);
     }
     let plan = spmcal::plan::plan(&model, params.as_ref(), &config, &settings, augment.as_ref())?;
     outputs.write(slot, plan_csv(&plan.poses).as_bytes())?;
