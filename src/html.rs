@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use nalgebra::Vector3;
 use plotters::prelude::*;
 
-use crate::calib::{CalibConfig, Calibration, FitLevel};
+use crate::calib::{CalibConfig, Calibration, FitLevel, per_pose_rms_mm};
 use crate::so3;
 
 /// The sections of the report, in order: `(id, title)`.
@@ -142,17 +142,7 @@ fn per_pose(c: &Calibration) -> String {
     let (unit, before, after) = match c.report.fit {
         FitLevel::Markers => {
             let by_pose = |residuals: &[Vector3<f64>]| -> Vec<(f64, f64)> {
-                let mut poses: Vec<(u64, f64, usize)> = Vec::new();
-                for (o, r) in c.marker_observations.iter().zip(residuals) {
-                    match poses.last_mut() {
-                        Some((p, sum, n)) if *p == o.pose => {
-                            *sum += (r.norm() * 1e3).powi(2);
-                            *n += 1;
-                        }
-                        _ => poses.push((o.pose, (r.norm() * 1e3).powi(2), 1)),
-                    }
-                }
-                poses.iter().map(|(p, s, n)| (*p as f64, (s / *n as f64).sqrt())).collect()
+                per_pose_rms_mm(&c.marker_observations, residuals).into_iter().map(|(p, e)| (p as f64, e)).collect()
             };
             ("mm", by_pose(&c.nominal.evaluation.residuals), by_pose(&c.calibrated.evaluation.residuals))
         }

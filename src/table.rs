@@ -78,6 +78,23 @@ impl Table {
         Ok(Some(Row { layout: &self.layout, record: &self.record, line }))
     }
 
+    /// Every data row parsed by `parse` (which also sees the rows parsed before it), or the first
+    /// error; the output is sized once, from the file's size.
+    pub(crate) fn read_all<T>(
+        &mut self,
+        mut parse: impl FnMut(&Row<'_>, &[T]) -> Result<T, FileError>,
+    ) -> Result<Vec<T>, FileError> {
+        let mut out = Vec::new();
+        while let Some(row) = self.next_row()? {
+            if out.is_empty() {
+                out.reserve(row.expected_rows());
+            }
+            let item = parse(&row, &out)?;
+            out.push(item);
+        }
+        Ok(out)
+    }
+
     /// An error at `line`, in the `k`-th requested column.
     pub(crate) fn error_at(&self, line: usize, k: usize, reason: impl Into<String>) -> FileError {
         FileError::new(&self.layout.path, reason).at_line(line).in_column(&self.layout.names[k])
@@ -101,7 +118,7 @@ pub(crate) fn first_repeat<K: Ord + Copy>(keys: impl Iterator<Item = (K, usize)>
 impl Row<'_> {
     /// A guess at the number of data rows of the file (its size over this row's length), to size
     /// the output once rather than grow it through a dozen copies.
-    pub(crate) fn expected_rows(&self) -> usize {
+    fn expected_rows(&self) -> usize {
         let row = self.record.as_slice().len() + self.record.len();
         (self.layout.size as usize / row.max(1)).min(1 << 24)
     }
@@ -138,6 +155,13 @@ impl Row<'_> {
     /// The `k`-th field as a finite number, or `None` when that optional column is absent.
     pub(crate) fn optional_number(&self, k: usize) -> Result<Option<f64>, FileError> {
         if self.has_column(k) { self.number(k).map(Some) } else { Ok(None) }
+    }
+
+    /// The rotation of the unit quaternion `[qw, qx, qy, qz]` in the requested columns `k..k + 4`;
+    /// a quaternion whose norm is not 1 (within 1e-6) is an error in column `k`.
+    pub(crate) fn quaternion(&self, k: usize) -> Result<nalgebra::Rotation3<f64>, FileError> {
+        let q = [self.number(k)?, self.number(k + 1)?, self.number(k + 2)?, self.number(k + 3)?];
+        crate::so3::from_wxyz(q).ok_or_else(|| self.error(k, format!("quaternion {q:?} does not have unit norm")))
     }
 
     /// The `k`-th field as a pose number (non-negative integer).

@@ -7,8 +7,7 @@
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use spmcal::calib::{
-    CalibConfig, Calibration, FitLevel, MarkerModel, Model, Parameterisation, StereoNoise, TruthInGauge, calibrate,
-    marker_observations,
+    CalibConfig, Calibration, FitLevel, MarkerModel, Parameterisation, TruthInGauge, calibrate, marker_observations,
 };
 use spmcal::dataset::Session;
 use spmcal::model::{LegGeometry, RobotModel, Spm};
@@ -95,21 +94,12 @@ pub fn cramer_rao(session: &Session, model: &RobotModel, config: &SimConfig, tes
     let gauge = TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &true_markers);
     let spm_true = truth.parameters.spm().expect("a valid truth");
     let (observations, _) = marker_observations(session, &spm_true);
-    let m = MarkerModel::new(&p, &observations);
-    let eval = m.evaluate(&gauge.x, None, true).expect("the truth evaluates");
-    let jac = eval.jacobian.expect("asked for");
-    let noise = StereoNoise {
-        reference_distance_m: config.camera.reference_distance_m,
-        lateral_m: config.camera.lateral_sigma_m,
-        lateral_std_error_m: 0.0,
-        depth_m: config.camera.depth_sigma_m,
-        depth_std_error_m: 0.0,
-    };
-    let mut fisher = DMatrix::zeros(p.len(), p.len());
-    for j in 0..observations.len() {
-        let block = m.whitening(j, &noise) * jac.rows(3 * j, 3);
-        fisher += block.transpose() * &block;
-    }
+    let noise = spmcal::plan::stereo_noise(&config.camera);
+    let fisher = MarkerModel::new(&p, &observations)
+        .information_per_pose(&gauge.x, &noise)
+        .expect("the truth evaluates")
+        .into_iter()
+        .fold(DMatrix::zeros(p.len(), p.len()), |sum, (_, m)| sum + m);
     let cov = fisher.try_inverse().expect("the gauge-fixed parameters are identifiable");
     let spm_fit_truth = Spm::new(p.legs(&gauge.x)).expect("the truth in gauge is valid");
     let mean: f64 = tests

@@ -181,15 +181,8 @@ pub(super) fn calibrate_markers(
             session.markers[k], poses_seeing[k]
         ));
     }
-    // The nominal orientation of each observation's pose (one FDA per pose, not per marker).
-    let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
-    let p0 = Parameterisation::for_markers(*spm.geometry(), &origin, &markers0, &session.markers, &config.bounds);
-    let nominal_model = MarkerModel::new(&p0, &observations);
-    let at_pose = nominal_model
-        .evaluate(&DVector::zeros(nominal_model.p.len()), None, false)
-        .map_err(CalibError::HeldOut)?
-        .orientations;
-    let nominal_r: Vec<Rotation3<f64>> = (0..observations.len()).map(|j| at_pose[nominal_model.pose_of(j)]).collect();
+    let nominal_r =
+        pose_orientations(spm.geometry(), &observations, &markers0, &session.markers).map_err(CalibError::HeldOut)?;
     let max_deg = largest_rotation(&nominal_r);
     let registration = initial_registration(&observations, &nominal_r, &markers0).ok_or(CalibError::Registration)?;
     let p = Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
@@ -486,8 +479,22 @@ pub(super) fn initial_registration(
     Some(CameraRegistration { rotation, translation: cc - rotation * cb })
 }
 
+/// The orientation `legs` give each observation's pose (one FDA per pose, not per marker).
+pub(super) fn pose_orientations(
+    legs: &[crate::model::LegGeometry; 3],
+    observations: &[MarkerObservation],
+    markers: &[Vector3<f64>],
+    names: &[String],
+) -> Result<Vec<Rotation3<f64>>, super::residual::EvalError> {
+    let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
+    let p = Parameterisation::for_markers(*legs, &origin, markers, names, &CalibConfig::default().bounds);
+    let model = MarkerModel::new(&p, observations);
+    let at_pose = model.evaluate(&DVector::zeros(p.len()), None, false)?.orientations;
+    Ok((0..observations.len()).map(|j| at_pose[model.pose_of(j)]).collect())
+}
+
 /// The registration parameters (camera rotation and translation) that are free.
-fn registration_mask(p: &Parameterisation, free: &[bool]) -> Vec<bool> {
+pub(super) fn registration_mask(p: &Parameterisation, free: &[bool]) -> Vec<bool> {
     p.entries
         .iter()
         .zip(free)

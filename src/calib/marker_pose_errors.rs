@@ -8,11 +8,11 @@
 //! registration, markers and latency are used as they are: that is the prediction the file makes
 //! for any session taken with the same set-up.
 
-use nalgebra::{DVector, Rotation3, Vector3};
+use nalgebra::DVector;
 
-use super::config::{CalibConfig, Group};
-use super::marker_calibration::{baseline, initial_registration, model_markers};
-use super::markers::{MarkerModel, marker_observations};
+use super::config::CalibConfig;
+use super::marker_calibration::{baseline, initial_registration, model_markers, pose_orientations, registration_mask};
+use super::markers::{MarkerModel, marker_observations, per_pose_rms_mm};
 use super::params::Parameterisation;
 use super::solver::Model as _;
 use crate::dataset::Session;
@@ -53,20 +53,16 @@ pub fn marker_pose_errors(
     }
     let mut markers = model_markers(&session, model).map_err(|e| e.to_string())?;
     for (k, name) in session.markers.iter().enumerate() {
-        if let Some(m) = params.markers.iter().find(|m| &m.name == name) {
-            markers[k] = m.position;
+        if let Some(fitted) = params.marker(name) {
+            markers[k] = fitted;
         }
     }
     let config = CalibConfig::default();
     let (registration, how) = match params.camera {
         Some(c) => (c, "from the parameters file"),
         None => {
-            let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
-            let p0 = Parameterisation::for_markers(params.legs, &origin, &markers, &session.markers, &config.bounds);
-            let model0 = MarkerModel::new(&p0, &observations);
-            let at_pose =
-                model0.evaluate(&DVector::zeros(p0.len()), None, false).map_err(|e| e.to_string())?.orientations;
-            let nominal: Vec<Rotation3<f64>> = (0..observations.len()).map(|j| at_pose[model0.pose_of(j)]).collect();
+            let nominal = pose_orientations(&params.legs, &observations, &markers, &session.markers)
+                .map_err(|e| e.to_string())?;
             let start = initial_registration(&observations, &nominal, &markers)
                 .ok_or("the markers do not span a plane: no registration")?;
             (start, "best fit to this session")
@@ -78,27 +74,11 @@ pub fn marker_pose_errors(
         let evaluation = MarkerModel::new(&p, &observations).evaluate(&x0, None, false).map_err(|e| e.to_string())?;
         (x0, evaluation)
     } else {
-        let mask: Vec<bool> = p
-            .entries
-            .iter()
-            .map(|e| matches!(e.kind.group(), Group::CameraRotation | Group::CameraTranslation))
-            .collect();
+        let mask = registration_mask(&p, &vec![true; p.len()]);
         let fit = baseline(&p, &observations, None, &x0, &mask, &config).map_err(|e| e.to_string())?;
         (fit.x, fit.evaluation)
     };
-    // RMS over each pose's markers (observations come pose by pose).
-    let mut per_pose: Vec<(u64, f64, usize)> = Vec::new();
-    for (o, r) in observations.iter().zip(&evaluation.residuals) {
-        let squared = (r.norm() * 1e3).powi(2);
-        match per_pose.last_mut() {
-            Some((pose, sum, n)) if *pose == o.pose => {
-                *sum += squared;
-                *n += 1;
-            }
-            _ => per_pose.push((o.pose, squared, 1)),
-        }
-    }
-    let per_pose = per_pose.into_iter().map(|(pose, sum, n)| (pose, (sum / n as f64).sqrt())).collect();
+    let per_pose = per_pose_rms_mm(&observations, &evaluation.residuals);
     let camera = CameraRegistration { rotation: p.camera(&x), translation: p.translation(&x) };
     Ok(MarkerPoseErrors { registration: how, camera, per_pose, excluded })
 }

@@ -71,6 +71,23 @@ pub fn marker_observations(session: &Session, spm: &Spm) -> (Vec<MarkerObservati
     (kept, failed)
 }
 
+/// Per pose, the RMS (mm) of the residuals of its marker observations, in the observations'
+/// order (they come pose by pose, as [`marker_observations`] makes them).
+pub fn per_pose_rms_mm(observations: &[MarkerObservation], residuals: &[Vector3<f64>]) -> Vec<(u64, f64)> {
+    let mut poses: Vec<(u64, f64, usize)> = Vec::new();
+    for (o, r) in observations.iter().zip(residuals) {
+        let squared = (r.norm() * 1e3).powi(2);
+        match poses.last_mut() {
+            Some((pose, sum, n)) if *pose == o.pose => {
+                *sum += squared;
+                *n += 1;
+            }
+            _ => poses.push((o.pose, squared, 1)),
+        }
+    }
+    poses.into_iter().map(|(pose, sum, n)| (pose, (sum / n as f64).sqrt())).collect()
+}
+
 /// The stereo noise model: standard deviations across and along the line of sight at the
 /// reference distance, with their standard errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -250,6 +267,31 @@ impl<'a> MarkerModel<'a> {
         (across * (ratio / noise.lateral_m.max(SIGMA_FLOOR_M))
             + along * (ratio * ratio / noise.depth_m.max(SIGMA_FLOOR_M)))
             / self.inflation(j)
+    }
+    /// The Fisher information `Σ_j (W_j J_j)ᵀ (W_j J_j)` of the observations at `x` under `noise`
+    /// (`W_j` the whitening, `J_j` the Jacobian of observation `j`), summed per pose:
+    /// `(pose id, information)` in the model's pose order.
+    ///
+    /// # Errors
+    /// An [`EvalError`] when the model cannot be evaluated at `x`.
+    ///
+    /// # Panics
+    /// Never: the evaluation is asked for its Jacobian.
+    pub fn information_per_pose(
+        &self,
+        x: &DVector<f64>,
+        noise: &StereoNoise,
+    ) -> Result<Vec<(u64, DMatrix<f64>)>, EvalError> {
+        let evaluation = self.evaluate(x, None, true)?;
+        let jacobian = evaluation.jacobian.as_ref().expect("asked for the Jacobian");
+        let n = self.p.len();
+        let mut out: Vec<(u64, DMatrix<f64>)> =
+            self.poses.iter().map(|(id, _, _)| (*id, DMatrix::zeros(n, n))).collect();
+        for j in 0..self.observations.len() {
+            let block = self.whitening(j, noise) * jacobian.rows(3 * j, 3);
+            out[self.pose_of[j]].1 += block.transpose() * &block;
+        }
+        Ok(out)
     }
 }
 

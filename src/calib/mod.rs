@@ -23,7 +23,7 @@ pub use marker_calibration::{
     CrossValidation, FlaggedObservation, Latency, MarkerErrors, MarkerFitReport, MarkerReport,
 };
 pub use marker_pose_errors::{MarkerPoseErrors, marker_pose_errors};
-pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
+pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations, per_pose_rms_mm};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use pose_errors::{PoseErrors, pose_errors};
 pub(crate) use registration::initial_registration;

@@ -33,17 +33,13 @@ const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
 /// A [`FileError`] naming the line and column of the first bad value, missing column or repeated pose.
 pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
     let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s", "station"])?;
-    let mut out = Vec::new();
-    while let Some(row) = table.next_row()? {
-        if out.is_empty() {
-            out.reserve(row.expected_rows());
-        }
+    let out = table.read_all(|row, _| {
         let pose = row.index(0)?;
         let joints = Vector3::new(row.number(1)?, row.number(2)?, row.number(3)?);
         let time_s = row.optional_number(4)?;
         let station = if row.field(5).is_empty() { None } else { Some(row.index(5)?) };
-        out.push(JointReading { pose, line: row.line, joints, time_s, station });
-    }
+        Ok(JointReading { pose, line: row.line, joints, time_s, station })
+    })?;
     if let Some((pose, line)) = first_repeat(out.iter().map(|r| (r.pose, r.line))) {
         return Err(table.error_at(line, 0, format!("pose {pose} appears twice")));
     }

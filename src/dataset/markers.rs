@@ -29,16 +29,11 @@ pub struct MarkerRow {
 /// A [`FileError`] naming the line and column of the first bad value, unknown marker or repeated pair.
 pub fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, FileError> {
     let mut table = Table::open(path, &["pose", "marker", "x_m", "y_m", "z_m"])?;
-    let mut out = Vec::new();
-    while let Some(row) = table.next_row()? {
-        if out.is_empty() {
-            out.reserve(row.expected_rows());
-        }
-        let pose = row.index(0)?;
-        let marker = row.marker(1, names)?;
+    let out = table.read_all(|row, _| {
+        let (pose, marker) = (row.index(0)?, row.marker(1, names)?);
         let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
-        out.push(MarkerRow { pose, marker, position, line: row.line });
-    }
+        Ok(MarkerRow { pose, marker, position, line: row.line })
+    })?;
     if let Some(((pose, marker), line)) = first_repeat(out.iter().map(|r| ((r.pose, r.marker), r.line))) {
         return Err(table.error_at(line, 1, format!("marker `{}` of pose {pose} appears twice", names[marker])));
     }

@@ -31,18 +31,10 @@ pub struct OrientationRecord {
 /// A [`FileError`] naming the line and column of the first bad value or non-unit quaternion.
 pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
     let mut table = Table::open(path, &["pose", "qw", "qx", "qy", "qz"])?;
-    let mut out = Vec::new();
-    while let Some(row) = table.next_row()? {
-        if out.is_empty() {
-            out.reserve(row.expected_rows());
-        }
-        let pose = row.index(0)?;
-        let q = [row.number(1)?, row.number(2)?, row.number(3)?, row.number(4)?];
-        let rotation =
-            so3::from_wxyz(q).ok_or_else(|| row.error(1, format!("quaternion {q:?} does not have unit norm")))?;
-        out.push(OrientationRecord { pose, mode: None, rotation, extra: Vec::new(), line: row.line });
-    }
-    Ok(out)
+    table.read_all(|row, _| {
+        let (pose, rotation) = (row.index(0)?, row.quaternion(1)?);
+        Ok(OrientationRecord { pose, mode: None, rotation, extra: Vec::new(), line: row.line })
+    })
 }
 
 /// The table as CSV text; a `mode` column follows `pose` when any record has a mode, and the

@@ -74,13 +74,9 @@ pub struct Streams {
 /// A [`FileError`] naming the line and column of the first problem.
 pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSample>, FileError> {
     let mut table = Table::open(path, &["time_s", "theta1_rad", "theta2_rad", "theta3_rad"])?;
-    let mut out: Vec<EncoderSample> = Vec::new();
-    while let Some(row) = table.next_row()? {
-        if out.is_empty() {
-            out.reserve(row.expected_rows());
-        }
+    let out = table.read_all(|row, before: &[EncoderSample]| {
         let time_s = row.number(0)?;
-        if let Some(last) = out.last() {
+        if let Some(last) = before.last() {
             if time_s <= last.time_s {
                 let what = if time_s == last.time_s { "repeats" } else { "goes back from" };
                 return Err(row.error(0, format!("time {time_s} s {what} the previous sample's {} s", last.time_s)));
@@ -98,8 +94,8 @@ pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSa
             }
         }
         let joints = Vector3::new(row.number(1)?, row.number(2)?, row.number(3)?);
-        out.push(EncoderSample { time_s, joints });
-    }
+        Ok(EncoderSample { time_s, joints })
+    })?;
     if out.len() < 2 {
         return Err(FileError::new(path, format!("{} encoder samples: a stream needs at least two", out.len())));
     }
@@ -113,21 +109,17 @@ pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSa
 /// A [`FileError`] naming the line and column of the first problem.
 pub fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, FileError> {
     let mut table = Table::open(path, &["time_s", "marker", "x_m", "y_m", "z_m"])?;
-    let mut out: Vec<Capture> = Vec::new();
-    while let Some(row) = table.next_row()? {
-        if out.is_empty() {
-            out.reserve(row.expected_rows());
-        }
+    let out = table.read_all(|row, before: &[Capture]| {
         let time_s = row.number(0)?;
-        if let Some(last) = out.last().filter(|l| time_s < l.time_s) {
+        if let Some(last) = before.last().filter(|l| time_s < l.time_s) {
             return Err(
                 row.error(0, format!("time {time_s} s goes back from the previous capture's {} s", last.time_s))
             );
         }
         let marker = row.marker(1, names)?;
         let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
-        out.push(Capture { time_s, marker, position, line: row.line });
-    }
+        Ok(Capture { time_s, marker, position, line: row.line })
+    })?;
     // Time never goes back, so a repeat is within one frame: its time stamp's bits and marker.
     let keys = out.iter().map(|c| ((c.time_s.to_bits(), c.marker), c.line));
     if let Some(((bits, marker), line)) = first_repeat(keys) {

@@ -69,8 +69,8 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
         }
     }
     for (name, position) in companion.markers_m.iter_mut() {
-        if let Some(fitted) = params.markers.iter().find(|m| &m.name == name) {
-            *position = fitted.position.into();
+        if let Some(fitted) = params.marker(name) {
+            *position = fitted.into();
         }
     }
     companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -home[i].to_degrees()));

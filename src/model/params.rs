@@ -167,6 +167,11 @@ impl Parameters {
         }
     }
 
+    /// The fitted position in P of the marker `name`, when the file has it.
+    pub fn marker(&self, name: &str) -> Option<Vector3<f64>> {
+        self.markers.iter().find(|m| m.name == name).map(|m| m.position)
+    }
+
     /// The manipulator these parameters describe (validated).
     ///
     /// # Errors

@@ -157,8 +157,7 @@ pub fn exact(info: &[DMatrix<f64>], l: &DMatrix<f64>, m0: &DMatrix<f64>, n: usiz
     let mut order: Vec<usize> = (0..info.len()).collect();
     order.sort_by(|a, b| start[*b].total_cmp(&start[*a]));
     let mut chosen: Vec<usize> = order[..n].to_vec();
-    let mut m = m0 * n as f64;
-    chosen.iter().for_each(|&c| m += &info[c]);
+    let mut m = information_of(info, m0, &chosen);
     let mut phi = criterion(&m, l);
     let mut exchanges = 0;
     // Each sweep: the candidates with the largest directional derivatives are tried in place of
@@ -201,11 +200,12 @@ pub fn log_det(m: &DMatrix<f64>) -> f64 {
     }
 }
 
-/// `φ` of a design of the given candidates (with `m0` scaled to their number).
-pub fn criterion_of(info: &[DMatrix<f64>], l: &DMatrix<f64>, m0: &DMatrix<f64>, chosen: &[usize]) -> f64 {
+/// The information of a design of the `chosen` candidates: theirs plus the prior `m0` (one
+/// pose's worth) for each of them.
+pub fn information_of(info: &[DMatrix<f64>], m0: &DMatrix<f64>, chosen: &[usize]) -> DMatrix<f64> {
     let mut m = m0 * chosen.len() as f64;
     chosen.iter().for_each(|&c| m += &info[c]);
-    criterion(&m, l)
+    m
 }
 
 /// The continuous I-optimal design as the second-order cone program of Sagnol (2011), solved by

@@ -41,15 +41,11 @@ pub fn plan_csv(poses: &[PlannedPose]) -> String {
 /// A [`FileError`] naming the line and column of the first problem.
 pub fn read_plan(path: &Path) -> Result<Vec<PlannedPose>, FileError> {
     let mut table = Table::open(path, &COLUMNS)?;
-    let mut poses: Vec<(PlannedPose, usize)> = Vec::new();
-    while let Some(row) = table.next_row()? {
-        let step = row.index(0)?;
-        let q = [row.number(1)?, row.number(2)?, row.number(3)?, row.number(4)?];
-        let rotation =
-            so3::from_wxyz(q).ok_or_else(|| row.error(1, format!("quaternion {q:?} does not have unit norm")))?;
+    let mut poses = table.read_all(|row, _| {
+        let (step, rotation) = (row.index(0)?, row.quaternion(1)?);
         let joints = Vector3::new(row.number(5)?, row.number(6)?, row.number(7)?);
-        poses.push((PlannedPose { step, rotation, joints }, row.line));
-    }
+        Ok((PlannedPose { step, rotation, joints }, row.line))
+    })?;
     if let Some((step, line)) = first_repeat(poses.iter().map(|(p, line)| (p.step, *line))) {
         return Err(table.error_at(line, 0, format!("step {step} appears twice")));
     }

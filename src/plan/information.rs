@@ -56,13 +56,9 @@ pub fn information(
         .flat_map(|c| candidates[c].visible.iter().map(move |&k| (c, k)))
         .map(|(c, k)| observation(c, k))
         .collect();
-    let model = MarkerModel::new(p, &seen);
-    let evaluation = model.evaluate(&x0, None, true).map_err(|e| e.to_string())?;
-    let jacobian = evaluation.jacobian.ok_or("no Jacobian")?;
     let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
-    for (j, o) in seen.iter().enumerate() {
-        let block = model.whitening(j, noise) * jacobian.rows(3 * j, 3);
-        per_candidate[o.pose as usize] += block.transpose() * &block;
+    for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise).map_err(|e| e.to_string())? {
+        per_candidate[c as usize] = m;
     }
     // One observation per candidate gives every candidate's orientation sensitivity, seen or not.
     let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();

@@ -20,13 +20,13 @@ use rand::seq::SliceRandom;
 use serde::Serialize;
 
 pub use design::{
-    ContinuousDesign, ExactDesign, cone_program, criterion, criterion_of, exact, log_det, multiplicative,
+    ContinuousDesign, ExactDesign, cone_program, criterion, exact, information_of, log_det, multiplicative,
 };
 pub use file::{PlannedPose, plan_csv, read_plan};
 pub use information::{Information, information, orientation_errors, stereo_noise};
 pub use route::tour;
 
-use crate::calib::{CalibConfig, MarkerModel, Model as _, Parameterisation, marker_observations, marker_pose_errors};
+use crate::calib::{CalibConfig, MarkerModel, Parameterisation, marker_observations, marker_pose_errors};
 use crate::dataset::Session;
 use crate::model::{Parameters, RobotModel};
 use crate::sim::{Candidate, SimConfig, candidates, looking_down};
@@ -244,11 +244,8 @@ pub fn plan(
     let params = params.unwrap_or(&nominal);
     let spm = params.spm().map_err(|e| PlanError::Model(e.to_string()))?;
     let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
-    let markers: Vec<Vector3<f64>> = model
-        .markers
-        .iter()
-        .map(|m| params.markers.iter().find(|f| f.name == m.name).map_or(m.position, |f| f.position))
-        .collect();
+    let markers: Vec<Vector3<f64>> =
+        model.markers.iter().map(|m| params.marker(&m.name).unwrap_or(m.position)).collect();
     let camera = match (params.camera, augment) {
         (Some(c), _) => c,
         (None, Some(session)) => marker_pose_errors(session, model, params).map_err(PlanError::Model)?.camera,
@@ -284,8 +281,7 @@ pub fn plan(
     let continuous = by_cone
         .unwrap_or_else(|| multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations));
     let chosen = exact(&info.per_candidate, l, &prior, n, &continuous.weights);
-    let mut m_plan = &prior * n as f64;
-    chosen.chosen.iter().for_each(|&c| m_plan += &info.per_candidate[c]);
+    let m_plan = information_of(&info.per_candidate, &prior, &chosen.chosen);
     let m_continuous = design::weighted_sum(&info.per_candidate, &continuous.weights, &prior) * n as f64;
     let predicted = |m: &DMatrix<f64>| {
         let covariance = m.clone().cholesky().map(|c| c.inverse());
@@ -337,19 +333,10 @@ fn session_information(
     noise: &crate::calib::StereoNoise,
 ) -> Result<DMatrix<f64>, PlanError> {
     let (observations, _) = marker_observations(session, spm);
-    let model = MarkerModel::new(p, &observations);
-    let x0 = nalgebra::DVector::zeros(p.len());
-    let jacobian = model
-        .evaluate(&x0, None, true)
-        .map_err(|e| PlanError::Model(e.to_string()))?
-        .jacobian
-        .ok_or_else(|| PlanError::Model("no Jacobian".into()))?;
-    let mut m = DMatrix::zeros(p.len(), p.len());
-    for j in 0..observations.len() {
-        let block = model.whitening(j, noise) * jacobian.rows(3 * j, 3);
-        m += block.transpose() * &block;
-    }
-    Ok(m)
+    let per_pose = MarkerModel::new(p, &observations)
+        .information_per_pose(&nalgebra::DVector::zeros(p.len()), noise)
+        .map_err(|e| PlanError::Model(e.to_string()))?;
+    Ok(per_pose.into_iter().fold(DMatrix::zeros(p.len(), p.len()), |sum, (_, m)| sum + m))
 }
 
 /// Up to this many candidates (and no session to augment) the continuous design comes from the

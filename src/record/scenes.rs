@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::{PoseFrames, Scene, Series};
-use crate::calib::{Calibration, initial_registration, marker_pose_errors, observations};
+use crate::calib::{Calibration, initial_registration, marker_pose_errors, observations, per_pose_rms_mm};
 use crate::compare::{Level, SetComparison};
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
@@ -168,7 +168,7 @@ pub fn replay_scene<'a>(
 
 /// The marker positions a parameters file carries, in the session's marker order (all or none).
 fn fitted_markers(session: &Session, params: &Parameters) -> Option<Vec<nalgebra::Vector3<f64>>> {
-    session.markers.iter().map(|name| params.markers.iter().find(|m| &m.name == name).map(|m| m.position)).collect()
+    session.markers.iter().map(|name| params.marker(name)).collect()
 }
 
 /// `spmcal estimate --rrd`: a nominal replay whose vision frames and `e_j` are `estimate`'s, the
@@ -299,13 +299,7 @@ fn marker_residuals_at(calibration: &Calibration, x: &DVector<f64>) -> Vec<nalge
 
 /// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers.
 fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
-    let mut sums: BTreeMap<u64, (f64, usize)> = BTreeMap::new();
-    for (o, r) in calibration.marker_observations.iter().zip(residuals) {
-        let e = sums.entry(o.pose).or_default();
-        e.0 += r.norm_squared() * 1e6;
-        e.1 += 1;
-    }
-    let values = sums.into_iter().map(|(pose, (sum, n))| (pose, (sum / n as f64).sqrt())).collect();
+    let values = per_pose_rms_mm(&calibration.marker_observations, residuals).into_iter().collect();
     Series { name: format!("markers_mm/{name}"), values }
 }
 
