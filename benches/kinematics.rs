@@ -5,8 +5,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Rotation3, Vector3};
+use spmcal::math::so3;
 use spmcal::model::Spm;
-use spmcal::so3;
 
 fn pose() -> Rotation3<f64> {
     // 20° tilt and 15° yaw: a typical joystick deflection.

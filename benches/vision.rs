@@ -11,10 +11,10 @@ use std::process::Command;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix3, Vector3};
+use spmcal::math::polar::{polar, polar_svd};
+use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::polar::{polar, polar_svd};
 use spmcal::sim::{SimConfig, simulate};
-use spmcal::so3;
 use spmcal::vision::{Method, Reference};
 
 fn markers() -> Vec<Vector3<f64>> {

@@ -4,32 +4,21 @@
 //! measured markers, millimetres) — the only one possible when no pose sees three markers, as in
 //! a free-motion recording with one marker per camera frame.
 //!
-//! Registrations: see [`crate::calib::pose_errors`] and [`crate::calib::marker_pose_errors`].
+//! Registrations: a parameter set without one (the nominal model) gets its best fit to the
+//! session; a calibrated file's own is used as it is (see `calib::agreement`).
 
 use serde::Serialize;
 
-use crate::calib::{marker_pose_errors, pose_errors};
+use crate::calib::{FitLevel, SetError, marker_pose_errors, pose_errors};
 use crate::dataset::Session;
 use crate::model::{Parameters, RobotModel};
 use crate::vision::{MarkerError, Method, Stats, VisionError, estimate_session};
 
-/// What is compared.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Level {
-    /// Orientations, per pose, from the per-pose estimator (needs three markers per pose).
-    Orientations,
-    /// Marker positions, every observation.
-    Markers,
-}
-
-impl Level {
-    /// The unit of the per-pose errors.
-    pub fn unit(self) -> &'static str {
-        match self {
-            Level::Orientations => "deg",
-            Level::Markers => "mm",
-        }
+/// The unit of the per-pose errors at `level`.
+fn unit(level: FitLevel) -> &'static str {
+    match level {
+        FitLevel::Orientations => "deg",
+        FitLevel::Markers => "mm",
     }
 }
 
@@ -38,8 +27,8 @@ impl Level {
 pub struct SetComparison {
     /// Name of the parameter set (`nominal`, `calibrated`, a file name).
     pub label: String,
-    /// What was compared.
-    pub level: Level,
+    /// What was compared: orientations (per pose, from the per-pose estimator) or markers.
+    pub level: FitLevel,
     /// Unit of the errors: `deg` (orientations) or `mm` (markers, RMS over a pose's markers).
     pub unit: &'static str,
     /// How the camera registration was obtained.
@@ -69,7 +58,7 @@ pub enum CompareError {
         /// Its label.
         label: String,
         /// Why.
-        reason: String,
+        reason: SetError,
     },
 }
 
@@ -83,11 +72,11 @@ pub fn compare(
     model: &RobotModel,
     sets: &[(String, Parameters)],
     method: Method,
-    level: Option<Level>,
+    level: Option<FitLevel>,
 ) -> Result<Vec<SetComparison>, CompareError> {
     let vision = match level {
-        Some(Level::Markers) => None,
-        Some(Level::Orientations) => Some(estimate_session(session, method)?),
+        Some(FitLevel::Markers) => None,
+        Some(FitLevel::Orientations) => Some(estimate_session(session, method)?),
         None => match estimate_session(session, method) {
             Ok(v) => Some(v),
             Err(VisionError { reason: MarkerError::NoPoseWithThree { .. }, .. }) => None,
@@ -98,14 +87,8 @@ pub fn compare(
         .map(|(label, params)| {
             let set_error = |reason| CompareError::Set { label: label.clone(), reason };
             let (level, errors) = match &vision {
-                Some(v) => {
-                    let e = pose_errors(session, v, params).map_err(set_error)?;
-                    (Level::Orientations, (e.registration, e.per_pose, e.excluded))
-                }
-                None => {
-                    let e = marker_pose_errors(session, model, params).map_err(set_error)?;
-                    (Level::Markers, (e.registration, e.per_pose, e.excluded))
-                }
+                Some(v) => (FitLevel::Orientations, pose_errors(session, v, params).map_err(set_error)?),
+                None => (FitLevel::Markers, marker_pose_errors(session, model, params).map_err(set_error)?.0),
             };
             Ok(SetComparison::new(label, level, errors))
         })
@@ -113,18 +96,15 @@ pub fn compare(
 }
 
 impl SetComparison {
-    fn new(
-        label: &str,
-        level: Level,
-        (registration, per_pose, excluded): (&'static str, Vec<(u64, f64)>, Vec<String>),
-    ) -> Self {
+    fn new(label: &str, level: FitLevel, errors: crate::calib::PoseErrors) -> Self {
+        let crate::calib::PoseErrors { registration, per_pose, excluded, .. } = errors;
         let values: Vec<f64> = per_pose.iter().map(|(_, e)| *e).collect();
         let stats = Stats::of(&values).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
         let rms = (values.iter().map(|e| e * e).sum::<f64>() / values.len().max(1) as f64).sqrt();
         SetComparison {
             label: label.to_string(),
             level,
-            unit: level.unit(),
+            unit: unit(level),
             registration,
             per_pose,
             rms,
@@ -132,5 +112,21 @@ impl SetComparison {
             max: stats.max,
             excluded,
         }
+    }
+}
+
+impl std::fmt::Display for SetComparison {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let unit = if self.unit == "deg" { "°" } else { " mm" };
+        writeln!(
+            f,
+            "{:<11} RMS {:.4}{unit}, median {:.4}{unit}, max {:.4}{unit} over {} poses (registration: {})",
+            self.label,
+            self.rms,
+            self.median,
+            self.max,
+            self.per_pose.len(),
+            self.registration
+        )
     }
 }

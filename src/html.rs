@@ -8,8 +8,8 @@ use std::fmt::Write as _;
 use nalgebra::Vector3;
 use plotters::prelude::*;
 
-use crate::calib::{CalibConfig, Calibration, FitLevel, per_pose_rms_mm};
-use crate::so3;
+use crate::calib::{Calibration, FitLevel, Fitted, per_pose_rms_mm};
+use crate::math::so3;
 
 /// The sections of the report, in order: `(id, title)`.
 pub const SECTIONS: [(&str, &str); 7] = [
@@ -22,41 +22,11 @@ pub const SECTIONS: [(&str, &str); 7] = [
     ("tables", "Tables"),
 ];
 
-/// Whether the calibration passes the config's thresholds, and the sentence that says so.
-pub fn verdict(calibration: &Calibration, config: &CalibConfig) -> (bool, String) {
-    let report = &calibration.report;
-    match (report.fit, report.markers.as_ref().and_then(|m| m.cross_validation.as_ref())) {
-        (FitLevel::Markers, Some(cv)) => {
-            let pass = cv.clearly_better && cv.calibrated_rms_mm <= config.pass_held_out_mm;
-            let text = format!(
-                "On unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the markers to {:.3} mm RMS against the nominal model's {:.3} mm ({}; threshold {:.3} mm).",
-                cv.folds,
-                cv.observations,
-                cv.calibrated_rms_mm,
-                cv.nominal_rms_mm,
-                if cv.clearly_better { "clearly better" } else { "not clearly better" },
-                config.pass_held_out_mm
-            );
-            (pass, text)
-        }
-        _ => match (report.before.held_out, report.after.held_out) {
-            (Some(before), Some(after)) => {
-                let pass = after.rms_deg < before.rms_deg && after.rms_deg <= config.pass_held_out_deg;
-                let text = format!(
-                    "On held-out poses the calibrated model's FDA agrees with vision to {:.4}° RMS against the nominal model's {:.4}° (threshold {:.3}°).",
-                    after.rms_deg, before.rms_deg, config.pass_held_out_deg
-                );
-                (pass, text)
-            }
-            _ => (false, "No unseen poses were held out: nothing shows how the model predicts new data.".into()),
-        },
-    }
-}
-
 /// The whole report as one HTML document (well-formed XML: XHTML with inline SVG).
-pub fn calibration_html(calibration: &Calibration, config: &CalibConfig, text_report: &str) -> String {
+pub fn calibration_html(calibration: &Calibration, text_report: &str) -> String {
     let report = &calibration.report;
-    let (pass, sentence) = verdict(calibration, config);
+    let verdict = &report.verdict;
+    let (pass, sentence) = (verdict.pass, format!("{}.", capitalised(&verdict.summary)));
     let mut html = String::new();
     let _ = write!(
         html,
@@ -142,15 +112,15 @@ fn per_pose(c: &Calibration) -> String {
     let (unit, before, after) = match c.report.fit {
         FitLevel::Markers => {
             let by_pose = |residuals: &[Vector3<f64>]| -> Vec<(f64, f64)> {
-                per_pose_rms_mm(&c.marker_observations, residuals).into_iter().map(|(p, e)| (p as f64, e)).collect()
+                per_pose_rms_mm(marker_observations(c), residuals).into_iter().map(|(p, e)| (p as f64, e)).collect()
             };
-            ("mm", by_pose(&c.nominal.evaluation.residuals), by_pose(&c.calibrated.evaluation.residuals))
+            ("mm", by_pose(&c.nominal.residuals), by_pose(&c.calibrated.residuals))
         }
         FitLevel::Orientations => {
             let deg = |residuals: &[Vector3<f64>]| -> Vec<(f64, f64)> {
-                c.observations.iter().zip(residuals).map(|(o, r)| (o.pose as f64, r.norm().to_degrees())).collect()
+                fitted_poses(c).iter().zip(residuals).map(|(o, r)| (o.pose as f64, r.norm().to_degrees())).collect()
             };
-            ("°", deg(&c.nominal.evaluation.residuals), deg(&c.calibrated.evaluation.residuals))
+            ("°", deg(&c.nominal.residuals), deg(&c.calibrated.residuals))
         }
     };
     let x_max = before.iter().map(|p| p.0).fold(1.0, f64::max);
@@ -191,10 +161,9 @@ fn residuals(c: &Calibration) -> String {
                 .iter()
                 .enumerate()
                 .map(|(k, name)| {
-                    let of_k: Vec<&Vector3<f64>> = c
-                        .marker_observations
+                    let of_k: Vec<&Vector3<f64>> = marker_observations(c)
                         .iter()
-                        .zip(&c.calibrated.evaluation.residuals)
+                        .zip(&c.calibrated.residuals)
                         .filter(|(o, _)| o.marker == k)
                         .map(|(_, r)| r)
                         .collect();
@@ -206,7 +175,7 @@ fn residuals(c: &Calibration) -> String {
                 .collect()
         }
         FitLevel::Orientations => {
-            let r = &c.calibrated.evaluation.residuals;
+            let r = &c.calibrated.residuals;
             let rms = |axis: usize| {
                 (r.iter().map(|v| v[axis].to_degrees().powi(2)).sum::<f64>() / r.len().max(1) as f64).sqrt()
             };
@@ -328,7 +297,6 @@ fn identifiability(c: &Calibration) -> String {
 fn coverage(c: &Calibration) -> String {
     let points: Vec<(f64, f64)> = c
         .calibrated
-        .evaluation
         .orientations
         .iter()
         .map(|r| {
@@ -353,4 +321,26 @@ fn coverage(c: &Calibration) -> String {
         chart.draw_series(points.iter().map(|&p| Circle::new(p, 2, blue.filled())))?;
         Ok(())
     })
+}
+
+/// The sentence with its first letter in capitals.
+fn capitalised(sentence: &str) -> String {
+    let mut chars = sentence.chars();
+    chars.next().map_or_else(String::new, |c| c.to_uppercase().chain(chars).collect())
+}
+
+/// The marker observations a calibration fitted (none for an orientation-level one).
+fn marker_observations(c: &Calibration) -> &[crate::calib::MarkerObservation] {
+    match &c.fitted {
+        Fitted::Markers(observations) => observations,
+        _ => &[],
+    }
+}
+
+/// The poses an orientation-level calibration fitted (none for a marker-level one).
+fn fitted_poses(c: &Calibration) -> &[crate::calib::Observation] {
+    match &c.fitted {
+        Fitted::Orientations { fitted, .. } => fitted,
+        _ => &[],
+    }
 }

@@ -30,26 +30,22 @@
 //!     let joints = Vector3::new(0.10 + 0.001 * k as f64, -0.05, 0.02);
 //!     r = spm.track(&joints, &r)?;
 //! }
-//! let [qw, qx, qy, qz] = spmcal::so3::to_wxyz(&r); // MP → base, scalar first
+//! let [qw, qx, qy, qz] = spmcal::math::so3::to_wxyz(&r); // MP → base, scalar first
 //! assert!((qw * qw + qx * qx + qy * qy + qz * qz - 1.0).abs() < 1e-12);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 // The lean core (always): the model, the parameters file and their plumbing.
-mod files;
+pub mod io;
+pub mod math;
 pub mod model;
-pub mod polar;
-pub mod so3;
-mod yaml;
-pub use files::FileError;
+pub use io::FileError;
 
 // Everything else: feature `full` (the default).
 #[cfg(feature = "full")]
 pub mod calib;
 #[cfg(feature = "full")]
 pub mod compare;
-#[cfg(feature = "full")]
-pub mod constellation;
 #[cfg(feature = "full")]
 pub mod dataset;
 #[cfg(feature = "full")]
@@ -59,14 +55,8 @@ pub mod plan;
 #[cfg(feature = "full")]
 pub mod record;
 #[cfg(feature = "full")]
-pub mod report;
-#[cfg(feature = "full")]
 pub mod sim;
-#[cfg(feature = "full")]
-pub(crate) mod table;
 #[cfg(feature = "full")]
 pub mod vision;
 #[cfg(feature = "full")]
-pub(crate) use files::in_parallel;
-#[cfg(feature = "full")]
-pub use files::{Outputs, Slot};
+pub(crate) use io::files::in_parallel;

@@ -24,7 +24,7 @@ fn ik_then_fda_through_files_recovers_the_orientations() {
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(x.pose, y.pose);
         // Input quaternions are exact to ~1e-12 (12 digits), and are normalised on reading.
-        assert!(spmcal::so3::geodesic_angle(&x.rotation, &y.rotation) < 1e-10);
+        assert!(spmcal::math::so3::geodesic_angle(&x.rotation, &y.rotation) < 1e-10);
     }
 }
 
@@ -175,7 +175,7 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     // their own fields.
     assert_eq!(report["parameters"].as_array().unwrap().len(), 18);
     assert_eq!(report["markers"]["markers"].as_array().unwrap().len(), 4);
-    assert!(report["markers"]["cross_validation"]["calibrated_rms_mm"].as_f64().is_some());
+    assert!(report["cross_validation"]["calibrated_rms"].as_f64().is_some());
     assert!(report["markers"]["stereo_noise"]["depth_m"].as_f64().is_some());
 }
 

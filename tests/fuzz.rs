@@ -212,7 +212,7 @@ proptest! {
 
 /// Found by a long fuzz run: a marker coordinate of 1e300 made the centre of rotation's SVD loop
 /// for ever (nalgebra's SVD does not converge on non-finite input). Every decomposition is now
-/// bounded (`so3::bounded_svd`); this returns at once.
+/// bounded (`linalg::bounded_svd`); this returns at once.
 #[test]
 fn a_huge_marker_coordinate_does_not_hang_the_estimator() {
     let (mut session, _) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();

@@ -5,8 +5,8 @@
 use nalgebra::{Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
+use spmcal::math::so3;
 use spmcal::model::{Branch, GeometrySpread, IkError, LegGeometry, Spm, perturb};
-use spmcal::so3;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 

@@ -4,8 +4,8 @@
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use rand::SeedableRng;
+use spmcal::math::so3;
 use spmcal::model::{Branch, GeometrySpread, Spm, perturb, wrap_angle};
-use spmcal::so3;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 

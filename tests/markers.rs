@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use spmcal::calib::{CalibConfig, MarkerModel, Model, Parameterisation, marker_observations};
+use spmcal::calib::{CalibConfig, Fitted, MarkerModel, Model, Parameterisation, marker_observations};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
 use spmcal::sim::{SimConfig, simulate};
@@ -216,8 +216,9 @@ fn a_marker_seen_at_one_pose_is_reported_and_held() {
         pose.markers[3] = None;
     }
     let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let warnings = &calibration.report.warnings;
+    assert!(warnings.iter().any(|w| w.contains("`m4` is seen at 1 pose")), "{warnings:?}");
     let report = calibration.report.markers.unwrap();
-    assert!(report.warnings.iter().any(|w| w.contains("`m4` is seen at 1 pose")), "{:?}", report.warnings);
     let m4 = &report.markers[3];
     assert!(m4.std_error_mm.is_none() && m4.change_mm == [0.0; 3], "{m4:?}");
 }
@@ -233,8 +234,8 @@ fn gross_marker_errors_are_excluded_with_their_line() {
         session.poses[k].marker_lines[0] = 1000 + k;
     }
     let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
-    let report = calibration.report.markers.unwrap();
-    let excluded: Vec<usize> = report.flagged.iter().filter(|f| f.excluded).map(|f| f.line).collect();
+    let excluded: Vec<usize> = calibration.report.flagged.iter().filter(|f| f.excluded).map(|f| f.line).collect();
+    let report = calibration.report.markers.as_ref().unwrap();
     for k in [5, 40, 77] {
         if session.poses[k].markers[0].is_some() {
             assert!(excluded.contains(&(1000 + k)), "line {} not excluded: {excluded:?}", 1000 + k);
@@ -247,45 +248,38 @@ fn gross_marker_errors_are_excluded_with_their_line() {
 
 #[test]
 fn cross_validation_by_one_newton_step_matches_refitting_each_fold() {
-    use spmcal::calib::{FitSettings, Group, fit_model};
     let (session, model) = simulated(120, 12, false);
     let config = CalibConfig::default();
     let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |_| {}).unwrap();
-    let cv = calibration.report.markers.as_ref().unwrap().cross_validation.clone().unwrap();
-    let p = &calibration.parameterisation;
-    let observations = &calibration.marker_observations;
-    let all = vec![true; p.len()];
-    let registration: Vec<bool> =
-        p.entries.iter().map(|e| matches!(e.kind.group(), Group::CameraRotation | Group::CameraTranslation)).collect();
+    let cv = calibration.report.cross_validation.clone().unwrap();
+    assert_eq!(cv.unpredicted, 0);
+    let Fitted::Markers(observations) = &calibration.fitted else { panic!("a marker-level calibration") };
     // Folds: poses dealt out in order of appearance (no stations here).
     let mut poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
     poses.dedup();
-    let fold = |o: &spmcal::calib::MarkerObservation| poses.iter().position(|p| *p == o.pose).unwrap() % config.folds;
+    let fold_of = |pose: u64| poses.iter().position(|p| *p == pose).unwrap() % config.folds;
     let (mut nominal_sq, mut calibrated_sq) = (0.0, 0.0);
     for f in 0..config.folds {
-        let train: Vec<_> = observations.iter().filter(|o| fold(o) != f).copied().collect();
-        let test: Vec<_> = observations.iter().filter(|o| fold(o) == f).copied().collect();
-        let (train_model, test_model) = (MarkerModel::new(p, &train), MarkerModel::new(p, &test));
-        for (start, free, sum) in [
-            (&calibration.nominal.x, &registration, &mut nominal_sq),
-            (&calibration.calibrated.x, &all, &mut calibrated_sq),
-        ] {
-            let refit =
-                fit_model(&train_model, start, &FitSettings::from_config(&config, free.clone()), &mut |_| {}).unwrap();
-            let eval = test_model.evaluate(&refit.x, None, false).unwrap();
+        // The whole calibration again, on the session without the fold's poses; the fold's
+        // observations predicted by its nominal and calibrated models.
+        let mut train = session.clone();
+        train.poses.retain(|p| !poses.contains(&p.id) || fold_of(p.id) != f);
+        train.reference_pose = train.poses[0].id;
+        let refit = spmcal::calib::calibrate(&train, &model, &config, &mut |_| {}).unwrap();
+        let test: Vec<_> = observations.iter().filter(|o| fold_of(o.pose) == f).copied().collect();
+        let test_model = MarkerModel::new(&refit.parameterisation, &test);
+        for (x, sum) in [(&refit.nominal.x, &mut nominal_sq), (&refit.calibrated.x, &mut calibrated_sq)] {
+            let eval = test_model.evaluate(x, None, false).unwrap();
             *sum += eval.residuals.iter().map(|r| r.norm_squared() * 1e6).sum::<f64>();
         }
     }
     let n = observations.len() as f64;
     let (nominal, calibrated) = ((nominal_sq / n).sqrt(), (calibrated_sq / n).sqrt());
-    eprintln!(
-        "refit {nominal:.5} / {calibrated:.5} mm, one step {:.5} / {:.5} mm",
-        cv.nominal_rms_mm, cv.calibrated_rms_mm
-    );
+    eprintln!("refit {nominal:.5} / {calibrated:.5} mm, one step {:.5} / {:.5} mm", cv.nominal_rms, cv.calibrated_rms);
     // The one-step estimate is second-order exact; the refits re-estimate the noise model per
     // fold, which the one step keeps: agreement to 1% of the held-out error.
-    assert!((cv.calibrated_rms_mm / calibrated - 1.0).abs() < 0.01, "{} vs {calibrated}", cv.calibrated_rms_mm);
-    assert!((cv.nominal_rms_mm / nominal - 1.0).abs() < 0.01, "{} vs {nominal}", cv.nominal_rms_mm);
+    assert!((cv.calibrated_rms / calibrated - 1.0).abs() < 0.01, "{} vs {calibrated}", cv.calibrated_rms);
+    assert!((cv.nominal_rms / nominal - 1.0).abs() < 0.01, "{} vs {nominal}", cv.nominal_rms);
 }
 
 #[test]
@@ -301,7 +295,7 @@ fn marker_data_leave_free_only_the_two_rotation_gauges() {
     assert_eq!((id.rank, id.parameters), (33, 33), "{id:?}");
     let p = &calibration.parameterisation;
     let x = &calibration.calibrated.x;
-    let obs = &calibration.marker_observations;
+    let Fitted::Markers(obs) = &calibration.fitted else { panic!("a marker-level calibration") };
     let base = MarkerModel::new(p, obs).evaluate(x, None, true).unwrap();
     let camera = spmcal::model::CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
     let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
@@ -312,7 +306,7 @@ fn marker_data_leave_free_only_the_two_rotation_gauges() {
     });
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
-    let analysis = spmcal::calib::analyse(&augmented, &all, &names, 1e-5);
+    let analysis = spmcal::calib::Identifiability::analyse(&augmented, &all, &names, 1e-5);
     assert_eq!(analysis.rank, 33, "the six gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
@@ -330,7 +324,7 @@ fn a_calibration_not_clearly_better_than_nominal_says_so_or_is_refused() {
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
     let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
     let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
-    let report = calibration.report.markers.as_ref().unwrap();
+    let report = &calibration.report;
     let cv = report.cross_validation.as_ref().unwrap();
     assert!(!cv.clearly_better, "{cv:?}");
     assert!(
@@ -338,7 +332,8 @@ fn a_calibration_not_clearly_better_than_nominal_says_so_or_is_refused() {
         "{:?}",
         report.warnings
     );
-    assert!(calibration.report.to_string().contains("NOT CLEARLY BETTER"));
+    let text = calibration.report.to_string();
+    assert!(text.contains("verdict: WARN") && text.contains("not clearly better"), "{text}");
     let refuse = CalibConfig { if_not_better: spmcal::calib::IfNotBetter::Refuse, ..CalibConfig::default() };
     let err = spmcal::calib::calibrate(&session, &model, &refuse, &mut |_| {}).unwrap_err().to_string();
     assert!(err.contains("not written"), "{err}");

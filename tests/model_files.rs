@@ -113,7 +113,7 @@ fn encoder_offsets_in_the_companion_are_read_and_a_bad_one_is_located() {
     let joints = Vector3::new(0.1, -0.2, 0.05);
     let offsets = Vector3::new(1.5f64, -2.0, 0.25).map(f64::to_radians);
     let (a, b) = (shifted.spm.forward(&joints).unwrap(), plain.spm.forward(&(joints + offsets)).unwrap());
-    assert!(spmcal::so3::geodesic_angle(&a, &b) < 1e-12);
+    assert!(spmcal::math::so3::geodesic_angle(&a, &b) < 1e-12);
     let (_, text) = load_error(NO_EDIT, ("\nmarkers_m:", "\nencoder_offsets_deg: [1.5, .nan, 0.25]\nmarkers_m:"));
     assert!(text.contains("robot.yaml:") && text.contains("encoder_offsets_deg") && text.contains("finite"), "{text}");
 }
@@ -150,7 +150,8 @@ fn parameters_file_round_trip() {
     assert_same_geometry(&back.spm().unwrap(), &spm, 1e-14);
     let (c, b) = (params.camera.unwrap(), back.camera.unwrap());
     assert!(
-        spmcal::so3::geodesic_angle(&c.rotation, &b.rotation) < 1e-14 && (c.translation - b.translation).amax() == 0.0
+        spmcal::math::so3::geodesic_angle(&c.rotation, &b.rotation) < 1e-14
+            && (c.translation - b.translation).amax() == 0.0
     );
 }
 
@@ -207,9 +208,9 @@ fn an_exported_urdf_gives_the_parameters_files_forward_kinematics_and_check_urdf
             rng.random_range(-0.45..0.45),
             rng.random_range(-0.5..0.5),
         );
-        let Ok(joints) = from_params.ik(&spmcal::so3::exp(&omega)) else { continue };
+        let Ok(joints) = from_params.ik(&spmcal::math::so3::exp(&omega)) else { continue };
         let (Ok(a), Ok(b)) = (from_params.forward(&joints), loaded.spm.forward(&joints)) else { continue };
-        worst = worst.max(spmcal::so3::geodesic_angle(&a, &b));
+        worst = worst.max(spmcal::math::so3::geodesic_angle(&a, &b));
         tested += 1;
     }
     assert!(worst < 1e-12, "{worst:e} rad");

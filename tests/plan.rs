@@ -89,7 +89,7 @@ fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
     for (a, b) in back.iter().zip(&planned.poses) {
         // Numbers read back exactly; the rotation goes through its quaternion (rounding only).
         assert_eq!((a.step, a.joints), (b.step, b.joints));
-        assert!(spmcal::so3::geodesic_angle(&a.rotation, &b.rotation) < 1e-14);
+        assert!(spmcal::math::so3::geodesic_angle(&a.rotation, &b.rotation) < 1e-14);
     }
     assert_eq!(back.iter().map(|p| p.step).collect::<Vec<_>>(), (1..=12).collect::<Vec<u64>>());
     // The joints in the file are the model's IK of the orientations.

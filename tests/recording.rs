@@ -87,7 +87,7 @@ fn calibration_recording_has_the_entities_poses_and_values() {
     assert!(chunks.iter().any(|c| c.timelines().contains_key(&"time".into())));
     // Logged values are the computed ones: e_j per pose, and the fit's cost per iteration.
     let e = scalars(&chunks, "errors/e_j", "pose");
-    let vision = calibration.vision.as_ref().unwrap();
+    let spmcal::calib::Fitted::Orientations { vision, .. } = &calibration.fitted else { panic!("orientation level") };
     assert_eq!(e.len(), vision.poses.len());
     for (pose, estimate) in &vision.poses {
         assert_eq!(e[&(*pose as i64)], estimate.error);

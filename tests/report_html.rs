@@ -48,8 +48,8 @@ fn the_report_has_every_section_and_plot_with_the_reports_numbers() {
     assert_eq!(sections, expected);
     assert_eq!(svgs_in, ["per-pose", "residuals", "parameters", "identifiability", "coverage"]);
     // The verdict says the report's numbers (3 decimals) and the config's threshold.
-    let cv = &report["results"]["markers"]["cross_validation"];
-    for key in ["calibrated_rms_mm", "nominal_rms_mm"] {
+    let cv = &report["results"]["cross_validation"];
+    for key in ["calibrated_rms", "nominal_rms"] {
         let shown = format!("{:.3} mm", cv[key].as_f64().unwrap());
         assert!(text.contains(&shown), "{shown}");
     }

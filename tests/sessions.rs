@@ -84,7 +84,7 @@ fn write_then_read_gives_the_same_session() {
     let (t, tb) = (session.truth.as_ref().unwrap(), back.truth.as_ref().unwrap());
     assert_eq!(t.orientations.len(), tb.orientations.len());
     for (k, r) in &t.orientations {
-        assert!(spmcal::so3::geodesic_angle(r, &tb.orientations[k]) < 1e-15);
+        assert!(spmcal::math::so3::geodesic_angle(r, &tb.orientations[k]) < 1e-15);
     }
     // The parameters file stores degrees: an ulp or two.
     for (a, b) in t.parameters.legs.iter().zip(&tb.parameters.legs) {

@@ -5,9 +5,9 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use spmcal::dataset::Session;
+use spmcal::math::so3;
 use spmcal::model::{Body, RobotModel};
 use spmcal::sim::{Scene, SimConfig, simulate};
-use spmcal::so3;
 
 fn config() -> SimConfig {
     SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap()

@@ -251,7 +251,7 @@ fn captures_taken_while_the_joystick_moves_fast_are_flagged_and_down_weighted() 
     let calibration = calibrate(&recording, &model, &settings, &mut |_| {}).unwrap();
     let report = calibration.report.markers.as_ref().unwrap();
     assert!(!report.fast_captures.is_empty(), "no fast capture flagged");
-    assert!(report.fast_captures.iter().all(|(_, _, _, speed)| *speed > 90.0));
+    assert!(report.fast_captures.iter().all(|c| c.speed_deg_s > 90.0));
     assert!(calibration.report.to_string().contains("fast captures:"));
     // Raising the limit flags none.
     let relaxed = CalibConfig { max_joint_speed_deg_s: 1e6, ..settings };
@@ -280,7 +280,7 @@ fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recordi
     ];
     let method = spmcal::vision::Method::Kabsch;
     let compared = spmcal::compare::compare(&recording, &model, &sets, method, None).unwrap();
-    assert!(compared.iter().all(|c| c.level == spmcal::compare::Level::Markers && c.unit == "mm"));
+    assert!(compared.iter().all(|c| c.level == spmcal::calib::FitLevel::Markers && c.unit == "mm"));
     let (nominal, calibrated) = (&compared[0], &compared[1]);
     eprintln!("markers: nominal {:.3} mm, calibrated {:.3} mm", nominal.rms, calibrated.rms);
     // The calibrated file's prediction on its own recording is the fit's (same registration,
@@ -290,7 +290,7 @@ fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recordi
     assert!((calibrated.rms - fit_rms).abs() < 0.02 * fit_rms, "{} vs {fit_rms}", calibrated.rms);
     assert!(nominal.rms > 3.0 * calibrated.rms, "{} vs {}", nominal.rms, calibrated.rms);
     // Asking for orientations names why it cannot be done.
-    let orientations = Some(spmcal::compare::Level::Orientations);
+    let orientations = Some(spmcal::calib::FitLevel::Orientations);
     let err = spmcal::compare::compare(&recording, &model, &sets, method, orientations).unwrap_err().to_string();
     assert!(err.contains("no pose sees 3 markers"), "{err}");
 

@@ -5,9 +5,9 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use proptest::prelude::*;
-use spmcal::constellation::Degeneracy;
-use spmcal::polar::polar;
-use spmcal::so3;
+use spmcal::math::constellation::Degeneracy;
+use spmcal::math::polar::polar;
+use spmcal::math::so3;
 use spmcal::vision::{MarkerError, Method, Reference, orthogonality_error};
 
 /// The four markers of the nominal model (P frame), a tetrahedron as in the paper.
@@ -208,7 +208,7 @@ fn higham_agrees_with_the_svd_on_noisy_rotations() {
         let q = rotation([0.01 * k as f64, -0.7, 0.3 * (k as f64).sin()]);
         let noise = Matrix3::from_fn(|i, j| 0.02 * ((k * 9 + i * 3 + j) as f64 * 1.3).sin());
         let a = q.matrix() + noise;
-        let (newton, svd) = (polar(&a).unwrap(), spmcal::polar::polar_svd(&a).unwrap());
+        let (newton, svd) = (polar(&a).unwrap(), spmcal::math::polar::polar_svd(&a).unwrap());
         assert!((newton.q - svd.q).amax() < 1e-14 && newton.iterations <= 4, "{k}: {} iterations", newton.iterations);
     }
 }

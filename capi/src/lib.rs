@@ -14,8 +14,8 @@ use std::ffi::{CStr, CString, c_char};
 use std::path::Path;
 
 use nalgebra::Vector3;
+use spmcal::math::so3;
 use spmcal::model::{Parameters, Spm};
-use spmcal::so3;
 
 /// What a call did.
 #[repr(C)]

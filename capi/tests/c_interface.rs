@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use spmcal::math::so3;
 use spmcal::model::Parameters;
-use spmcal::so3;
 
 #[test]
 fn the_committed_header_is_the_generated_one() {

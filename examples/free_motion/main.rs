@@ -58,7 +58,7 @@ fn main() {
             ignored.push(study::calibration_error(&session, &held, &tests));
             let l = fitted.report.markers.as_ref().unwrap().latency.unwrap();
             latency.push((l.value_s - truth.parameters.latency_s.unwrap()) * 1e3);
-            observations += fitted.marker_observations.len();
+            observations += fitted.report.markers.as_ref().map_or(0, |m| m.observations);
         }
         let done = estimated.len().max(1) as f64;
         println!(

@@ -10,9 +10,9 @@ use spmcal::calib::{
     CalibConfig, Calibration, FitLevel, MarkerModel, Parameterisation, TruthInGauge, calibrate, marker_observations,
 };
 use spmcal::dataset::Session;
+use spmcal::math::so3;
 use spmcal::model::{LegGeometry, RobotModel, Spm};
 use spmcal::sim::{SimConfig, simulate};
-use spmcal::so3;
 
 /// One session's figures: RMS orientation errors (degrees) against the truth over the test
 /// orientations.
@@ -149,7 +149,7 @@ pub fn run_session(config: &SimConfig, model: &RobotModel, seed: u64, tests: usi
         orientations_deg: by_orientation.as_ref().map(|c| calibration_error(&session, c, &tests)),
         nominal_deg: workspace_error(model.spm.geometry(), &spm_true, &gauge, &tests),
         cramer_rao_deg: cramer_rao(&session, model, &c, &tests),
-        observations: fitted.marker_observations.len(),
+        observations: fitted.report.markers.as_ref().map_or(0, |m| m.observations),
     }
 }
 

@@ -1,9 +1,9 @@
 //! How accurate is each estimator? Simulated sessions at several camera noise levels, each pose's
 //! estimate compared with the true rotation from the reference pose (in the camera frame).
 
+use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::sim::{SimConfig, SimError, simulate};
-use spmcal::so3;
 use spmcal::vision::{Method, estimate_session};
 
 /// One noise level of the study.

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::files::FileError;
+use crate::io::files::FileError;
 use crate::vision::Method;
 
 /// A group of parameters that can be frozen at its nominal (or initial) value.
@@ -183,7 +183,7 @@ impl CalibConfig {
     /// # Errors
     /// A [`FileError`] naming the file, line and key for unreadable or malformed YAML, unknown keys or values [`CalibConfig::check`] refuses.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        crate::yaml::read_checked(path, CalibConfig::check)
+        crate::io::yaml::read_checked(path, CalibConfig::check)
     }
 
     /// Values serde accepted but that make no sense, as `(key, reason)`.

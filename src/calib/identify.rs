@@ -47,19 +47,7 @@ pub struct Identifiability {
     pub column_norms: DVector<f64>,
 }
 
-/// Analyse `W^½ J` (3n × N) over the `free` parameters.
-///
-/// # Panics
-/// If `free` or `names` index past the Jacobian's columns.
-pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String], min_ratio: f64) -> Identifiability {
-    if weighted_jacobian.nrows() == 0 {
-        // No data: no direction to analyse.
-        return Identifiability::nothing(free.len(), DVector::from_element(weighted_jacobian.ncols(), 1.0));
-    }
-    analyse_gram(&super::solver::gram(weighted_jacobian), free, names, min_ratio)
-}
-
-/// [`analyse`] from the Gram matrix `JᵀWJ` (N × N) of the weighted Jacobian: the singular values
+/// [`Identifiability::analyse`] from the Gram matrix `JᵀWJ` (N × N) of the weighted Jacobian: the singular values
 /// and right vectors of the column-scaled Jacobian are the roots and vectors of the scaled Gram
 /// matrix's eigen-decomposition. At 100,000 observations an SVD of the tall matrix cost a second.
 /// Squaring the spectrum puts a null direction at ~1e-8 of the largest singular value instead of
@@ -84,7 +72,7 @@ pub(crate) fn analyse_gram(
         gram_all[(free[a], free[b])] / (column_norms[free[a]] * column_norms[free[b]])
     });
     // Non-finite Jacobians never reach here (the fit stops on a non-finite cost); bounded all the same.
-    let Some(eigen) = crate::so3::bounded_symmetric_eigen(&gram) else {
+    let Some(eigen) = crate::math::linalg::bounded_symmetric_eigen(&gram) else {
         return Identifiability::nothing(free.len(), column_norms);
     };
     let v_t = eigen.eigenvectors.transpose();
@@ -121,6 +109,18 @@ pub(crate) fn analyse_gram(
 }
 
 impl Identifiability {
+    /// Analyse `W^½ J` (3n × N) over the `free` parameters.
+    ///
+    /// # Panics
+    /// If `free` or `names` index past the Jacobian's columns.
+    pub fn analyse(weighted_jacobian: &DMatrix<f64>, free: &[usize], names: &[String], min_ratio: f64) -> Self {
+        if weighted_jacobian.nrows() == 0 {
+            // No data: no direction to analyse.
+            return Self::nothing(free.len(), DVector::from_element(weighted_jacobian.ncols(), 1.0));
+        }
+        analyse_gram(&crate::math::linalg::gram(weighted_jacobian), free, names, min_ratio)
+    }
+
     /// The analysis of nothing (no free parameter, no data, or a Jacobian that cannot be decomposed).
     fn nothing(parameters: usize, column_norms: DVector<f64>) -> Self {
         Identifiability {

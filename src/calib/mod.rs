@@ -1,34 +1,51 @@
-//! Calibration: the parameter vector and its gauge, residuals with analytic Jacobians, the
-//! clarabel trust-region fit, identifiability, uncertainty and validation.
+//! Calibration: one pipeline for both fit levels.
+//!
+//! observations → a [`Model`] (orientation-level or marker-level, each with its own noise model)
+//! → the fit (noise re-estimation, robust weighting, exclusion of gross errors) → validation
+//! (k-fold cross-validation) → uncertainty (covariance, correlations, identifiability,
+//! significance) → one [`CalibrationReport`] with one [`Verdict`].
+//!
+//! Files, from the bottom up: `config` and `params` (the settings and the parameter vector with its
+//! gauge), `sensitivity` (how the MP's orientation moves with the mechanism's parameters),
+//! `model` (the trait), `orientation_model` and `marker_model` (its two implementations),
+//! `registration` (starting registrations), `fit` (the trust-region fit), `identify`,
+//! `uncertainty`, `validation`, `agreement` (how far a parameter set and the camera disagree),
+//! `report` and `text` (the report and its text view), `levels` (what each level prepares and
+//! adds to the report) and `pipeline` (the one flow).
 
-mod calibrate;
+mod agreement;
 mod config;
+mod fit;
 mod identify;
-mod marker_calibration;
-mod marker_pose_errors;
-mod markers;
+mod levels;
+mod marker_model;
+mod model;
+mod orientation_model;
 mod params;
-mod pose_errors;
-mod registration;
-mod residual;
-mod solver;
+mod pipeline;
+pub(crate) mod registration;
+mod report;
+mod report_text;
+mod sensitivity;
+#[cfg(test)]
+mod tests;
+mod uncertainty;
+mod validation;
 
-pub use calibrate::{
-    CalibError, Calibration, CalibrationReport, Correlation, ErrorSummary, Errors, MIN_MOTION_DEG, Outlier,
-    ParameterReport, calibrate,
-};
+pub use agreement::{ErrorSummary, MarkerErrors, SetError};
+pub(crate) use agreement::{PoseErrors, marker_pose_errors, pose_errors};
 pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
-pub use identify::{Direction, Identifiability, analyse};
-pub use marker_calibration::{
-    CrossValidation, FlaggedObservation, Latency, MarkerErrors, MarkerFitReport, MarkerReport,
-};
-pub use marker_pose_errors::{MarkerPoseErrors, marker_pose_errors};
-pub use markers::{MarkerModel, MarkerObservation, StereoNoise, marker_observations, per_pose_rms_mm};
+pub use fit::{Convergence, IterationLog};
+pub use identify::{Direction, Identifiability};
+pub(crate) use marker_model::per_pose_rms_mm;
+pub use marker_model::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
+pub use model::{EvalError, Evaluation, Model};
+pub(crate) use orientation_model::observations;
+pub use orientation_model::{Observation, OrientationModel};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
-pub use pose_errors::{PoseErrors, pose_errors};
-pub(crate) use registration::initial_registration;
-pub use residual::{EvalError, Evaluation, Observation, Predicted, Unpredicted, evaluate, observations};
-pub use solver::{
-    Convergence, FitError, FitOutcome, FitSettings, IterationLog, Model, Orientations, RELATIVE_COST_TOLERANCE,
-    Weighting, fit, fit_model, rms,
+pub use pipeline::{CalibError, Calibration, Fitted, MIN_MOTION_DEG, Solution, calibrate};
+pub use report::{
+    CalibrationReport, Errors, FastCapture, FlaggedObservation, Latency, MarkerFitReport, MarkerReport, Verdict,
 };
+pub use uncertainty::{Correlation, ParameterReport};
+pub use validation::CrossValidation;

@@ -16,8 +16,8 @@
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::config::{Bounds, Group};
+use crate::math::so3;
 use crate::model::LegGeometry;
-use crate::so3;
 
 /// What one entry of the parameter vector is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,19 +1,25 @@
-//! A starting point for the camera and reference rotations.
+//! A starting point for the camera registration.
 //!
-//! The measured rotations are the model's seen from the camera: `Q_j ≈ X B_j Xᵀ` with
+//! From rotations (orientation-level fit): the measured rotations are the model's seen from the camera: `Q_j ≈ X B_j Xᵀ` with
 //! `B_j = R_j R_refᵀ` and `X = R_CB`. Conjugation maps rotation axes, so `log Q_j ≈ X log B_j`, and
 //! `X` is the rotation that best aligns the two sets of rotation vectors (Kabsch); then
 //! `A = X R_ref`.
+//!
+//! From markers (marker-level fit): the rigid motion that best carries the nominal model's markers
+//! (in B) onto the measured ones (in C), Kabsch over every observation; it needs no pose with three
+//! markers.
 
-use nalgebra::{Matrix3, Rotation3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::residual::Observation;
-use crate::so3;
+use super::marker_model::MarkerObservation;
+use super::orientation_model::Observation;
+use crate::math::so3;
+use crate::model::CameraRegistration;
 
 /// `(R_CB, A)` from the observations and the orientations the model predicts for them, `None`
 /// when the rotation vectors do not span two directions (every pose rotates about one axis).
 /// The reference is the observation of `reference_pose` (the first one if it was left out).
-pub(crate) fn initial_registration(
+pub(crate) fn from_rotations(
     observations: &[Observation],
     predicted: &[Rotation3<f64>],
     reference_pose: u64,
@@ -25,7 +31,7 @@ pub(crate) fn initial_registration(
         .zip(observations)
         .map(|(r, o)| so3::log(&o.measured) * so3::log(&(r * r_ref.inverse())).transpose())
         .sum();
-    let svd = so3::bounded_svd(&h, false, false)?;
+    let svd = crate::math::linalg::bounded_svd(&h, false, false)?;
     let mut s = svd.singular_values.as_slice().to_vec();
     s.sort_by(|a, b| b.total_cmp(a));
     if s[1] < 1e-6 * s[0].max(f64::MIN_POSITIVE) {
@@ -33,11 +39,31 @@ pub(crate) fn initial_registration(
     }
     let x = so3::nearest_rotation(&h).or_else(|| {
         // Rank 2 (rotations in one plane of axes): the SVD route still has a unique proper answer.
-        let svd = so3::bounded_svd(&h, true, true)?;
+        let svd = crate::math::linalg::bounded_svd(&h, true, true)?;
         let (u, vt) = (svd.u?, svd.v_t?);
         let mut d = Matrix3::identity();
         d[(2, 2)] = (u * vt).determinant().signum();
         Some(Rotation3::from_matrix_unchecked(u * d * vt))
     })?;
     Some((x, x * r_ref))
+}
+
+/// `(R_CB, t_CB)` carrying the model's markers, at the orientations `nominal` of each observation,
+/// onto the measured ones; `None` for fewer than three observations or markers in a line.
+pub(crate) fn from_markers(
+    observations: &[MarkerObservation],
+    nominal: &[Rotation3<f64>],
+    markers: &[Vector3<f64>],
+) -> Option<CameraRegistration> {
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> =
+        observations.iter().zip(nominal).map(|(o, r)| (r * markers[o.marker], o.measured)).collect();
+    if pairs.len() < 3 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let cb = pairs.iter().map(|(b, _)| b).sum::<Vector3<f64>>() / n;
+    let cc = pairs.iter().map(|(_, c)| c).sum::<Vector3<f64>>() / n;
+    let h: Matrix3<f64> = pairs.iter().map(|(b, c)| (c - cc) * (b - cb).transpose()).sum();
+    let rotation = so3::nearest_rotation(&h)?;
+    Some(CameraRegistration { rotation, translation: cc - rotation * cb })
 }

@@ -291,11 +291,11 @@ pub(crate) enum LevelArg {
     Markers,
 }
 
-impl From<LevelArg> for spmcal::compare::Level {
+impl From<LevelArg> for spmcal::calib::FitLevel {
     fn from(l: LevelArg) -> Self {
         match l {
-            LevelArg::Orientations => spmcal::compare::Level::Orientations,
-            LevelArg::Markers => spmcal::compare::Level::Markers,
+            LevelArg::Orientations => spmcal::calib::FitLevel::Orientations,
+            LevelArg::Markers => spmcal::calib::FitLevel::Markers,
         }
     }
 }

@@ -2,15 +2,14 @@
 //! file, and optionally a recording and a shareable HTML report, written together.
 
 use anyhow::{Context, Result};
-use spmcal::Outputs;
 use spmcal::calib::CalibConfig;
 use spmcal::model::RobotModel;
-use spmcal::report::Envelope;
 
 use super::args::CalibrateArgs;
-use crate::{out, record, reserve};
+use super::envelope::Envelope;
+use super::output::{Outputs, out, record, reserve};
 
-pub(crate) fn calibrate(args: CalibrateArgs) -> Result<()> {
+pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     let mut outputs = Outputs::new();
     let (params_slot, rrd) = (outputs.reserve(&args.out)?, reserve(&mut outputs, args.rrd.as_deref())?);
     let html = reserve(&mut outputs, args.report.as_deref())?;
@@ -47,7 +46,7 @@ pub(crate) fn calibrate(args: CalibrateArgs) -> Result<()> {
     }
     if let Some(slot) = html {
         let text = calibration.report.to_string();
-        outputs.write(slot, spmcal::html::calibration_html(&calibration, &config, &text).as_bytes())?;
+        outputs.write(slot, spmcal::html::calibration_html(&calibration, &text).as_bytes())?;
     }
     outputs.commit()?;
     if args.json {

@@ -3,14 +3,13 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use spmcal::Outputs;
-use spmcal::model::{Parameters, RobotModel, companion_path, export as export_model};
-use spmcal::report::Envelope;
+use spmcal::model::{Parameters, RobotModel, companion_path, export};
 
 use super::args::ExportArgs;
-use crate::out;
+use super::envelope::Envelope;
+use super::output::{Outputs, out};
 
-pub(crate) fn export(args: ExportArgs) -> Result<()> {
+pub(crate) fn run(args: ExportArgs) -> Result<()> {
     let mut outputs = Outputs::new();
     let companion = companion_path(&args.urdf);
     let (urdf_slot, companion_slot) = (outputs.reserve(&args.urdf)?, outputs.reserve(&companion)?);
@@ -31,7 +30,7 @@ pub(crate) fn export(args: ExportArgs) -> Result<()> {
             provenance.push(format!("fit {}: {value}", key.as_str().unwrap_or("?")));
         }
     }
-    let exported = export_model(&model, &params, &provenance)?;
+    let exported = export(&model, &params, &provenance)?;
     outputs.write(urdf_slot, exported.urdf.as_bytes())?;
     outputs.write(companion_slot, exported.companion.as_bytes())?;
     outputs.commit()?;

@@ -1,16 +1,15 @@
 //! `spmcal plan`: the capture plan, its summary, and optionally a recording of it.
 
 use anyhow::{Result, anyhow};
-use spmcal::Outputs;
 use spmcal::dataset::Session;
 use spmcal::plan::{PlanSettings, plan_csv};
-use spmcal::report::Envelope;
 use spmcal::sim::SimConfig;
 
 use super::args::PlanArgs;
-use crate::{out, record, reserve};
+use super::envelope::Envelope;
+use super::output::{Outputs, out, record, reserve};
 
-pub(crate) fn plan(args: PlanArgs) -> Result<()> {
+pub(crate) fn run(args: PlanArgs) -> Result<()> {
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(&args.out)?;
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;

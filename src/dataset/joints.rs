@@ -6,8 +6,8 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::files::{FileError, push_numbers, write_atomic};
-use crate::table::{Table, first_repeat};
+use crate::io::files::{FileError, push_numbers, write_atomic};
+use crate::io::table::{Table, first_repeat};
 
 /// Joint readings of one pose.
 #[derive(Debug, Clone, Copy, PartialEq)]

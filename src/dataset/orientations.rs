@@ -6,9 +6,9 @@ use std::path::Path;
 
 use nalgebra::Rotation3;
 
-use crate::files::{FileError, push_numbers};
-use crate::so3;
-use crate::table::Table;
+use crate::io::files::{FileError, push_numbers};
+use crate::io::table::Table;
+use crate::math::so3;
 
 /// One orientation of a table.
 #[derive(Debug, Clone, PartialEq)]

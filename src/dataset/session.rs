@@ -21,7 +21,7 @@ use super::joints::{JointReading, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
 use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
-use crate::files::{FileError, in_parallel, relative_path, write_atomic};
+use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
 use crate::model::Parameters;
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
@@ -166,7 +166,7 @@ impl Session {
     /// A [`FileError`] naming the file, line and column (or YAML key) of the first problem.
     pub fn load(dir: &Path, model: Option<&Path>) -> Result<(Session, Vec<Warning>), FileError> {
         let yaml_path = dir.join("session.yaml");
-        let (file, keys) = crate::yaml::read::<SessionFile>(&yaml_path)?;
+        let (file, keys) = crate::io::yaml::read::<SessionFile>(&yaml_path)?;
         let at = |key: &str, reason: String| keys.error(&yaml_path, key, reason);
         check_marker_names(&file.markers).map_err(|reason| at("markers", reason))?;
         let model = match (model, &file.model) {
@@ -286,7 +286,7 @@ impl Session {
         if occupied && !dir.join("session.yaml").exists() {
             return Err(FileError::new(dir, "the folder is not empty and holds no session: refusing to write into it"));
         }
-        let probe_in = if dir.is_dir() { dir } else { crate::files::parent_folder(dir) };
+        let probe_in = if dir.is_dir() { dir } else { crate::io::files::parent_folder(dir) };
         tempfile::tempfile_in(probe_in).map_err(|e| FileError::new(dir, format!("cannot write here: {e}")))?;
         Ok(())
     }

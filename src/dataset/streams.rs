@@ -13,8 +13,8 @@ use nalgebra::Vector3;
 
 use std::fmt::Write as _;
 
-use crate::files::{FileError, number, push_numbers};
-use crate::table::{Table, first_repeat};
+use crate::io::files::{FileError, number, push_numbers};
+use crate::io::table::{Table, first_repeat};
 
 /// One encoder sample.
 #[derive(Debug, Clone, Copy, PartialEq)]

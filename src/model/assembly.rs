@@ -17,7 +17,7 @@
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 use super::spm::{Branch, Spm, conditioning_index};
-use crate::so3;
+use crate::math::so3;
 
 /// One real solution of the FDA.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]

@@ -1,10 +1,12 @@
 //! SPM geometry and parameters, URDF loading, inverse kinematics, forward displacement
-//! analysis (tracking, continuation, all assembly modes) and Jacobians.
+//! analysis (tracking, continuation, all assembly modes, the per-pose FDA report) and Jacobians.
 
 mod assembly;
 #[cfg(feature = "full")]
 mod export;
 mod geometry;
+#[cfg(feature = "full")]
+mod modes;
 mod params;
 #[cfg(feature = "full")]
 mod perturb;
@@ -18,6 +20,8 @@ pub use assembly::AssemblyMode;
 #[cfg(feature = "full")]
 pub use export::{ExportedModel, export};
 pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};
+#[cfg(feature = "full")]
+pub use modes::{FdaPose, ModeReport};
 pub use params::{CameraRegistration, MarkerPosition, PARAMETERS_FORMAT, ParameterSource, Parameters};
 #[cfg(feature = "full")]
 pub use perturb::{GeometrySpread, perturb, tilt};

@@ -25,10 +25,10 @@ use serde::{Deserialize, Serialize};
 
 use super::geometry::LegGeometry;
 use super::spm::Spm;
-use crate::files::FileError;
+use crate::io::files::FileError;
 #[cfg(feature = "full")]
-use crate::files::write_atomic;
-use crate::so3;
+use crate::io::files::write_atomic;
+use crate::math::so3;
 
 /// The format tag written at the top of every parameters file.
 pub const PARAMETERS_FORMAT: &str = "spmcal-parameters/1";
@@ -185,7 +185,7 @@ impl Parameters {
     /// # Errors
     /// A [`FileError`] naming the line and key of the first problem.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let (record, keys) = crate::yaml::read::<ParametersRecord>(path)?;
+        let (record, keys) = crate::io::yaml::read::<ParametersRecord>(path)?;
         if record.format != PARAMETERS_FORMAT {
             let reason = format!("format is `{}`, expected `{PARAMETERS_FORMAT}`", record.format);
             return Err(keys.error(path, "format", reason));

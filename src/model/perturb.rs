@@ -27,7 +27,7 @@ pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vecto
     let e1 = a.cross(&if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
     let e2 = a.cross(&e1);
     let omega = e1 * normal.sample(rng) + e2 * normal.sample(rng);
-    crate::so3::exp(&omega) * a
+    crate::math::so3::exp(&omega) * a
 }
 
 /// A geometry drawn around `nominal`: axes tilted, link angles and offsets shifted. `z` is

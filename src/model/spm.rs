@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::geometry::{GeometryError, Leg, LegGeometry};
-use crate::so3;
+use crate::math::so3;
 
 /// Which of the two inverse-kinematics solutions of a leg.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]

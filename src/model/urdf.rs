@@ -17,9 +17,9 @@ use serde::Deserialize;
 use super::geometry::LegGeometry;
 use super::spm::{Spm, SpmError};
 use super::urdf_check::Fault;
-use crate::constellation;
-use crate::files::FileError;
-use crate::yaml::KeyLines;
+use crate::io::files::FileError;
+use crate::io::yaml::KeyLines;
+use crate::math::constellation;
 
 /// Largest distance (m) from O of a joint axis line still accepted as passing through O:
 /// a few CAD rounding steps, far below any real misalignment worth calibrating.
@@ -244,7 +244,7 @@ fn companion_error(e: FileError) -> ModelError {
 }
 
 pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
-    let (companion, keys) = crate::yaml::read::<Companion>(path).map_err(|e| match e.line {
+    let (companion, keys) = crate::io::yaml::read::<Companion>(path).map_err(|e| match e.line {
         None if e.reason.starts_with("cannot read") => ModelError::Unreadable {
             path: path.to_path_buf(),
             reason: format!("cannot read the URDF companion: {}", e.reason),

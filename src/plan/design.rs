@@ -297,7 +297,7 @@ pub fn cone_program(info: &[DMatrix<f64>], l: &DMatrix<f64>) -> Result<Continuou
 /// `F` with `F Fᵀ = S` for a symmetric positive semi-definite `S`, keeping the columns of
 /// eigenvalues above 1e-12 of the largest.
 fn factor(s: &DMatrix<f64>) -> DMatrix<f64> {
-    let Some(eigen) = crate::so3::bounded_symmetric_eigen(s) else { return DMatrix::zeros(s.nrows(), 0) };
+    let Some(eigen) = crate::math::linalg::bounded_symmetric_eigen(s) else { return DMatrix::zeros(s.nrows(), 0) };
     let largest = eigen.eigenvalues.max().max(0.0);
     let keep: Vec<usize> = (0..s.nrows()).filter(|&i| eigen.eigenvalues[i] > 1e-12 * largest).collect();
     DMatrix::from_fn(s.nrows(), keep.len(), |i, j| eigen.eigenvectors[(i, keep[j])] * eigen.eigenvalues[keep[j]].sqrt())

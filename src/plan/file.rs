@@ -5,9 +5,9 @@ use std::path::Path;
 
 use nalgebra::{Rotation3, Vector3};
 
-use crate::files::{FileError, push_numbers};
-use crate::so3;
-use crate::table::{Table, first_repeat};
+use crate::io::files::{FileError, push_numbers};
+use crate::io::table::{Table, first_repeat};
+use crate::math::so3;
 
 /// One pose of a plan.
 #[derive(Debug, Clone, Copy, PartialEq)]

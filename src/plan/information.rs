@@ -11,7 +11,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::calib::{MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
+use crate::calib::{EvalError, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
 use crate::model::CameraRegistration;
 use crate::sim::Candidate;
 
@@ -37,7 +37,7 @@ pub fn information(
     camera: &CameraRegistration,
     candidates: &[Candidate],
     noise: &StereoNoise,
-) -> Result<Information, String> {
+) -> Result<Information, EvalError> {
     let x0 = DVector::zeros(p.len());
     let observation = |c: usize, marker: usize| {
         let candidate = &candidates[c];
@@ -57,16 +57,13 @@ pub fn information(
         .map(|(c, k)| observation(c, k))
         .collect();
     let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
-    for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise).map_err(|e| e.to_string())? {
+    for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise)? {
         per_candidate[c as usize] = m;
     }
     // One observation per candidate gives every candidate's orientation sensitivity, seen or not.
     let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();
-    let sensitivities = MarkerModel::new(p, &every)
-        .evaluate(&x0, None, true)
-        .map_err(|e| e.to_string())?
-        .orientation_jacobians
-        .ok_or("no orientation sensitivities")?;
+    let sensitivities =
+        MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default(); // always there when the Jacobian is asked for
     let mut workspace = DMatrix::zeros(p.len(), p.len());
     for g in &sensitivities {
         workspace += g.transpose() * g;

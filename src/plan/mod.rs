@@ -84,7 +84,7 @@ pub enum PlanError {
     UnseenMarker(String),
     #[error("the parameters cannot be evaluated: {0}")]
     /// The model, the parameters or the session cannot be used.
-    Model(String),
+    Model(#[from] crate::calib::SetError),
     #[error("even all {0} candidates together leave some parameter undetermined")]
     /// The information of every candidate together is singular.
     Singular(usize),
@@ -222,7 +222,7 @@ fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
     let z = r * Vector3::z();
     let tilt = z.z.clamp(-1.0, 1.0).acos();
     let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
-    let yaw = crate::so3::log(&(tilting.inverse() * r)).z;
+    let yaw = crate::math::so3::log(&(tilting.inverse() * r)).z;
     (tilt.to_degrees(), yaw.to_degrees())
 }
 
@@ -242,13 +242,13 @@ pub fn plan(
 ) -> Result<Plan, PlanError> {
     let nominal = Parameters::nominal(&model.spm, None);
     let params = params.unwrap_or(&nominal);
-    let spm = params.spm().map_err(|e| PlanError::Model(e.to_string()))?;
+    let spm = params.spm().map_err(crate::calib::SetError::Geometry)?;
     let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
     let markers: Vec<Vector3<f64>> =
         model.markers.iter().map(|m| params.marker(&m.name).unwrap_or(m.position)).collect();
     let camera = match (params.camera, augment) {
         (Some(c), _) => c,
-        (None, Some(session)) => marker_pose_errors(session, model, params).map_err(PlanError::Model)?.camera,
+        (None, Some(session)) => marker_pose_errors(session, model, params)?.1,
         (None, None) => looking_down(config.camera.height_m),
     };
     let pool =
@@ -261,7 +261,7 @@ pub fn plan(
     }
     let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &CalibConfig::default().bounds);
     let noise = stereo_noise(&config.camera);
-    let info = information(&p, &camera, &pool, &noise).map_err(PlanError::Model)?;
+    let info = information(&p, &camera, &pool, &noise).map_err(crate::calib::SetError::Eval)?;
     let n = settings.poses;
     let prior = match augment {
         Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
@@ -335,7 +335,7 @@ fn session_information(
     let (observations, _) = marker_observations(session, spm);
     let per_pose = MarkerModel::new(p, &observations)
         .information_per_pose(&nalgebra::DVector::zeros(p.len()), noise)
-        .map_err(|e| PlanError::Model(e.to_string()))?;
+        .map_err(crate::calib::SetError::Eval)?;
     Ok(per_pose.into_iter().fold(DMatrix::zeros(p.len(), p.len()), |sum, (_, m)| sum + m))
 }
 
@@ -401,4 +401,43 @@ fn random_designs(
         if reaches(mid, &mut mean_over) { high = mid } else { low = mid }
     }
     (random, Some(high))
+}
+
+impl std::fmt::Display for PlanSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self;
+        if let Some((session, poses)) = &s.augments {
+            writeln!(f, "adding to session {session} ({poses} poses)")?;
+        }
+        writeln!(
+            f,
+            "plan: {} poses chosen from {} candidates for {} parameters (marker-level fit)",
+            s.poses, s.candidates, s.parameters
+        )?;
+        writeln!(f, "predicted orientation error after calibration, over the workspace:")?;
+        writeln!(f, "  {:<34} {:>9} {:>9} {:>10}", "", "RMS (°)", "worst (°)", "log det M")?;
+        let row = |f: &mut std::fmt::Formatter<'_>, label: &str, p: &Predicted| {
+            writeln!(f, "  {label:<34} {:>9.4} {:>9.4} {:>10.2}", p.rms_deg, p.worst_deg, p.log_det)
+        };
+        row(f, "continuous optimum (bound)", &s.continuous_optimum)?;
+        row(f, "this plan", &s.plan)?;
+        row(f, &format!("{} random reachable poses", s.poses), &s.random)?;
+        writeln!(
+            f,
+            "plan efficiency {:.1}% of the continuous optimum ({} support points; {}, equivalence ratio {:.4} after {} iterations; {} exchanges)",
+            100.0 * s.efficiency,
+            s.support,
+            s.solver,
+            s.equivalence_ratio,
+            s.iterations,
+            s.exchanges
+        )?;
+        match s.random_poses_needed {
+            Some(n) => writeln!(f, "random poses needed for the plan's accuracy: {n}")?,
+            None => {
+                writeln!(f, "random poses needed for the plan's accuracy: more than all {} candidates", s.candidates)?
+            }
+        }
+        writeln!(f, "tour from home and back: {:.0}° of joystick travel", s.travel_deg)
+    }
 }

@@ -4,7 +4,7 @@
 
 use nalgebra::Rotation3;
 
-use crate::so3::geodesic_angle;
+use crate::math::so3::geodesic_angle;
 
 /// The visiting order of `poses` (indices) from and back to home (the identity), and the total
 /// travel in radians.
@@ -55,7 +55,7 @@ mod tests {
     #[test]
     fn the_tour_visits_every_pose_once_and_is_no_longer_than_any_order_tried() {
         let poses: Vec<Rotation3<f64>> = (0..9)
-            .map(|k| crate::so3::exp(&(Vector3::new((k as f64 * 2.1).sin(), (k as f64 * 1.3).cos(), 0.2) * 0.4)))
+            .map(|k| crate::math::so3::exp(&(Vector3::new((k as f64 * 2.1).sin(), (k as f64 * 1.3).cos(), 0.2) * 0.4)))
             .collect();
         let (order, travel) = tour(&poses);
         let mut sorted = order.clone();

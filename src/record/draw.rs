@@ -32,7 +32,7 @@ fn arc(a: &Vector3<f64>, b: &Vector3<f64>, radius: f64) -> Vec<[f32; 3]> {
     (0..ARC_POINTS)
         .map(|k| {
             let t = angle * k as f64 / (ARC_POINTS - 1) as f64;
-            f32x3(&(crate::so3::exp(&(axis * t)) * a * radius))
+            f32x3(&(crate::math::so3::exp(&(axis * t)) * a * radius))
         })
         .collect()
 }

@@ -116,26 +116,22 @@ pub const APPLICATION: &str = "spmcal";
 /// # Errors
 /// The destination cannot be written, or Rerun refuses to log an entity.
 pub fn write_recording(path: &Path, scene: &Scene) -> Result<RecordingSummary, RecordError> {
-    let create = |e: crate::files::FileError| RecordError::Create { path: path.to_path_buf(), reason: e.reason };
-    let mut outputs = crate::files::Outputs::new();
-    let slot = outputs.reserve(path).map_err(create)?;
-    let summary = stage_recording(&outputs, slot, scene)?;
-    outputs.commit().map_err(create)?;
+    let create = |e: crate::io::FileError| RecordError::Create { path: path.to_path_buf(), reason: e.reason };
+    let file = crate::io::StagedFile::create(path).map_err(create)?;
+    let summary = write_recording_to(file.temp_path(), path, scene)?;
+    file.commit().map_err(create)?;
     Ok(summary)
 }
 
-/// Write `scene` into the reserved output `slot` (put in place by [`crate::files::Outputs::commit`]).
+/// Write `scene` into the file `tmp`, which the caller puts in place as `destination` (e.g. a
+/// [`crate::io::StagedFile`] written together with other outputs); errors and the summary name
+/// `destination`.
 ///
 /// # Errors
-/// The temporary file cannot be written, or Rerun refuses to log an entity.
-pub fn stage_recording(
-    outputs: &crate::files::Outputs,
-    slot: crate::files::Slot,
-    scene: &Scene,
-) -> Result<RecordingSummary, RecordError> {
-    let path = outputs.destination(slot);
+/// `tmp` cannot be written, or Rerun refuses to log an entity.
+pub fn write_recording_to(tmp: &Path, destination: &Path, scene: &Scene) -> Result<RecordingSummary, RecordError> {
+    let path = destination;
     let create = |reason: String| RecordError::Create { path: path.to_path_buf(), reason };
-    let tmp = outputs.temp_path(slot);
     let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp).map_err(|e| create(e.to_string()))?;
     let mut logger = draw::Logger { rec: &rec, path };
     send_blueprint(&rec, scene).map_err(|e| create(e.to_string()))?;

@@ -7,8 +7,9 @@ use std::fmt::Write as _;
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::{PoseFrames, Scene, Series};
-use crate::calib::{Calibration, initial_registration, marker_pose_errors, observations, per_pose_rms_mm};
-use crate::compare::{Level, SetComparison};
+use crate::calib::FitLevel as Level;
+use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms_mm, registration};
+use crate::compare::SetComparison;
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
 use crate::vision::{MarkerError, Method, SessionEstimate, VisionError, estimate_session};
@@ -24,8 +25,8 @@ pub enum SceneError {
     /// A parameter set makes no valid manipulator.
     Parameters(#[from] crate::model::SpmError),
     #[error("marker-level comparison: {0}")]
-    /// The markers cannot be compared with the model (see [`crate::calib::marker_pose_errors`]).
-    Markers(String),
+    /// The markers cannot be compared with the model.
+    Markers(#[from] crate::calib::SetError),
     #[error("the camera registration cannot be estimated: too few poses, or every pose rotates about one axis")]
     /// No camera registration can be estimated.
     Registration,
@@ -86,7 +87,7 @@ fn registration(
     }
     let (observed, predicted): (Vec<_>, Vec<_>) = kept.into_iter().unzip();
     let (rotation, a) =
-        initial_registration(&observed, &predicted, estimate.reference_pose).ok_or(SceneError::Registration)?;
+        registration::from_rotations(&observed, &predicted, estimate.reference_pose).ok_or(SceneError::Registration)?;
     let registration =
         estimate.centre.map(|c| CameraRegistration { rotation, translation: Vector3::from(c.position_m) });
     Ok(VisionPlacement { camera: rotation, reference: a, registration })
@@ -110,7 +111,7 @@ pub fn parameters_markdown(title: &str, p: &Parameters) -> String {
         );
     }
     if let Some(c) = &p.camera {
-        let q = crate::so3::to_wxyz(&c.rotation);
+        let q = crate::math::so3::to_wxyz(&c.rotation);
         let _ = write!(
             s,
             "\nCamera: R_CB (wxyz) [{:.5}, {:.5}, {:.5}, {:.5}], t_CB {} m\n",
@@ -145,14 +146,14 @@ pub fn replay_scene<'a>(
                 Some(p) => ("fda_calibrated", p),
                 None => ("fda_nominal", &nominal),
             };
-            let errors = marker_pose_errors(session, model, p).map_err(SceneError::Markers)?;
+            let (errors, camera) = marker_pose_errors(session, model, p)?;
             let spm = p.spm()?;
             Ok(Scene {
                 session,
                 model,
                 frames: vec![fda_frames(label, &spm, session)],
                 mechanism: spm,
-                registration: Some(errors.camera),
+                registration: Some(camera),
                 series: vec![Series {
                     name: "markers_mm/replayed".into(),
                     values: errors.per_pose.into_iter().collect(),
@@ -279,27 +280,38 @@ pub fn plan_scene<'a>(
 
 /// Per-pose FDA-vs-vision angles (degrees) of a fitted parameter vector, fitted and held-out poses.
 fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Series {
+    use crate::calib::Model as _;
     let p = &calibration.parameterisation;
     let mut values = BTreeMap::new();
-    for set in [&calibration.observations, &calibration.held_out] {
-        if let Ok(eval) = crate::calib::evaluate(p, x, set, None, false) {
-            values.extend(set.iter().zip(&eval.residuals).map(|(o, r)| (o.pose, r.norm().to_degrees())));
+    if let Fitted::Orientations { fitted, held_out, .. } = &calibration.fitted {
+        for set in [fitted, held_out] {
+            if let Ok(eval) = crate::calib::OrientationModel::new(p, set).evaluate(x, None, false) {
+                values.extend(set.iter().zip(&eval.residuals).map(|(o, r)| (o.pose, r.norm().to_degrees())));
+            }
         }
     }
     Series { name: format!("fda_vs_vision/{name}"), values }
+}
+
+/// The marker observations a calibration fitted (none for an orientation-level one).
+fn marker_observations_of(calibration: &Calibration) -> &[crate::calib::MarkerObservation] {
+    match &calibration.fitted {
+        Fitted::Markers(observations) => observations,
+        _ => &[],
+    }
 }
 
 /// The marker residuals of a marker-level calibration at parameter vector `x` (empty when the
 /// model cannot be evaluated there).
 fn marker_residuals_at(calibration: &Calibration, x: &DVector<f64>) -> Vec<nalgebra::Vector3<f64>> {
     use crate::calib::Model as _;
-    let model = crate::calib::MarkerModel::new(&calibration.parameterisation, &calibration.marker_observations);
+    let model = crate::calib::MarkerModel::new(&calibration.parameterisation, marker_observations_of(calibration));
     model.evaluate(x, None, false).map(|e| e.residuals).unwrap_or_default()
 }
 
 /// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers.
 fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
-    let values = per_pose_rms_mm(&calibration.marker_observations, residuals).into_iter().collect();
+    let values = per_pose_rms_mm(marker_observations_of(calibration), residuals).into_iter().collect();
     Series { name: format!("markers_mm/{name}"), values }
 }
 
@@ -310,8 +322,7 @@ fn marker_residuals(session: &Session, calibration: &Calibration, residuals: &[n
         .iter()
         .enumerate()
         .map(|(k, name)| {
-            let values = calibration
-                .marker_observations
+            let values = marker_observations_of(calibration)
                 .iter()
                 .zip(residuals)
                 .filter(|(o, _)| o.marker == k)
@@ -337,7 +348,7 @@ pub fn calibration_scene<'a>(
     let spm = calibration.parameters.spm()?;
     let mut frames = vec![fda_frames("fda_nominal", &model.spm, session), fda_frames("fda_calibrated", &spm, session)];
     let mut series = Vec::new();
-    if let Some(vision) = &calibration.vision {
+    if let Fitted::Orientations { vision, .. } = &calibration.fitted {
         frames.push(vision_frames(vision, &p.camera(x), &p.reference(x)));
         series.push(e_series(vision));
         series.push(residual_series("nominal", calibration, &calibration.nominal.x));
@@ -348,8 +359,8 @@ pub fn calibration_scene<'a>(
         series.push(marker_series("calibrated", calibration, &after));
         series.extend(marker_residuals(session, calibration, &after));
     }
-    let fitted_markers =
-        (!calibration.marker_observations.is_empty()).then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
+    let fitted_markers = (!marker_observations_of(calibration).is_empty())
+        .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
     let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
     after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
     for r in &calibration.report.parameters {

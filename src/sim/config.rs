@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Rotation3;
 use serde::{Deserialize, Serialize};
 
-use crate::files::FileError;
+use crate::io::files::FileError;
 
 /// How the orientations are chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -258,7 +258,7 @@ impl SimConfig {
     /// # Errors
     /// A [`FileError`] naming the line and key of the first problem.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let mut config: SimConfig = crate::yaml::read_checked(path, SimConfig::check)?;
+        let mut config: SimConfig = crate::io::yaml::read_checked(path, SimConfig::check)?;
         config.model = if config.model.as_os_str().is_empty() {
             PathBuf::from(DEFAULT_MODEL)
         } else {

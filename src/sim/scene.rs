@@ -6,8 +6,8 @@ use parry3d_f64::math::{Pose, Vector};
 use parry3d_f64::query::{Ray, intersection_test};
 use parry3d_f64::shape::SharedShape;
 
+use crate::math::so3;
 use crate::model::{Body, RobotModel, Shape, Spm};
-use crate::so3;
 
 /// The bodies in a fixed order: base, proximal 1–3, distal 1–3, platform.
 const BODIES: [Body; 8] = [

@@ -13,11 +13,11 @@ use super::camera::{lenses, looking_down, measure};
 use super::config::{Recording, SimConfig, Trajectory};
 use super::scene::Scene;
 use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, Streams, Truth};
+use crate::math::so3;
 use crate::model::{
     CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
     conditioning_index, perturb,
 };
-use crate::so3;
 
 /// What a simulation did, for reports and `--json`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -44,6 +44,31 @@ pub struct SimSummary {
     pub outliers: usize,
     /// Poses the per-pose estimator cannot use (fewer than 3 markers).
     pub poses_with_too_few_markers: usize,
+}
+
+impl std::fmt::Display for SimSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.attempts == 0 {
+            // A free-motion recording: frames of the camera, not drawn poses.
+            writeln!(f, "{}: a free-motion recording of {} camera frames", self.name, self.poses)?;
+        } else {
+            writeln!(
+                f,
+                "{}: {} poses ({} attempts; rejected: {} unreachable, {} near a singularity, {} colliding)",
+                self.name,
+                self.poses,
+                self.attempts,
+                self.rejected_unreachable,
+                self.rejected_singular,
+                self.rejected_collision
+            )?;
+        }
+        writeln!(
+            f,
+            "markers: {} seen, {} occluded, {} outliers; {} poses with fewer than 3 markers",
+            self.markers_seen, self.markers_occluded, self.outliers, self.poses_with_too_few_markers
+        )
+    }
 }
 
 /// Why a simulation could not be made.
@@ -291,7 +316,7 @@ impl Simulator<'_> {
     fn truth_parameters(&self, latency_s: Option<f64>) -> Parameters {
         Parameters {
             source: ParameterSource::Truth,
-            model: Some(crate::files::tidy_path(&self.model.urdf_path).display().to_string()),
+            model: Some(crate::io::files::tidy_path(&self.model.urdf_path).display().to_string()),
             legs: *self.spm.geometry(),
             camera: Some(self.camera),
             markers: self

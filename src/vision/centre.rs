@@ -35,7 +35,7 @@ pub fn centre_of_rotation<'a>(estimates: impl Iterator<Item = &'a PoseEstimate> 
         rhs += a.transpose() * (e.centroid - e.rotation * e.reference_centroid);
         n += 1;
     }
-    let eigen = crate::so3::bounded_symmetric_eigen(&normal)?;
+    let eigen = crate::math::linalg::bounded_symmetric_eigen(&normal)?;
     let (smallest, largest) = (eigen.eigenvalues.min().max(0.0), eigen.eigenvalues.max());
     // The singular values of the stacked system are the square roots of the eigenvalues.
     let conditioning = (smallest / largest.max(f64::MIN_POSITIVE)).sqrt();

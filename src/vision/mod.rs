@@ -1,10 +1,12 @@
 //! Marker-based pose estimation: the paper's least squares and polar decomposition, the optimal
-//! (Kabsch) rotation, the error metric `e_j`, and the centre of rotation.
+//! (Kabsch) rotation, the error metric `e_j`, the centre of rotation, and a session's summary.
 
 mod centre;
 mod pose;
 mod session;
+mod summary;
 
 pub use centre::{CentreOfRotation, centre_of_rotation};
 pub use pose::{MarkerError, Method, PLANAR_RATIO, PoseEstimate, Reference, orthogonality_error};
 pub use session::{SessionEstimate, Stats, VisionError, estimate_session};
+pub use summary::EstimateSummary;

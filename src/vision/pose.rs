@@ -14,9 +14,9 @@
 
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
-use crate::constellation::{self, Degeneracy, MARKER_NOISE_M};
-use crate::polar::polar;
-use crate::so3;
+use crate::math::constellation::{self, Degeneracy, MARKER_NOISE_M};
+use crate::math::polar::polar;
+use crate::math::so3;
 
 /// Which rotation estimate to return.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
@@ -67,7 +67,7 @@ pub enum MarkerError {
     },
     #[error("the putative rotation is singular: {0}")]
     /// The estimate has no polar factor.
-    Singular(crate::polar::PolarError),
+    Singular(crate::math::polar::PolarError),
 }
 
 /// The estimate for one pose.

@@ -9,7 +9,7 @@ use serde::Serialize;
 use super::centre::{CentreOfRotation, centre_of_rotation};
 use super::pose::{MarkerError, Method, PoseEstimate, Reference};
 use crate::dataset::{MIN_MARKERS, Session, SessionPose};
-use crate::so3;
+use crate::math::so3;
 
 /// A pose the estimator could not use, and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

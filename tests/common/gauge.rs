@@ -30,7 +30,7 @@ pub fn augmented_with_gauge(
     let mut augmented = DMatrix::zeros(jac.nrows(), jac.ncols() + moves.len());
     augmented.view_mut((0, 0), (jac.nrows(), jac.ncols())).copy_from(jac);
     let moved = |actuated: bool, leg: usize, angle: Vector3<f64>| {
-        let rot = spmcal::so3::exp(&angle);
+        let rot = spmcal::math::so3::exp(&angle);
         let mut legs = *g;
         if actuated {
             legs[leg].u = rot * legs[leg].u;

@@ -18,12 +18,12 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
+use super::model::{EvalError, Evaluation, Model};
 use super::params::{Kind, Parameterisation};
-use super::residual::{EvalError, Evaluation, Frames};
-use super::solver::{Model, Weighting};
+use super::sensitivity::Frames;
 use crate::dataset::{Session, Streams};
+use crate::math::so3;
 use crate::model::{FdaError, Spm};
-use crate::so3;
 
 /// One marker seen at one capture.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,7 +73,7 @@ pub fn marker_observations(session: &Session, spm: &Spm) -> (Vec<MarkerObservati
 
 /// Per pose, the RMS (mm) of the residuals of its marker observations, in the observations'
 /// order (they come pose by pose, as [`marker_observations`] makes them).
-pub fn per_pose_rms_mm(observations: &[MarkerObservation], residuals: &[Vector3<f64>]) -> Vec<(u64, f64)> {
+pub(crate) fn per_pose_rms_mm(observations: &[MarkerObservation], residuals: &[Vector3<f64>]) -> Vec<(u64, f64)> {
     let mut poses: Vec<(u64, f64, usize)> = Vec::new();
     for (o, r) in observations.iter().zip(residuals) {
         let squared = (r.norm() * 1e3).powi(2);
@@ -111,11 +111,12 @@ type JointsAndRate = (Vector3<f64>, Vector3<f64>);
 const SIGMA_FLOOR_M: f64 = 1e-7;
 
 /// The marker-level model over a set of observations.
+#[derive(Debug)]
 pub struct MarkerModel<'a> {
     /// The parameters (a [`Parameterisation::for_markers`]).
     pub p: &'a Parameterisation,
     /// The observations, grouped by pose (consecutive).
-    pub observations: &'a [MarkerObservation],
+    observations: std::borrow::Cow<'a, [MarkerObservation]>,
     /// Index of each observation's pose in `poses`.
     pose_of: Vec<usize>,
     /// Id, joint readings and camera time of each distinct pose.
@@ -135,12 +136,31 @@ pub struct MarkerModel<'a> {
     inflation: Vec<f64>,
 }
 
+impl Clone for MarkerModel<'_> {
+    /// A copy without the spare Jacobian (it is only storage to reuse).
+    fn clone(&self) -> Self {
+        MarkerModel {
+            observations: self.observations.clone(),
+            pose_of: self.pose_of.clone(),
+            poses: self.poses.clone(),
+            columns: self.columns.clone(),
+            spare: Default::default(),
+            inflation: self.inflation.clone(),
+            ..*self
+        }
+    }
+}
+
 impl<'a> MarkerModel<'a> {
     /// The model of `observations` (consecutive observations of a pose share its FDA).
     pub fn new(p: &'a Parameterisation, observations: &'a [MarkerObservation]) -> Self {
+        Self::of(p, std::borrow::Cow::Borrowed(observations))
+    }
+
+    fn of(p: &'a Parameterisation, observations: std::borrow::Cow<'a, [MarkerObservation]>) -> Self {
         let mut poses: Vec<(u64, Vector3<f64>, Option<f64>)> = Vec::new();
         let mut pose_of = Vec::with_capacity(observations.len());
-        for o in observations {
+        for o in observations.iter() {
             if poses.last().is_none_or(|(id, joints, _)| *id != o.pose || *joints != o.joints) {
                 poses.push((o.pose, o.joints, o.time_s));
             }
@@ -200,13 +220,6 @@ impl<'a> MarkerModel<'a> {
             .collect()
     }
 
-    /// The same model computing only the Jacobian columns marked in `columns` (e.g. the free
-    /// parameters of a fit); the others are left zero.
-    pub fn with_columns(mut self, columns: Vec<bool>) -> Self {
-        self.columns = Some(columns);
-        self
-    }
-
     fn column_needed(&self, i: usize) -> bool {
         self.columns.as_ref().is_none_or(|c| c[i])
     }
@@ -215,14 +228,9 @@ impl<'a> MarkerModel<'a> {
         self.p.entries.iter().enumerate().any(|(i, e)| e.kind.leg().is_some() && self.column_needed(i))
     }
 
-    /// Distinct poses (FDA solutions) of the model.
-    pub fn poses(&self) -> usize {
-        self.poses.len()
-    }
-
-    /// Index into the evaluation's `orientations` of observation `j`'s pose.
-    pub fn pose_of(&self, j: usize) -> usize {
-        self.pose_of[j]
+    /// The observations, grouped by pose.
+    pub fn observations(&self) -> &[MarkerObservation] {
+        &self.observations
     }
 
     /// Unit line of sight and distance of observation `j`.
@@ -259,7 +267,7 @@ impl<'a> MarkerModel<'a> {
     }
 
     /// `Σ_j^{-1/2}` of observation `j` under `noise`.
-    pub fn whitening(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
+    pub fn whitening_of(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
         let (l, d) = self.sight(j);
         let ratio = noise.reference_distance_m / d;
         let along = l * l.transpose();
@@ -288,7 +296,7 @@ impl<'a> MarkerModel<'a> {
         let mut out: Vec<(u64, DMatrix<f64>)> =
             self.poses.iter().map(|(id, _, _)| (*id, DMatrix::zeros(n, n))).collect();
         for j in 0..self.observations.len() {
-            let block = self.whitening(j, noise) * jacobian.rows(3 * j, 3);
+            let block = self.whitening_of(j, noise) * jacobian.rows(3 * j, 3);
             out[self.pose_of[j]].1 += block.transpose() * &block;
         }
         Ok(out)
@@ -296,8 +304,51 @@ impl<'a> MarkerModel<'a> {
 }
 
 impl Model for MarkerModel<'_> {
+    type Noise = StereoNoise;
+
     fn parameterisation(&self) -> &Parameterisation {
         self.p
+    }
+
+    fn len(&self) -> usize {
+        self.observations.len()
+    }
+
+    fn with_columns(mut self, columns: Vec<bool>) -> Self {
+        self.columns = Some(columns);
+        self
+    }
+
+    fn subset(&self, rows: &[usize]) -> Self {
+        let observations: Vec<MarkerObservation> = rows.iter().map(|&j| self.observations[j]).collect();
+        let mut model = MarkerModel::of(self.p, std::borrow::Cow::Owned(observations));
+        model.streams = self.streams;
+        model.columns.clone_from(&self.columns);
+        if !self.inflation.is_empty() {
+            model.inflation = rows.iter().map(|&j| self.inflation[j]).collect();
+        }
+        model
+    }
+
+    fn group(&self, j: usize) -> (bool, u64) {
+        let o = &self.observations[j];
+        o.station.map_or((false, o.pose), |s| (true, s))
+    }
+
+    fn pose_of(&self, j: usize) -> usize {
+        self.pose_of[j]
+    }
+
+    fn poses(&self) -> usize {
+        self.poses.len()
+    }
+
+    fn estimate_noise(&self, residuals: &[Vector3<f64>], weights: &[f64]) -> StereoNoise {
+        self.stereo_noise(residuals, weights)
+    }
+
+    fn whitening(&self, noise: &StereoNoise) -> Vec<Matrix3<f64>> {
+        (0..self.observations.len()).map(|j| self.whitening_of(j, noise)).collect()
     }
 
     fn evaluate(
@@ -359,14 +410,12 @@ impl Model for MarkerModel<'_> {
         }
     }
 
-    fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {
-        super::solver::rms(residuals) * 1e3
+    fn unit_scale(&self) -> f64 {
+        1e3
     }
 
-    fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]) {
-        let noise = self.stereo_noise(residuals, &weighting.weights);
-        weighting.whitening = (0..residuals.len()).map(|j| self.whitening(j, &noise)).collect();
-        weighting.stereo = Some(noise);
+    fn unit(&self) -> &'static str {
+        "mm"
     }
 }
 

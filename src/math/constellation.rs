@@ -59,7 +59,7 @@ pub fn spreads(points: &[Vector3<f64>]) -> Vector3<f64> {
     let n = points.len().max(1) as f64;
     let c = points.iter().sum::<Vector3<f64>>() / n;
     let scatter: Matrix3<f64> = points.iter().map(|p| (p - c) * (p - c).transpose()).sum::<Matrix3<f64>>() / n;
-    let Some(eigen) = crate::so3::bounded_symmetric_eigen(&scatter) else { return Vector3::repeat(f64::NAN) };
+    let Some(eigen) = crate::math::linalg::bounded_symmetric_eigen(&scatter) else { return Vector3::repeat(f64::NAN) };
     let mut s = eigen.eigenvalues.map(|l| l.max(0.0).sqrt());
     s.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
     s

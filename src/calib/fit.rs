@@ -18,11 +18,11 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SecondOrderConeT, SolverStatus, SupportedConeT,
 };
-use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::config::{CalibConfig, Loss};
+use super::model::{EvalError, Evaluation, Model};
 use super::params::Parameterisation;
-use super::residual::{EvalError, Evaluation, Observation};
 
 /// Median of the norm of a 3-D isotropic Gaussian with unit deviation per axis (Maxwell
 /// distribution): the robust scale of the residual norms is `median / 1.5382`.
@@ -30,7 +30,7 @@ const MAXWELL_MEDIAN: f64 = 1.5382;
 
 /// Numerical settings of one fit.
 #[derive(Debug, Clone)]
-pub struct FitSettings {
+pub(crate) struct FitSettings {
     /// Iteration budget.
     pub max_iterations: u32,
     /// Initial trust-region radius, radians.
@@ -49,7 +49,7 @@ pub struct FitSettings {
 
 impl FitSettings {
     /// The settings `config` asks for, with `free` parameters and no prior.
-    pub fn from_config(config: &CalibConfig, free: Vec<bool>) -> Self {
+    pub(crate) fn from_config(config: &CalibConfig, free: Vec<bool>) -> Self {
         FitSettings {
             max_iterations: config.max_iterations,
             initial_radius: config.initial_radius_deg.to_radians(),
@@ -100,13 +100,13 @@ pub enum Convergence {
 /// A fit whose cost changes by less than this fraction in a whole reweighting cycle, or over the
 /// last five iterations, is at its minimum whatever its steps: the cost is a sum over
 /// hundreds of residuals, so 1e-10 of it is far below anything the data can tell apart.
-pub const RELATIVE_COST_TOLERANCE: f64 = 1e-10;
+pub(crate) const RELATIVE_COST_TOLERANCE: f64 = 1e-10;
 /// Iterations over which a stalled cost is judged.
 const STALL_WINDOW: usize = 5;
 
 /// A converged fit.
 #[derive(Debug, Clone)]
-pub struct FitOutcome {
+pub(crate) struct FitOutcome<N> {
     /// How the fit ended.
     pub status: Convergence,
     /// The parameter vector at the solution.
@@ -114,7 +114,7 @@ pub struct FitOutcome {
     /// Residuals (and Jacobian) at the solution.
     pub evaluation: Evaluation,
     /// The weighting at the solution.
-    pub weighting: Weighting,
+    pub weighting: Weighting<N>,
     /// Every iteration.
     pub log: Vec<IterationLog>,
 }
@@ -164,96 +164,53 @@ pub enum FitError {
     },
 }
 
-/// How the residuals are weighted: each pose whitened by `S = Σ_r^{-1/2}`, the inverse root of the
-/// 3×3 residual covariance of its class — a stereo camera measures depth several times worse than
-/// across, and a pose seen with three markers has no redundancy to filter its noise, so poses are
-/// classed by how many markers the estimate used — then weighted by its Huber weight on the
-/// whitened norm, at a robust scale `σ` fixed for the stage.
+/// How the residuals are weighted: each observation whitened by `S = Σ^{-1/2}` of the model's
+/// noise (estimated from the residuals after the first stage), then weighted by its Huber weight
+/// on the whitened norm, at a robust scale `σ` fixed for the stage.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Weighting {
-    /// Per pose.
+pub(crate) struct Weighting<N> {
+    /// Per observation.
     pub whitening: Vec<Matrix3<f64>>,
-    /// Huber weight per pose, in (0, 1].
+    /// Huber weight per observation, in (0, 1].
     pub weights: Vec<f64>,
     /// Robust scale of the whitened norms.
     pub sigma: f64,
-    /// `(markers used, poses, Σ_r)` per class (rad²); empty while unwhitened.
-    pub classes: Vec<(usize, usize, Matrix3<f64>)>,
-    /// The stereo noise model of a marker-level fit, once estimated.
-    pub stereo: Option<super::markers::StereoNoise>,
+    /// The model's noise, once estimated.
+    pub noise: Option<N>,
 }
 
-/// Classes with fewer poses than this share the pooled covariance.
-const MIN_CLASS: usize = 12;
-
-fn weighted_covariance(residuals: &[Vector3<f64>], members: &[usize], weights: &[f64]) -> Matrix3<f64> {
-    let total: f64 = members.iter().map(|&j| weights[j]).sum::<f64>().max(f64::MIN_POSITIVE);
-    members.iter().map(|&j| residuals[j] * residuals[j].transpose() * weights[j]).sum::<Matrix3<f64>>() / total
-}
-
-/// `Σ^{-1/2}`, with the spectrum floored so that noise-free data (zero residuals) stays defined.
-fn inverse_root(covariance: &Matrix3<f64>) -> Matrix3<f64> {
-    let Some(eig) = crate::so3::bounded_symmetric_eigen(covariance) else {
-        return Matrix3::identity();
-    };
-    let floor = (eig.eigenvalues.max() * 1e-8).max(1e-30);
-    let inv_root = Matrix3::from_diagonal(&eig.eigenvalues.map(|l| 1.0 / l.max(floor).sqrt()));
-    eig.eigenvectors * inv_root * eig.eigenvectors.transpose()
-}
-
-impl Weighting {
+impl<N> Weighting<N> {
     /// No whitening, unit weights.
-    pub fn isotropic(poses: usize) -> Weighting {
+    pub(crate) fn isotropic(observations: usize) -> Self {
         Weighting {
-            whitening: vec![Matrix3::identity(); poses],
-            weights: vec![1.0; poses],
+            whitening: vec![Matrix3::identity(); observations],
+            weights: vec![1.0; observations],
             sigma: 1.0,
-            classes: Vec::new(),
-            stereo: None,
+            noise: None,
         }
     }
 
-    /// Whiten each class of poses (by markers used) by its weighted residual covariance.
-    ///
-    /// # Panics
-    /// If `markers` is shorter than `residuals`.
-    pub fn whiten_by_class(&mut self, residuals: &[Vector3<f64>], markers: &[usize]) {
-        let everyone: Vec<usize> = (0..residuals.len()).collect();
-        let pooled = weighted_covariance(residuals, &everyone, &self.weights);
-        let mut counts: Vec<usize> = markers.to_vec();
-        counts.sort_unstable();
-        counts.dedup();
-        self.classes = counts
-            .iter()
-            .map(|&m| {
-                let members: Vec<usize> = everyone.iter().copied().filter(|&j| markers[j] == m).collect();
-                let cov = if members.len() >= MIN_CLASS {
-                    weighted_covariance(residuals, &members, &self.weights)
-                } else {
-                    pooled
-                };
-                (m, members.len(), cov)
-            })
-            .collect();
-        let roots: Vec<(usize, Matrix3<f64>)> = self.classes.iter().map(|(m, _, c)| (*m, inverse_root(c))).collect();
-        self.whitening =
-            markers.iter().map(|m| roots.iter().find(|(k, _)| k == m).expect("a class per count").1).collect();
+    /// Whiten by the noise `model` estimates from the residuals at the current weights.
+    pub(crate) fn estimate<M: Model<Noise = N>>(&mut self, model: &M, residuals: &[Vector3<f64>]) {
+        let noise = model.estimate_noise(residuals, &self.weights);
+        self.whitening = model.whitening(&noise);
+        self.noise = Some(noise);
     }
 
     /// Robust scale of the whitened norms (Maxwell median).
-    pub fn rescale(&mut self, residuals: &[Vector3<f64>]) {
+    pub(crate) fn rescale(&mut self, residuals: &[Vector3<f64>]) {
         self.sigma = robust_scale((0..residuals.len()).map(|j| self.whiten(j, &residuals[j]).norm()));
     }
 
     /// Huber weights of the whitened norms at the current scale.
-    pub fn reweight(&mut self, residuals: &[Vector3<f64>], loss: Loss, threshold: f64) {
+    pub(crate) fn reweight(&mut self, residuals: &[Vector3<f64>], loss: Loss, threshold: f64) {
         for (j, w) in self.weights.iter_mut().enumerate() {
             *w = loss_weight(loss, (self.whitening[j] * residuals[j]).norm(), threshold * self.sigma);
         }
     }
 
     /// The whitened residual of pose `j`.
-    pub fn whiten(&self, j: usize, r: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn whiten(&self, j: usize, r: &Vector3<f64>) -> Vector3<f64> {
         self.whitening[j] * r
     }
 
@@ -286,72 +243,9 @@ fn prior_cost(settings: &FitSettings, x: &DVector<f64>) -> f64 {
     })
 }
 
-/// What a fit fits: residuals (3-vectors: a pose's rotation, a marker's position) of a
-/// parameterisation, and the noise model that whitens them.
-pub trait Model {
-    /// The parameters.
-    fn parameterisation(&self) -> &Parameterisation;
-
-    /// Residuals (and optionally their Jacobian) at `x`; each pose's FDA starts from `warm` (the
-    /// orientations of the previous evaluation) when given.
-    ///
-    /// # Errors
-    /// An [`EvalError`] when the parameters make no valid manipulator or a pose's FDA fails.
-    fn evaluate(
-        &self,
-        x: &DVector<f64>,
-        warm: Option<&[Rotation3<f64>]>,
-        with_jacobian: bool,
-    ) -> Result<Evaluation, EvalError>;
-
-    /// Re-estimate the noise model from the residuals (feasible GLS): set `weighting.whitening`.
-    fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]);
-
-    /// Take back an evaluation the fit no longer needs, to reuse its storage (a Jacobian of
-    /// 100,000 observations is 80 MB: allocating it afresh at every step is a tenth of the fit).
-    fn recycle(&self, _old: Evaluation) {}
-
-    /// The RMS of the residuals in the unit a person reads them in (degrees by default).
-    fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {
-        rms(residuals).to_degrees()
-    }
-}
-
-/// The orientation-level model: one rotation residual per pose, poses whitened by the covariance
-/// of their class (markers the vision estimate used).
-pub struct Orientations<'a> {
-    /// The parameters.
-    pub p: &'a Parameterisation,
-    /// The poses.
-    pub observations: &'a [Observation],
-    /// Only the registration moves: the mechanism's derivatives (most of the cost) are skipped
-    /// and their Jacobian columns left zero.
-    pub registration_only: bool,
-}
-
-impl Model for Orientations<'_> {
-    fn parameterisation(&self) -> &Parameterisation {
-        self.p
-    }
-
-    fn evaluate(
-        &self,
-        x: &DVector<f64>,
-        warm: Option<&[Rotation3<f64>]>,
-        with_jacobian: bool,
-    ) -> Result<Evaluation, EvalError> {
-        super::residual::evaluate_with(self.p, x, self.observations, warm, with_jacobian, !self.registration_only)
-    }
-
-    fn whiten(&self, weighting: &mut Weighting, residuals: &[Vector3<f64>]) {
-        let markers: Vec<usize> = self.observations.iter().map(|o| o.markers).collect();
-        weighting.whiten_by_class(residuals, &markers);
-    }
-}
-
 /// What stays fixed during a fit.
-struct Problem<'a> {
-    model: &'a dyn Model,
+struct Problem<'a, M> {
+    model: &'a M,
     settings: &'a FitSettings,
     /// Indices of the free parameters.
     free: Vec<usize>,
@@ -373,26 +267,12 @@ const MAX_REWEIGHTINGS: u32 = 30;
 ///
 /// # Errors
 /// A [`FitError`] when the start cannot be evaluated, clarabel fails, the budget runs out while the cost still falls, the reweighting does not settle or the fit diverges.
-pub fn fit(
-    p: &Parameterisation,
-    x0: &DVector<f64>,
-    observations: &[Observation],
-    settings: &FitSettings,
-    on_iteration: &mut dyn FnMut(&IterationLog),
-) -> Result<FitOutcome, FitError> {
-    fit_model(&Orientations { p, observations, registration_only: false }, x0, settings, on_iteration)
-}
-
-/// [`fit`] for any [`Model`].
-///
-/// # Errors
-/// As [`fit`].
-pub fn fit_model(
-    model: &dyn Model,
+pub(crate) fn fit<M: Model>(
+    model: &M,
     x0: &DVector<f64>,
     settings: &FitSettings,
     on_iteration: &mut dyn FnMut(&IterationLog),
-) -> Result<FitOutcome, FitError> {
+) -> Result<FitOutcome<M::Noise>, FitError> {
     let n = model.parameterisation().len();
     let free: Vec<usize> = (0..n).filter(|&i| settings.free[i]).collect();
     // Stage 1 only has to bring the residuals near their minimum for the noise model to be
@@ -406,7 +286,7 @@ pub fn fit_model(
     let mut status = Convergence::Converged;
     for whitened in [false, true] {
         if whitened {
-            model.whiten(&mut weighting, &eval.residuals);
+            weighting.estimate(model, &eval.residuals);
         }
         let settings = if whitened { settings } else { &rough };
         let problem = Problem { model, settings, free: free.clone() };
@@ -471,12 +351,12 @@ fn iteration_limit(log: &[IterationLog], radius: f64) -> Result<Convergence, Fit
 /// One trust-region iteration with a fixed weighting; returns its log entry and whether the inner
 /// loop has stopped: converged (a tiny accepted step) or stalled at a minimum (no predicted
 /// decrease the cost can resolve, or a collapsed radius).
-impl Problem<'_> {
+impl<M: Model> Problem<'_, M> {
     fn trust_region_step(
         &self,
         x: &mut DVector<f64>,
         eval: &mut Evaluation,
-        weighting: &Weighting,
+        weighting: &Weighting<M::Noise>,
         normal: &mut Option<(DMatrix<f64>, DVector<f64>)>,
         radius: &mut f64,
         iteration: u32,
@@ -542,15 +422,10 @@ impl Problem<'_> {
     }
 }
 
-/// RMS of the residual angles (radians).
-pub fn rms(residuals: &[Vector3<f64>]) -> f64 {
-    (residuals.iter().map(|r| r.norm_squared()).sum::<f64>() / residuals.len().max(1) as f64).sqrt()
-}
-
 /// `Jᵀ W J + Λ` and `Jᵀ W r + Λ (x − x_prior)` over the free parameters.
-pub(crate) fn normal_equations(
+pub(crate) fn normal_equations<N>(
     eval: &Evaluation,
-    weighting: &Weighting,
+    weighting: &Weighting<N>,
     free: &[usize],
     settings: &FitSettings,
     x: &DVector<f64>,
@@ -570,9 +445,9 @@ pub(crate) fn normal_equations(
 }
 
 /// `Jᵀ W J` and `Jᵀ W r` over the columns `free`, `W` the whitening and weights.
-pub(crate) fn weighted_normal(
+pub(crate) fn weighted_normal<N>(
     eval: &Evaluation,
-    weighting: &Weighting,
+    weighting: &Weighting<N>,
     free: &[usize],
 ) -> (DMatrix<f64>, DVector<f64>) {
     let rows: Vec<usize> = (0..eval.residuals.len()).collect();
@@ -580,9 +455,9 @@ pub(crate) fn weighted_normal(
 }
 
 /// [`weighted_normal`] over the residuals `rows` only.
-pub(crate) fn weighted_normal_of(
+pub(crate) fn weighted_normal_of<N>(
     eval: &Evaluation,
-    weighting: &Weighting,
+    weighting: &Weighting<N>,
     free: &[usize],
     rows: &[usize],
 ) -> (DMatrix<f64>, DVector<f64>) {
@@ -612,61 +487,12 @@ pub(crate) fn weighted_normal_of(
                 block.fixed_view_mut::<3, 1>(3 * a, k).copy_from(&column);
             }
         }
-        gram_into(&block, 3 * len, &mut hessian);
+        crate::math::linalg::gram_into(&block, 3 * len, &mut hessian);
         for k in 0..n {
             gradient[k] += block.view((0, k), (3 * len, 1)).dot(&r.rows(0, 3 * len));
         }
     }
     (hessian, gradient)
-}
-
-/// `JᵀJ` by one cache-blocked GEMM reading `J` through transposed strides: nalgebra's `tr_mul`
-/// takes a dot product per entry (5× slower at 100,000 observations) and `transpose() *` first
-/// copies the whole matrix.
-pub(crate) fn gram(j: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut out = DMatrix::zeros(j.ncols(), j.ncols());
-    gram_into(j, j.nrows(), &mut out);
-    out
-}
-
-/// `out += J[..rows]ᵀ J[..rows]`, the Gram matrix of the first `rows` rows of `j`.
-///
-/// # Panics
-/// If `rows` exceeds `j`'s rows or `out` is not `n × n`.
-pub(crate) fn gram_into(j: &DMatrix<f64>, rows: usize, out: &mut DMatrix<f64>) {
-    let n = j.ncols();
-    assert!(
-        rows <= j.nrows() && out.shape() == (n, n),
-        "gram of {rows} rows of {:?} into {:?}",
-        j.shape(),
-        out.shape()
-    );
-    if rows == 0 || n == 0 {
-        return;
-    }
-    let (a, stride) = (j.as_slice().as_ptr(), j.nrows() as isize);
-    // SAFETY: `a` points to `nrows × n` column-major values (element (i, k) at i + k·nrows); the
-    // first `rows` rows are read as Jᵀ (n × rows: row stride `nrows`, column stride 1) and as J
-    // (rows × n: strides 1, `nrows`); `out` is a distinct n × n column-major matrix (strides 1,
-    // n), accumulated into (beta = 1). All indices stay in bounds (asserted above).
-    unsafe {
-        matrixmultiply::dgemm(
-            n,
-            rows,
-            n,
-            1.0,
-            a,
-            stride,
-            1,
-            a,
-            1,
-            stride,
-            1.0,
-            out.as_mut_slice().as_mut_ptr(),
-            1,
-            n as isize,
-        );
-    }
 }
 
 /// The clarabel subproblem: bounds as a nonnegative cone, the trust region as a second-order cone.

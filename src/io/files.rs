@@ -64,97 +64,99 @@ impl FileError {
 /// A [`FileError`] when the temporary file cannot be created, written or renamed.
 #[cfg(feature = "full")]
 pub(crate) fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError> {
-    let mut outputs = Outputs::new();
-    let slot = outputs.reserve(path)?;
-    outputs.write(slot, contents)?;
-    outputs.commit()
+    let mut file = StagedFile::create(path)?;
+    file.write(contents)?;
+    file.commit()
 }
 
-/// The outputs of one command, reserved before the work and written together after it, so that a
-/// failed run changes no existing file: every destination is checked first (not a folder, its
-/// folder takes new files) by creating its temporary file; [`Outputs::commit`] renames them all
-/// into place only when every one was written.
+/// A file written atomically: a temporary file beside its destination, renamed over it by
+/// [`StagedFile::commit`], so that a reader never sees a half-written file and a failure leaves
+/// the old one intact. Dropped without a commit, the temporary file is removed and the
+/// destination left as it was. Several files put in place together [`StagedFile::sync`] every one
+/// before they [`StagedFile::persist`] any.
 #[cfg(feature = "full")]
-#[derive(Debug, Default)]
-pub struct Outputs {
-    staged: Vec<(PathBuf, tempfile::NamedTempFile)>,
+#[derive(Debug)]
+pub struct StagedFile {
+    destination: PathBuf,
+    tmp: tempfile::NamedTempFile,
 }
 
-/// A reserved output of an [`Outputs`].
 #[cfg(feature = "full")]
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Slot(usize);
-
-#[cfg(feature = "full")]
-impl Outputs {
-    /// No outputs yet.
-    pub fn new() -> Self {
-        Outputs::default()
-    }
-
-    /// Reserve `path` as an output.
+impl StagedFile {
+    /// Start a new version of `path` by creating its temporary file (which checks that the
+    /// destination can be written before any work).
     ///
     /// # Errors
-    /// `path` is a folder, is reserved twice, or its folder does not take a new file.
-    pub fn reserve(&mut self, path: &Path) -> Result<Slot, FileError> {
+    /// `path` is a folder, or its folder does not take a new file.
+    pub fn create(path: &Path) -> Result<Self, FileError> {
         if path.is_dir() {
             return Err(FileError::new(path, "is a folder; an output file was expected"));
-        }
-        if self.staged.iter().any(|(p, _)| p == path) {
-            return Err(FileError::new(path, "is given as two different outputs"));
         }
         let tmp = tempfile::Builder::new()
             .prefix(".spmcal-")
             .suffix(".tmp")
             .tempfile_in(parent_folder(path))
             .map_err(|e| FileError::new(path, format!("cannot write here: {e}")))?;
-        self.staged.push((path.to_path_buf(), tmp));
-        Ok(Slot(self.staged.len() - 1))
+        Ok(StagedFile { destination: path.to_path_buf(), tmp })
     }
 
-    /// The temporary file behind `slot`, for writers that open a path themselves.
-    pub fn temp_path(&self, slot: Slot) -> &Path {
-        self.staged[slot.0].1.path()
+    /// The temporary file, for writers that open a path themselves.
+    pub fn temp_path(&self) -> &Path {
+        self.tmp.path()
     }
 
-    /// The final destination of `slot`.
-    pub fn destination(&self, slot: Slot) -> &Path {
-        &self.staged[slot.0].0
+    /// The final destination.
+    pub fn destination(&self) -> &Path {
+        &self.destination
     }
 
-    /// Write `contents` into the temporary file of `slot`.
+    /// Write `contents` into the temporary file (replacing what an earlier write put there).
     ///
     /// # Errors
     /// The write fails (e.g. the disk is full).
-    pub fn write(&mut self, slot: Slot, contents: &[u8]) -> Result<(), FileError> {
+    pub fn write(&mut self, contents: &[u8]) -> Result<(), FileError> {
         use std::io::{Seek, Write};
-        let (path, tmp) = &mut self.staged[slot.0];
-        let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
-        let file = tmp.as_file_mut();
+        let fail = |e: std::io::Error| FileError::new(&self.destination, format!("cannot write: {e}"));
+        let file = self.tmp.as_file_mut();
         file.set_len(0).map_err(fail)?;
         file.rewind().map_err(fail)?;
         file.write_all(contents).map_err(fail)
     }
 
-    /// Put every output in place (ordinary permissions, synced, renamed over the destination).
+    /// Give the temporary file ordinary permissions and sync it to the disk: the first half of
+    /// [`StagedFile::commit`].
     ///
     /// # Errors
-    /// Syncing or renaming fails; outputs renamed before the failure stay in place.
-    pub fn commit(self) -> Result<(), FileError> {
-        for (path, tmp) in &self.staged {
-            let fail = |e: std::io::Error| FileError::new(path, format!("cannot write: {e}"));
-            // A temporary file is private (0600); the result is an ordinary file, like any other output.
-            #[cfg(unix)]
-            {
-                use std::os::unix::fs::PermissionsExt;
-                tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(fail)?;
-            }
-            std::fs::File::open(tmp.path()).and_then(|f| f.sync_all()).map_err(fail)?;
+    /// Setting the permissions or syncing fails.
+    pub fn sync(&self) -> Result<(), FileError> {
+        let fail = |e: std::io::Error| FileError::new(&self.destination, format!("cannot write: {e}"));
+        // A temporary file is private (0600); the result is an ordinary file, like any other output.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            self.tmp.as_file().set_permissions(std::fs::Permissions::from_mode(0o644)).map_err(fail)?;
         }
-        for (path, tmp) in self.staged {
-            tmp.persist(&path).map_err(|e| FileError::new(&path, format!("cannot write: {}", e.error)))?;
-        }
+        std::fs::File::open(self.tmp.path()).and_then(|f| f.sync_all()).map_err(fail)
+    }
+
+    /// Rename the (synced) temporary file over the destination: the second half of
+    /// [`StagedFile::commit`].
+    ///
+    /// # Errors
+    /// The rename fails.
+    pub fn persist(self) -> Result<(), FileError> {
+        let StagedFile { destination, tmp } = self;
+        tmp.persist(&destination).map_err(|e| FileError::new(&destination, format!("cannot write: {}", e.error)))?;
         Ok(())
+    }
+
+    /// Put the file in place: ordinary permissions, synced, renamed over the destination.
+    ///
+    /// # Errors
+    /// Syncing or renaming fails.
+    pub fn commit(self) -> Result<(), FileError> {
+        self.sync()?;
+        self.persist()
     }
 }
 

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::files::FileError;
+use crate::io::files::FileError;
 
 /// A CSV file opened for reading columns by name, one row at a time.
 pub(crate) struct Table {
@@ -161,7 +161,7 @@ impl Row<'_> {
     /// a quaternion whose norm is not 1 (within 1e-6) is an error in column `k`.
     pub(crate) fn quaternion(&self, k: usize) -> Result<nalgebra::Rotation3<f64>, FileError> {
         let q = [self.number(k)?, self.number(k + 1)?, self.number(k + 2)?, self.number(k + 3)?];
-        crate::so3::from_wxyz(q).ok_or_else(|| self.error(k, format!("quaternion {q:?} does not have unit norm")))
+        crate::math::so3::from_wxyz(q).ok_or_else(|| self.error(k, format!("quaternion {q:?} does not have unit norm")))
     }
 
     /// The `k`-th field as a pose number (non-negative integer).

@@ -13,7 +13,7 @@ use std::path::Path;
 use saphyr_parser::{Event, Parser};
 use serde::de::DeserializeOwned;
 
-use crate::files::{FileError, read_text};
+use crate::io::files::{FileError, read_text};
 
 /// Largest YAML input accepted: every spmcal YAML file is a few kilobytes.
 pub(crate) const MAX_BYTES: usize = 1 << 20;

@@ -85,7 +85,7 @@ pub fn polar_svd(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
     if !a.iter().all(|x| x.is_finite()) {
         return Err(PolarError::NotFinite);
     }
-    let svd = crate::so3::bounded_svd(a, true, true).ok_or(PolarError::NotFinite)?;
+    let svd = super::linalg::bounded_svd(a, true, true).ok_or(PolarError::NotFinite)?;
     let smallest = svd.singular_values.min();
     if smallest <= 8.0 * f64::EPSILON * svd.singular_values.max() {
         return Err(PolarError::Singular { smallest });

@@ -97,50 +97,6 @@ pub fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vecto
     Rotation3::from_matrix_unchecked(pair_frame(a2, b2) * pair_frame(a1, b1).transpose())
 }
 
-/// Iterations allowed to nalgebra's SVD and eigen solvers: they converge in tens; unbounded, they
-/// loop for ever on NaN or infinite input (found by fuzzing: a session with a 1e300 coordinate).
-pub const MAX_DECOMPOSITION_ITERATIONS: usize = 1000;
-
-/// The SVD of `m` with bounded work: `None` for non-finite input or no convergence.
-pub fn bounded_svd<R, C, S>(
-    m: &nalgebra::Matrix<f64, R, C, S>,
-    compute_u: bool,
-    compute_v: bool,
-) -> Option<nalgebra::SVD<f64, R, C>>
-where
-    S: nalgebra::Storage<f64, R, C>,
-    R: nalgebra::DimMin<C>,
-    C: nalgebra::Dim,
-    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<R, C>
-        + nalgebra::allocator::Allocator<C>
-        + nalgebra::allocator::Allocator<R>
-        + nalgebra::allocator::Allocator<nalgebra::DimMinimum<R, C>>
-        + nalgebra::allocator::Allocator<nalgebra::DimMinimum<R, C>, C>
-        + nalgebra::allocator::Allocator<R, nalgebra::DimMinimum<R, C>>
-        + nalgebra::allocator::Allocator<nalgebra::DimDiff<nalgebra::DimMinimum<R, C>, nalgebra::U1>>,
-    nalgebra::DimMinimum<R, C>: nalgebra::DimSub<nalgebra::U1>,
-{
-    if !m.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    m.clone_owned().try_svd(compute_u, compute_v, f64::EPSILON, MAX_DECOMPOSITION_ITERATIONS)
-}
-
-/// The eigen-decomposition of the symmetric `m` with bounded work: `None` for non-finite input
-/// or no convergence.
-pub fn bounded_symmetric_eigen<D>(m: &nalgebra::OMatrix<f64, D, D>) -> Option<nalgebra::SymmetricEigen<f64, D>>
-where
-    D: nalgebra::DimSub<nalgebra::U1>,
-    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D, D>
-        + nalgebra::allocator::Allocator<D>
-        + nalgebra::allocator::Allocator<nalgebra::DimDiff<D, nalgebra::U1>>,
-{
-    if !m.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    nalgebra::SymmetricEigen::try_new(m.clone(), f64::EPSILON, MAX_DECOMPOSITION_ITERATIONS)
-}
-
 /// The proper rotation nearest to `m` in the Frobenius norm (via SVD), or `None` when
 /// `m` is rank-deficient (no unique nearest rotation).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
@@ -148,11 +104,11 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     // polar factor, which Higham's iteration finds about five times faster than the SVD.
     let scale = m.norm();
     if m.determinant() > 8.0 * f64::EPSILON * scale * scale * scale
-        && let Ok(p) = crate::polar::polar(m)
+        && let Ok(p) = super::polar::polar(m)
     {
         return Some(Rotation3::from_matrix_unchecked(p.q));
     }
-    let svd = bounded_svd(m, true, true)?;
+    let svd = super::linalg::bounded_svd(m, true, true)?;
     let (u, vt) = (svd.u?, svd.v_t?);
     if svd.singular_values.min() <= f64::EPSILON * svd.singular_values.max() * 8.0 {
         return None;
@@ -223,7 +179,7 @@ mod tests {
             let r = exp(&Vector3::new(0.4 + k as f64, -0.2, 0.9));
             let s = exp(&Vector3::new(-0.3, 0.7 * k as f64, 0.1));
             let m = r.matrix() * Matrix3::from_diagonal(&Vector3::from(*stretch)) * s.matrix();
-            let svd = bounded_svd(&m, true, true).unwrap();
+            let svd = crate::math::linalg::bounded_svd(&m, true, true).unwrap();
             let (u, vt) = (svd.u.unwrap(), svd.v_t.unwrap());
             let mut d = Matrix3::identity();
             d[(2, 2)] = (u * vt).determinant().signum();

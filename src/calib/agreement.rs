@@ -1,0 +1,303 @@
+//! How far a parameter set and the camera disagree on a session: per pose, in degrees (the angle
+//! between the orientation the set predicts from the joints and the one the per-pose estimator
+//! measured) or in millimetres (the RMS distance between the markers it predicts and the ones the
+//! camera measured). `compare` reports them for any parameter sets; the calibration reports them
+//! before and after.
+//!
+//! Registrations: a parameter set without one (the nominal model) gets the best-fit registration
+//! alone (least squares), so that a camera misalignment is not blamed on the mechanism. With one (a
+//! calibrated file) the file's registration, markers and latency are used as they are — at the
+//! orientation level only the reference rotation `A` is fitted: it belongs to the session (where
+//! its reference pose was), not to the device.
+
+use nalgebra::{DVector, Rotation3, Vector3};
+use serde::Serialize;
+
+use super::config::{CalibConfig, Group, Loss};
+use super::fit::{FitError, FitOutcome, FitSettings, fit};
+use super::marker_model::{MarkerModel, MarkerObservation, marker_observations, per_pose_rms_mm};
+use super::model::{EvalError, Model};
+use super::orientation_model::{Observation, OrientationModel, observations};
+use super::params::Parameterisation;
+use super::registration;
+use crate::dataset::Session;
+use crate::math::so3;
+use crate::model::{CameraRegistration, Parameters, RobotModel, Spm, SpmError};
+use crate::vision::{SessionEstimate, Stats};
+
+/// RMS, median and maximum of per-pose angles.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ErrorSummary {
+    /// Poses summarised.
+    pub poses: usize,
+    /// RMS angle, degrees.
+    pub rms_deg: f64,
+    /// Median angle, degrees.
+    pub median_deg: f64,
+    /// Largest angle, degrees.
+    pub max_deg: f64,
+}
+
+impl ErrorSummary {
+    /// Summary of per-pose residual rotation vectors (angle = norm).
+    pub fn of(residuals: &[Vector3<f64>]) -> ErrorSummary {
+        let deg: Vec<f64> = residuals.iter().map(|r| r.norm().to_degrees()).collect();
+        let stats = Stats::of(&deg).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
+        ErrorSummary {
+            poses: deg.len(),
+            rms_deg: super::model::rms(residuals).to_degrees(),
+            median_deg: stats.median,
+            max_deg: stats.max,
+        }
+    }
+
+    /// Summary of per-pose angles in degrees.
+    pub fn of_degrees(degrees: &[f64]) -> ErrorSummary {
+        let stats = Stats::of(degrees).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
+        let rms = (degrees.iter().map(|d| d * d).sum::<f64>() / degrees.len().max(1) as f64).sqrt();
+        ErrorSummary { poses: degrees.len(), rms_deg: rms, median_deg: stats.median, max_deg: stats.max }
+    }
+}
+
+/// RMS, median and largest distance (mm) between measured and predicted markers.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MarkerErrors {
+    /// Observations summarised.
+    pub observations: usize,
+    /// RMS distance, mm.
+    pub rms_mm: f64,
+    /// Median distance, mm.
+    pub median_mm: f64,
+    /// Largest distance, mm.
+    pub max_mm: f64,
+    /// `(marker, observations, RMS mm)` per marker.
+    pub per_marker: Vec<(String, usize, f64)>,
+}
+
+impl MarkerErrors {
+    /// The summary of marker residuals (m) of `observations`, per marker of `names`.
+    pub fn of(residuals: &[Vector3<f64>], observations: &[MarkerObservation], names: &[String]) -> Self {
+        let mm: Vec<f64> = residuals.iter().map(|r| r.norm() * 1e3).collect();
+        let stats = Stats::of(&mm).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
+        let rms = |values: &mut dyn Iterator<Item = f64>| {
+            let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v * v, n + 1));
+            (sum / n.max(1) as f64).sqrt()
+        };
+        let per_marker = names
+            .iter()
+            .enumerate()
+            .map(|(k, name)| {
+                let of_k: Vec<f64> =
+                    observations.iter().zip(&mm).filter(|(o, _)| o.marker == k).map(|(_, d)| *d).collect();
+                (name.clone(), of_k.len(), rms(&mut of_k.iter().copied()))
+            })
+            .collect();
+        MarkerErrors {
+            observations: mm.len(),
+            rms_mm: rms(&mut mm.iter().copied()),
+            median_mm: stats.median,
+            max_mm: stats.max,
+            per_marker,
+        }
+    }
+}
+
+/// Why a parameter set cannot be compared with the camera on a session.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SetError {
+    #[error("{0}")]
+    /// The parameters make no valid manipulator.
+    Geometry(SpmError),
+    #[error("only {0} poses have both a vision estimate and a forward kinematics solution")]
+    /// Too few poses to register.
+    TooFewPoses(usize),
+    #[error("only {0} marker observations have a forward kinematics solution")]
+    /// Too few marker observations to register.
+    TooFewObservations(usize),
+    #[error("the session's marker `{0}` is not among the model's markers")]
+    /// The session names a marker the model lacks.
+    UnknownMarker(String),
+    #[error("every pose rotates about one axis: no registration")]
+    /// The rotations do not fix the camera rotation.
+    RotationsOnOneAxis,
+    #[error("the markers do not span a plane: no registration")]
+    /// The markers do not fix the registration.
+    MarkersInALine,
+    #[error("{0}")]
+    /// The registration fit failed.
+    Fit(FitError),
+    #[error("{0}")]
+    /// The model cannot be evaluated.
+    Eval(EvalError),
+}
+
+/// The errors of one parameter set, per pose.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct PoseErrors {
+    /// How the camera registration was obtained.
+    pub registration: &'static str,
+    /// `(pose, error)`: degrees (orientations) or mm RMS over the pose's markers (markers).
+    pub per_pose: Vec<(u64, f64)>,
+    /// Poses left out with this set (forward kinematics failed, frames outside the encoder
+    /// stream at the set's latency), and why.
+    pub excluded: Vec<String>,
+}
+
+/// The registration groups that are free.
+pub(crate) fn registration_mask(p: &Parameterisation, free: &[bool]) -> Vec<bool> {
+    p.entries
+        .iter()
+        .zip(free)
+        .map(|(e, &f)| {
+            f && matches!(e.kind.group(), Group::CameraRotation | Group::ReferenceRotation | Group::CameraTranslation)
+        })
+        .collect()
+}
+
+/// The model with its best-fit registration from `start` (the `registration` parameters alone,
+/// least squares, as `compare` fits it), evaluated with the full Jacobian at the solution (for the
+/// identifiability analysis and the validation).
+pub(crate) fn best_registration<M: Model + Clone>(
+    model: &M,
+    start: &DVector<f64>,
+    registration: &[bool],
+    config: &CalibConfig,
+) -> Result<FitOutcome<M::Noise>, FitError> {
+    let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(config, registration.to_vec()) };
+    let light = model.clone().with_columns(registration.to_vec());
+    let mut outcome = fit(&light, start, &settings, &mut |_| {})?;
+    outcome.evaluation =
+        model.evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true).map_err(FitError::Start)?;
+    Ok(outcome)
+}
+
+/// The FDA-vs-vision angles (degrees) of `params` on `session`, registration as the module says.
+///
+/// # Errors
+/// A [`SetError`]: an invalid geometry, fewer than three poses with both an estimate and an FDA,
+/// no registration, a failed fit.
+pub(crate) fn pose_errors(
+    session: &Session,
+    vision: &SessionEstimate,
+    params: &Parameters,
+) -> Result<PoseErrors, SetError> {
+    let spm = Spm::new(params.legs).map_err(SetError::Geometry)?;
+    let (kept, failed) = observations(session, vision, &spm);
+    let excluded: Vec<String> = failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")).collect();
+    let (observations, predicted): (Vec<Observation>, Vec<Rotation3<f64>>) = kept.into_iter().unzip();
+    if observations.len() < 3 {
+        return Err(SetError::TooFewPoses(observations.len()));
+    }
+    let reference = observations.iter().position(|o| o.pose == vision.reference_pose).unwrap_or(0);
+    let (camera0, reference0, registration, groups): (_, _, _, &[Group]) = match params.camera {
+        Some(c) => (
+            c.rotation,
+            c.rotation * predicted[reference],
+            "from the parameters file (reference rotation fitted)",
+            &[Group::ReferenceRotation],
+        ),
+        None => {
+            let (c, a) = registration::from_rotations(&observations, &predicted, vision.reference_pose)
+                .ok_or(SetError::RotationsOnOneAxis)?;
+            (c, a, "best fit to this session", &[Group::CameraRotation, Group::ReferenceRotation])
+        }
+    };
+    let config = CalibConfig::default();
+    let p = Parameterisation::new(*spm.geometry(), camera0, reference0, &config.bounds);
+    let free: Vec<bool> = p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect();
+    let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(&config, free.clone()) };
+    let model = OrientationModel::new(&p, &observations).with_columns(free);
+    let outcome = fit(&model, &DVector::zeros(p.len()), &settings, &mut |_| {}).map_err(SetError::Fit)?;
+    let residuals = &outcome.evaluation.residuals;
+    Ok(PoseErrors {
+        registration,
+        per_pose: observations.iter().zip(residuals).map(|(o, r)| (o.pose, r.norm().to_degrees())).collect(),
+        excluded,
+    })
+}
+
+/// The per-pose marker errors (mm) of `params` on `session` (a free-motion recording read at the
+/// set's latency, 0 when it has none), registration as the module says, and that registration.
+///
+/// # Errors
+/// A [`SetError`]: an invalid geometry, a session marker the model lacks, fewer than three
+/// observations, no registration, a failed fit.
+pub(crate) fn marker_pose_errors(
+    session: &Session,
+    model: &RobotModel,
+    params: &Parameters,
+) -> Result<(PoseErrors, CameraRegistration), SetError> {
+    let spm = Spm::new(params.legs).map_err(SetError::Geometry)?;
+    let (session, left_out) = session.at_latency(params.latency_s.unwrap_or(0.0));
+    let (observations, failed) = marker_observations(&session, &spm);
+    let mut excluded: Vec<String> = left_out.iter().map(|w| w.to_string()).collect();
+    excluded.extend(failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")));
+    if observations.len() < 3 {
+        return Err(SetError::TooFewObservations(observations.len()));
+    }
+    let mut markers = model_markers(&session.markers, model)?;
+    for (k, name) in session.markers.iter().enumerate() {
+        if let Some(fitted) = params.marker(name) {
+            markers[k] = fitted;
+        }
+    }
+    let config = CalibConfig::default();
+    let (registration, how) = match params.camera {
+        Some(c) => (c, "from the parameters file"),
+        None => {
+            let nominal = pose_orientations(&params.legs, &observations, &markers).map_err(SetError::Eval)?;
+            let start =
+                registration::from_markers(&observations, &nominal, &markers).ok_or(SetError::MarkersInALine)?;
+            (start, "best fit to this session")
+        }
+    };
+    let p = Parameterisation::for_markers(params.legs, &registration, &markers, &session.markers, &config.bounds);
+    let x0 = DVector::zeros(p.len());
+    let marker_model = MarkerModel::new(&p, &observations);
+    let (x, evaluation) = if params.camera.is_some() {
+        (x0.clone(), marker_model.evaluate(&x0, None, false).map_err(SetError::Eval)?)
+    } else {
+        let mask = registration_mask(&p, &vec![true; p.len()]);
+        let fit = best_registration(&marker_model, &x0, &mask, &config).map_err(SetError::Fit)?;
+        (fit.x, fit.evaluation)
+    };
+    let per_pose = per_pose_rms_mm(&observations, &evaluation.residuals);
+    let camera = CameraRegistration { rotation: p.camera(&x), translation: p.translation(&x) };
+    Ok((PoseErrors { registration: how, per_pose, excluded }, camera))
+}
+
+/// The model's position of each of the session's markers `names`.
+pub(crate) fn model_markers(names: &[String], model: &RobotModel) -> Result<Vec<Vector3<f64>>, SetError> {
+    names
+        .iter()
+        .map(|name| {
+            model
+                .markers
+                .iter()
+                .find(|m| &m.name == name)
+                .map(|m| m.position)
+                .ok_or_else(|| SetError::UnknownMarker(name.clone()))
+        })
+        .collect()
+}
+
+/// The orientation `legs` give each observation's pose (one FDA per pose, not per marker).
+pub(crate) fn pose_orientations(
+    legs: &[crate::model::LegGeometry; 3],
+    observations: &[MarkerObservation],
+    markers: &[Vector3<f64>],
+) -> Result<Vec<Rotation3<f64>>, EvalError> {
+    let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
+    let names: Vec<String> = (0..markers.len()).map(|k| format!("m{k}")).collect();
+    let p = Parameterisation::for_markers(*legs, &origin, markers, &names, &CalibConfig::default().bounds);
+    let model = MarkerModel::new(&p, observations);
+    let at_pose = model.evaluate(&DVector::zeros(p.len()), None, false)?.orientations;
+    Ok((0..observations.len()).map(|j| at_pose[model.pose_of(j)]).collect())
+}
+
+/// The largest rotation (degrees) between the first orientation and any other.
+pub(crate) fn largest_rotation(rotations: &[Rotation3<f64>]) -> f64 {
+    let first = rotations.first().copied().unwrap_or_else(Rotation3::identity);
+    rotations.iter().map(|r| so3::geodesic_angle(r, &first).to_degrees()).fold(0.0, f64::max)
+}

@@ -1,0 +1,299 @@
+//! The marker-level fit (`fit: markers`, the default): maximum likelihood over every marker
+//! observation with the encoder reading of its own capture, under the stereo noise model; the
+//! markers' positions, `t_CB` and (for a free-motion recording) the camera's latency are
+//! parameters like the mechanism's.
+
+use nalgebra::{DMatrix, DVector, Vector3};
+
+use crate::calib::agreement::{
+    ErrorSummary, MarkerErrors, SetError, largest_rotation, model_markers, pose_errors, pose_orientations,
+};
+use crate::calib::config::{CalibConfig, Group};
+use crate::calib::marker_model::{MarkerModel, MarkerObservation, marker_observations};
+use crate::calib::model::Model;
+use crate::calib::params::{Kind, Parameterisation};
+use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Results, Solution};
+use crate::calib::registration;
+use crate::calib::report::{Errors, FastCapture, Latency, MarkerFitReport, MarkerReport};
+use crate::calib::uncertainty::{orientation_uncertainty, parameter_reports, std_error};
+use crate::dataset::{Session, Streams};
+use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
+use crate::vision::{Method, estimate_session};
+
+/// A session's marker observations, ready to fit.
+pub(crate) struct MarkerLevel<'s> {
+    p: Parameterisation,
+    observations: Vec<MarkerObservation>,
+    streams: Option<&'s Streams>,
+    names: Vec<String>,
+    /// Markers seen at fewer than two poses: held at the model's position.
+    held_markers: Vec<usize>,
+    max_joint_speed_deg_s: f64,
+    freeze: Vec<Group>,
+    max_deg: f64,
+    excluded: Vec<String>,
+    warnings: Vec<String>,
+}
+
+impl<'s> MarkerLevel<'s> {
+    /// The observations of `session` on `robot`'s nominal model, registered.
+    pub(crate) fn prepare(session: &'s Session, robot: &RobotModel, config: &CalibConfig) -> Result<Self, CalibError> {
+        let spm = &robot.spm;
+        let (observations, failed) = marker_observations(session, spm);
+        let excluded = failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")).collect();
+        let markers0 = model_markers(&session.markers, robot).map_err(|e| match e {
+            SetError::UnknownMarker(name) => CalibError::UnknownMarker(name),
+            other => CalibError::Config { key: "markers".into(), reason: other.to_string() },
+        })?;
+        // A marker seen at fewer than two poses cannot tell its position from the registration.
+        let poses_seeing: Vec<usize> = (0..session.markers.len())
+            .map(|k| {
+                let mut poses: Vec<u64> = observations.iter().filter(|o| o.marker == k).map(|o| o.pose).collect();
+                poses.dedup();
+                poses.len()
+            })
+            .collect();
+        let held_markers: Vec<usize> = (0..session.markers.len()).filter(|&k| poses_seeing[k] < 2).collect();
+        let warnings = held_markers
+            .iter()
+            .map(|&k| {
+                format!(
+                    "marker `{}` is seen at {} pose(s): its position is held at the model's value",
+                    session.markers[k], poses_seeing[k]
+                )
+            })
+            .collect();
+        let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
+        let registration =
+            registration::from_markers(&observations, &nominal_r, &markers0).ok_or(CalibError::Registration)?;
+        let p =
+            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
+        // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
+        let streams = session.streams.as_ref();
+        let p = match streams {
+            Some(_) => p.with_latency(config.latency_s, config.latency_bound_s),
+            None => p,
+        };
+        Ok(MarkerLevel {
+            p,
+            observations,
+            streams,
+            names: session.markers.clone(),
+            held_markers,
+            max_joint_speed_deg_s: config.max_joint_speed_deg_s,
+            freeze: config.freeze.clone(),
+            max_deg: largest_rotation(&nominal_r),
+            excluded,
+            warnings,
+        })
+    }
+
+    /// The file the observations were read from, for messages.
+    fn source(&self) -> &'static str {
+        if self.streams.is_some() { "captures.csv" } else { "markers.csv" }
+    }
+}
+
+impl Level for MarkerLevel<'_> {
+    type Model<'a>
+        = MarkerModel<'a>
+    where
+        Self: 'a;
+
+    fn parameterisation(&self) -> &Parameterisation {
+        &self.p
+    }
+
+    fn model(&self) -> MarkerModel<'_> {
+        let model = MarkerModel::new(&self.p, &self.observations);
+        match self.streams {
+            Some(s) => {
+                let inflation = fast_inflation(&self.observations, s, &self.p, self.max_joint_speed_deg_s);
+                model.with_streams(s).with_inflation(inflation)
+            }
+            None => model,
+        }
+    }
+
+    fn free(&self) -> Vec<bool> {
+        self.p
+            .entries
+            .iter()
+            .map(|e| {
+                !self.freeze.contains(&e.kind.group())
+                    && !matches!(e.kind, Kind::Marker { marker, .. } if self.held_markers.contains(&marker))
+            })
+            .collect()
+    }
+
+    fn motion_deg(&self) -> f64 {
+        self.max_deg
+    }
+
+    fn origin(&self, model: &MarkerModel<'_>, j: usize) -> (u64, Option<String>, usize) {
+        let o = &model.observations()[j];
+        (o.pose, Some(self.names[o.marker].clone()), o.line)
+    }
+
+    fn finish(&self, r: Results<'_, MarkerModel<'_>>) -> Result<Calibration, CalibError> {
+        let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
+        let observations = r.model.observations();
+        let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
+        let marker_reports = marker_reports(p, x, cov, free, observations, &self.names);
+        let parameters = Parameters {
+            source: ParameterSource::Calibrated,
+            model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
+            legs: p.legs(x),
+            camera: Some(camera),
+            markers: marker_reports
+                .iter()
+                .map(|m| MarkerPosition {
+                    name: m.name.clone(),
+                    position: Vector3::from(m.fitted_m),
+                    std_error: m.std_error_mm.map(|s| Vector3::from(s) * 1e-3),
+                })
+                .collect(),
+            latency_s: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.latency(x)),
+            fit: None,
+        };
+        // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
+        // model with its best-fit registration, the calibrated one with its own.
+        let vision = estimate_session(r.session, Method::Kabsch).ok();
+        let per_pose = |params: &Parameters| {
+            let fit = vision.as_ref().and_then(|v| pose_errors(r.session, v, params).ok());
+            let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();
+            Errors { fit: ErrorSummary::of_degrees(&degrees), held_out: None }
+        };
+        let mut report = r.report;
+        report.vision_method = Method::Kabsch;
+        report.before = per_pose(&Parameters::nominal(&r.robot.spm, None));
+        report.after = per_pose(&parameters);
+        report.parameters = parameter_reports(p, x, cov, free)
+            .into_iter()
+            .zip(&p.entries)
+            .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency))
+            .map(|(r, _)| r)
+            .collect();
+        report.orientation_uncertainty_deg = orientation_uncertainty(&r.calibrated, cov);
+        report.camera_translation_m = Some(camera.translation.into());
+        report.camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
+            Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
+        });
+        let gross = report.flagged.iter().filter(|f| f.excluded).map(|f| {
+            let marker = f.marker.as_deref().unwrap_or("");
+            format!("pose {} marker {marker} ({} line {}): gross error", f.pose, self.source(), f.line)
+        });
+        let mut excluded: Vec<String> = self.excluded.iter().cloned().chain(gross).collect();
+        excluded.append(&mut report.excluded);
+        report.excluded = excluded;
+        report.warnings = self.warnings.iter().cloned().chain(report.warnings).collect();
+        report.markers = Some(MarkerFitReport {
+            latency: p
+                .entries
+                .iter()
+                .position(|e| e.kind == Kind::Latency)
+                .map(|i| Latency { value_s: p.latency(x), std_error_s: std_error(cov, free, i) }),
+            observations: observations.len(),
+            poses: r.model.poses(),
+            before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
+            after: MarkerErrors::of(&r.calibrated.evaluation.residuals, observations, &self.names),
+            stereo_noise: r.calibrated.weighting.noise,
+            markers: marker_reports,
+            fast_captures: self.streams.map_or_else(Vec::new, |s| {
+                observations
+                    .iter()
+                    .zip(joint_speeds(observations, s, p))
+                    .filter(|(_, v)| *v > self.max_joint_speed_deg_s)
+                    .map(|(o, v)| FastCapture {
+                        pose: o.pose,
+                        marker: self.names[o.marker].clone(),
+                        line: o.line,
+                        speed_deg_s: v,
+                    })
+                    .collect()
+            }),
+        });
+        Ok(Calibration {
+            parameters,
+            report,
+            parameterisation: p.clone(),
+            fitted: Fitted::Markers(at_fitted_latency(observations.to_vec(), self.streams, p, x)),
+            nominal: Solution::of(&r.nominal),
+            calibrated: Solution::of(&r.calibrated),
+            covariance: r.covariance,
+        })
+    }
+}
+
+/// The observations with their joints read at the fitted latency, so that whoever evaluates them
+/// without the streams (the recordings) sees the fit's own poses.
+fn at_fitted_latency(
+    mut observations: Vec<MarkerObservation>,
+    streams: Option<&Streams>,
+    p: &Parameterisation,
+    x: &DVector<f64>,
+) -> Vec<MarkerObservation> {
+    if let Some(s) = streams.filter(|_| p.entries.iter().any(|e| e.kind == Kind::Latency)) {
+        let tau = p.latency(x);
+        for o in observations.iter_mut() {
+            if let Some(joints) = o.time_s.and_then(|t| s.joints_at(t - tau)) {
+                o.joints = joints;
+            }
+        }
+    }
+    observations
+}
+
+/// The fastest joint's speed (deg/s) at each observation's capture, at the starting latency.
+fn joint_speeds(observations: &[MarkerObservation], streams: &Streams, p: &Parameterisation) -> Vec<f64> {
+    observations
+        .iter()
+        .map(|o| o.time_s.and_then(|t| streams.velocity_at(t - p.latency0)).map_or(0.0, |v| v.amax().to_degrees()))
+        .collect()
+}
+
+/// Noise inflation of each observation: `max(1, speed / max_speed)` — a capture taken while a
+/// joint turns faster than `max_speed` (deg/s) is blurred or badly interpolated.
+fn fast_inflation(
+    observations: &[MarkerObservation],
+    streams: &Streams,
+    p: &Parameterisation,
+    max_speed: f64,
+) -> Vec<f64> {
+    joint_speeds(observations, streams, p).into_iter().map(|v| (v / max_speed).max(1.0)).collect()
+}
+
+fn index_of(p: &Parameterisation, matches: impl Fn(Kind) -> bool) -> Option<[usize; 3]> {
+    let idx: Vec<usize> = p.entries.iter().enumerate().filter(|(_, e)| matches(e.kind)).map(|(i, _)| i).collect();
+    (idx.len() == 3).then(|| [idx[0], idx[1], idx[2]])
+}
+
+fn marker_reports(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    cov: &DMatrix<f64>,
+    free: &[bool],
+    observations: &[MarkerObservation],
+    names: &[String],
+) -> Vec<MarkerReport> {
+    names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let idx = index_of(p, |kind| matches!(kind, Kind::Marker { marker, .. } if marker == k));
+            let fitted = p.marker(x, k);
+            let std_error_mm = idx.and_then(|i| {
+                Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
+                    .map(|s| s.map(|v| v * 1e3))
+            });
+            MarkerReport {
+                name: name.clone(),
+                observations: observations.iter().filter(|o| o.marker == k).count(),
+                model_m: p.markers0[k].into(),
+                fitted_m: fitted.into(),
+                change_mm: ((fitted - p.markers0[k]) * 1e3).into(),
+                std_error_mm,
+            }
+        })
+        .collect()
+}

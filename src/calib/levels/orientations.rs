@@ -1,0 +1,158 @@
+//! The orientation-level fit (`fit: orientations`): the per-pose orientations of the vision
+//! estimator (poses that see at least three markers) against the FDA, every `holdout_every`-th
+//! pose held out of the fit to check it; `t_CB` comes from the centre of rotation.
+
+use nalgebra::{DVector, Rotation3, Vector3};
+
+use crate::calib::agreement::ErrorSummary;
+use crate::calib::config::{CalibConfig, Group};
+use crate::calib::model::Model;
+use crate::calib::orientation_model::{Observation, OrientationModel, observations};
+use crate::calib::params::Parameterisation;
+use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, MIN_MOTION_DEG, Results, Solution, check_enough};
+use crate::calib::registration;
+use crate::calib::report::Errors;
+use crate::calib::uncertainty::{parameter_reports, residual_uncertainty};
+use crate::dataset::Session;
+use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
+use crate::vision::{SessionEstimate, estimate_session};
+
+/// A session's per-pose orientations, ready to fit.
+pub(crate) struct OrientationLevel {
+    p: Parameterisation,
+    fitted: Vec<Observation>,
+    held_out: Vec<Observation>,
+    vision: SessionEstimate,
+    freeze: Vec<Group>,
+    max_deg: f64,
+    excluded: Vec<String>,
+}
+
+impl OrientationLevel {
+    /// The vision estimate of `session`, its poses on `robot`'s nominal model, registered.
+    pub(crate) fn prepare(session: &Session, robot: &RobotModel, config: &CalibConfig) -> Result<Self, CalibError> {
+        let vision = estimate_session(session, config.vision_method)?;
+        let nominal_spm = &robot.spm;
+        // Observations whose nominal FDA exists.
+        let (all, failed) = observations(session, &vision, nominal_spm);
+        let mut excluded: Vec<String> = vision.skipped.iter().map(|s| s.to_string()).collect();
+        excluded.extend(failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")));
+        let (fit_set, held_set): (Vec<_>, Vec<_>) = all.iter().enumerate().partition(|(k, (o, _))| {
+            config.holdout_every == 0 || o.pose == vision.reference_pose || (k + 1) % config.holdout_every != 0
+        });
+        let fitted: Vec<Observation> = fit_set.iter().map(|(_, (o, _))| *o).collect();
+        let held_out: Vec<Observation> = held_set.iter().map(|(_, (o, _))| *o).collect();
+        // Enough poses for the free parameters, checked before the registration indexes them (the
+        // entries do not depend on the rotations: the free mask is known before the registration).
+        let layout = Parameterisation::new(
+            *nominal_spm.geometry(),
+            Rotation3::identity(),
+            Rotation3::identity(),
+            &config.bounds,
+        );
+        check_enough(&free_of(&layout, &config.freeze), fitted.len())?;
+        // Nothing moving is its own problem, not "one axis": say which.
+        let max_deg = fitted.iter().map(|o| o.measured.angle().to_degrees()).fold(0.0, f64::max);
+        if max_deg < MIN_MOTION_DEG {
+            return Err(CalibError::NoMotion { max_deg, unidentifiable: Vec::new() });
+        }
+        let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
+        let (camera0, reference0) =
+            registration::from_rotations(&fitted, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;
+        let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
+        Ok(OrientationLevel { p, fitted, held_out, vision, freeze: config.freeze.clone(), max_deg, excluded })
+    }
+}
+
+fn free_of(p: &Parameterisation, freeze: &[Group]) -> Vec<bool> {
+    p.entries.iter().map(|e| !freeze.contains(&e.kind.group())).collect()
+}
+
+impl Level for OrientationLevel {
+    type Model<'a>
+        = OrientationModel<'a>
+    where
+        Self: 'a;
+
+    fn parameterisation(&self) -> &Parameterisation {
+        &self.p
+    }
+
+    fn model(&self) -> OrientationModel<'_> {
+        OrientationModel::new(&self.p, &self.fitted)
+    }
+
+    fn free(&self) -> Vec<bool> {
+        free_of(&self.p, &self.freeze)
+    }
+
+    fn motion_deg(&self) -> f64 {
+        self.max_deg
+    }
+
+    fn origin(&self, model: &OrientationModel<'_>, j: usize) -> (u64, Option<String>, usize) {
+        (model.observations()[j].pose, None, 0)
+    }
+
+    fn finish(&self, r: Results<'_, OrientationModel<'_>>) -> Result<Calibration, CalibError> {
+        let (p, x, cov) = (&self.p, &r.calibrated.x, &r.covariance);
+        let held = |x: &DVector<f64>| -> Result<Option<ErrorSummary>, CalibError> {
+            if self.held_out.is_empty() {
+                return Ok(None);
+            }
+            let eval =
+                OrientationModel::new(p, &self.held_out).evaluate(x, None, false).map_err(CalibError::HeldOut)?;
+            Ok(Some(ErrorSummary::of(&eval.residuals)))
+        };
+        let mut report = r.report;
+        report.before =
+            Errors { fit: ErrorSummary::of(&r.nominal.evaluation.residuals), held_out: held(&r.nominal.x)? };
+        report.after = Errors { fit: ErrorSummary::of(&r.calibrated.evaluation.residuals), held_out: held(x)? };
+        report.held_out_poses = self.held_out.len();
+        // Orientations fix R_CB; t_CB comes from the centre of rotation. When the poses leave the
+        // centre undetermined (all about one axis) no registration is written rather than a
+        // made-up t_CB.
+        let centre = self.vision.centre;
+        let parameters = Parameters {
+            markers: Vec::new(),
+            latency_s: None,
+            source: ParameterSource::Calibrated,
+            model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
+            legs: p.legs(x),
+            camera: centre
+                .map(|c| CameraRegistration { rotation: p.camera(x), translation: Vector3::from(c.position_m) }),
+            fit: None,
+        };
+        report.parameters = parameter_reports(p, x, cov, &r.free);
+        report.orientation_uncertainty_deg = residual_uncertainty(&r.calibrated, cov);
+        report.residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
+            classes
+                .iter()
+                .map(|(m, n, c)| (*m, *n, [0, 1, 2].map(|i| c[(i, i)].max(0.0).sqrt().to_degrees())))
+                .collect()
+        });
+        report.camera_translation_m = centre.map(|c| c.position_m);
+        report.camera_translation_std_error_m = centre.map(|c| c.std_error_m);
+        let gross = report
+            .flagged
+            .iter()
+            .filter(|f| f.excluded)
+            .map(|f| format!("pose {}: gross error ({:.3} deg, {:.1} sigma)", f.pose, f.residual, f.sigmas));
+        let mut excluded: Vec<String> = self.excluded.iter().cloned().chain(gross).collect();
+        excluded.append(&mut report.excluded);
+        report.excluded = excluded;
+        Ok(Calibration {
+            parameters,
+            report,
+            parameterisation: p.clone(),
+            fitted: Fitted::Orientations {
+                fitted: r.model.observations().to_vec(),
+                held_out: self.held_out.clone(),
+                vision: Box::new(self.vision.clone()),
+            },
+            nominal: Solution::of(&r.nominal),
+            calibrated: Solution::of(&r.calibrated),
+            covariance: r.covariance,
+        })
+    }
+}

@@ -1,0 +1,291 @@
+//! The one report of a calibration, whatever its fit level, with its one verdict. Text, JSON, the
+//! HTML report and the recording all show this.
+
+use serde::Serialize;
+
+use super::agreement::{ErrorSummary, MarkerErrors};
+use super::config::{CalibConfig, FitLevel, Loss};
+use super::fit::{Convergence, IterationLog};
+use super::identify::Identifiability;
+use super::marker_model::StereoNoise;
+use super::uncertainty::{Correlation, ParameterReport};
+use super::validation::CrossValidation;
+use crate::vision::{Method, Stats};
+
+/// FDA-vs-vision errors of one parameter set, on the fitted and on the held-out poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Errors {
+    /// On the fitted poses.
+    pub fit: ErrorSummary,
+    /// On the held-out poses, when some were held out.
+    pub held_out: Option<ErrorSummary>,
+}
+
+/// An observation (a pose's orientation, or a marker at a capture) that the robust fit flagged.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FlaggedObservation {
+    /// Pose (capture) id.
+    pub pose: u64,
+    /// Marker name (marker-level fit).
+    pub marker: Option<String>,
+    /// Line of `markers.csv` or `captures.csv` (0 when not read from a file or per pose).
+    pub line: usize,
+    /// Its residual, in the report's unit (`mm` or `deg`).
+    pub residual: f64,
+    /// Its residual in robust standard deviations.
+    pub sigmas: f64,
+    /// Its Huber weight in the fit, in (0, 1].
+    pub weight: f64,
+    /// Left out of the final fit (a gross error).
+    pub excluded: bool,
+}
+
+/// Whether a calibration can be trusted, decided once for every view of the report.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Verdict {
+    /// It predicts unseen data clearly better than the nominal model, within the config's
+    /// threshold (`pass_held_out_mm` or `pass_held_out_deg`).
+    pub pass: bool,
+    /// The reason, in one sentence.
+    pub summary: String,
+}
+
+impl Verdict {
+    /// `PASS` or `WARN`.
+    pub fn label(&self) -> &'static str {
+        if self.pass { "PASS" } else { "WARN" }
+    }
+
+    /// The verdict on cross-validation `cv`, else on the held-out poses' errors `before`, `after`.
+    pub(crate) fn of(cv: Option<&CrossValidation>, before: &Errors, after: &Errors, config: &CalibConfig) -> Self {
+        if let Some(cv) = cv {
+            let threshold = if cv.unit == "mm" { config.pass_held_out_mm } else { config.pass_held_out_deg };
+            let unit = if cv.unit == "mm" { " mm" } else { "°" };
+            let what = if cv.unit == "mm" { "markers" } else { "orientations" };
+            return Verdict {
+                pass: cv.clearly_better && cv.calibrated_rms <= threshold,
+                summary: format!(
+                    "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
+                     {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({}; threshold {threshold:.3}{unit})",
+                    cv.folds,
+                    cv.observations,
+                    cv.calibrated_rms,
+                    cv.nominal_rms,
+                    if cv.clearly_better { "clearly better" } else { "not clearly better" },
+                ),
+            };
+        }
+        match (before.held_out, after.held_out) {
+            (Some(b), Some(a)) => Verdict {
+                pass: a.rms_deg < b.rms_deg && a.rms_deg <= config.pass_held_out_deg,
+                summary: format!(
+                    "on held-out poses the calibrated model's FDA agrees with vision to {:.4}° RMS against the \
+                     nominal model's {:.4}° (threshold {:.3}°)",
+                    a.rms_deg, b.rms_deg, config.pass_held_out_deg
+                ),
+            },
+            _ => Verdict {
+                pass: false,
+                summary: "no unseen poses were predicted: nothing shows how the model predicts new data".into(),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.label(), self.summary)
+    }
+}
+
+/// A marker's fitted position against the model's.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MarkerReport {
+    /// Marker name.
+    pub name: String,
+    /// Observations of it used in the fit.
+    pub observations: usize,
+    /// The model's position in P, m.
+    pub model_m: [f64; 3],
+    /// The fitted position in P, m.
+    pub fitted_m: [f64; 3],
+    /// Fitted minus model, mm.
+    pub change_mm: [f64; 3],
+    /// Standard errors, mm (`None` when held at the model's value).
+    pub std_error_mm: Option<[f64; 3]>,
+}
+
+/// The camera's latency behind the encoders, for a free-motion recording.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Latency {
+    /// The latency (s): estimated, or as given when frozen.
+    pub value_s: f64,
+    /// Its standard error (s); `None` when frozen.
+    pub std_error_s: Option<f64>,
+}
+
+/// A capture of a free-motion recording taken while a joint turned faster than
+/// `max_joint_speed_deg_s`: down-weighted in proportion.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FastCapture {
+    /// Pose (frame) id.
+    pub pose: u64,
+    /// Marker name.
+    pub marker: String,
+    /// Line of `captures.csv`.
+    pub line: usize,
+    /// The fastest joint's speed, deg/s.
+    pub speed_deg_s: f64,
+}
+
+/// What the marker-level calibration adds to the report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MarkerFitReport {
+    /// The camera latency of a free-motion recording.
+    pub latency: Option<Latency>,
+    /// Marker observations fitted.
+    pub observations: usize,
+    /// Distinct poses (encoder readings) among them.
+    pub poses: usize,
+    /// Nominal mechanism and markers with their best-fit registration.
+    pub before: MarkerErrors,
+    /// The calibrated model.
+    pub after: MarkerErrors,
+    /// The stereo noise the residuals imply.
+    pub stereo_noise: Option<StereoNoise>,
+    /// Every marker's fitted position.
+    pub markers: Vec<MarkerReport>,
+    /// Captures taken while a joint turned too fast, down-weighted.
+    pub fast_captures: Vec<FastCapture>,
+}
+
+/// Everything a user needs to judge a calibration.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CalibrationReport {
+    /// Session name.
+    pub session: String,
+    /// What was fitted.
+    pub fit: FitLevel,
+    /// Vision estimator used for the measured orientations (and the per-pose errors).
+    pub vision_method: Method,
+    /// Loss of the fit.
+    pub loss: Loss,
+    /// Poses in the session.
+    pub poses: usize,
+    /// Poses fitted.
+    pub fit_poses: usize,
+    /// Poses held out of the fit (orientation-level `holdout_every`).
+    pub held_out_poses: usize,
+    /// Poses and observations left out, and why.
+    pub excluded: Vec<String>,
+    /// Whether the calibration can be trusted, and why.
+    pub verdict: Verdict,
+    /// Plain-language warnings: markers seen at too few poses, a calibration not clearly better.
+    pub warnings: Vec<String>,
+    /// The error on unseen data, when cross-validated (`folds` ≥ 2).
+    pub cross_validation: Option<CrossValidation>,
+    /// Nominal mechanism with its best-fit camera registration, FDA against vision per pose
+    /// (poses the per-pose estimator can work on).
+    pub before: Errors,
+    /// Calibrated mechanism with its registration.
+    pub after: Errors,
+    /// The calibration fit, iteration by iteration.
+    pub iterations: Vec<IterationLog>,
+    /// How the fit ended: converged, or stalled at a minimum.
+    pub convergence: Convergence,
+    /// Every parameter with its change and standard error.
+    pub parameters: Vec<ParameterReport>,
+    /// Singular values and weakest directions of the scaled Jacobian.
+    pub identifiability: Identifiability,
+    /// Unidentifiable directions held by a weak prior.
+    pub regularised: Vec<String>,
+    /// Parameters whose change from nominal is smaller than twice its standard error: the data
+    /// cannot tell them from nominal.
+    pub not_significant: Vec<String>,
+    /// Parameter pairs with |ρ| above 0.9.
+    pub high_correlations: Vec<Correlation>,
+    /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance.
+    pub orientation_uncertainty_deg: Option<Stats>,
+    /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
+    /// `(markers, poses, [σx, σy, σz])` (orientation-level fit).
+    pub residual_sigma_deg: Vec<(usize, usize, [f64; 3])>,
+    /// Observations the robust fit flagged, excluded ones first.
+    pub flagged: Vec<FlaggedObservation>,
+    /// Unit of the flagged observations' residuals: `mm` or `deg`.
+    pub unit: &'static str,
+    /// `t_CB`; `None` when the poses leave it undetermined (orientation-level: from the centre of
+    /// rotation).
+    pub camera_translation_m: Option<[f64; 3]>,
+    /// Its standard errors.
+    pub camera_translation_std_error_m: Option<[f64; 3]>,
+    /// The marker-level fit's own figures (`fit: markers`).
+    pub markers: Option<MarkerFitReport>,
+}
+
+/// The `fit:` header of the parameters file.
+///
+/// # Panics
+/// Never: the header serialises.
+pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
+    #[derive(Serialize)]
+    struct Header<'a> {
+        session: &'a str,
+        vision_method: Method,
+        loss: Loss,
+        fit_poses: usize,
+        held_out_poses: usize,
+        iterations: usize,
+        rms_before_deg: f64,
+        rms_after_deg: f64,
+        held_out_rms_before_deg: Option<f64>,
+        held_out_rms_after_deg: Option<f64>,
+        identifiable_directions: usize,
+        free_parameters: usize,
+        condition_number: f64,
+        std_errors_deg: Vec<(&'a str, f64)>,
+        camera_translation_std_error_m: Option<[f64; 3]>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        markers_rms_before_mm: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        markers_rms_after_mm: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        cross_validated_rms_mm: Option<[f64; 2]>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        cross_validated_rms_deg: Option<[f64; 2]>,
+        verdict: &'a str,
+        #[serde(skip_serializing_if = "Vec::is_empty")]
+        warnings: Vec<&'a str>,
+    }
+    let markers = report.markers.as_ref();
+    let cv = |unit: &str| {
+        report.cross_validation.as_ref().filter(|cv| cv.unit == unit).map(|cv| [cv.nominal_rms, cv.calibrated_rms])
+    };
+    let header = Header {
+        session: &report.session,
+        vision_method: report.vision_method,
+        loss: report.loss,
+        fit_poses: report.fit_poses,
+        held_out_poses: report.held_out_poses,
+        iterations: report.iterations.len(),
+        rms_before_deg: report.before.fit.rms_deg,
+        rms_after_deg: report.after.fit.rms_deg,
+        held_out_rms_before_deg: report.before.held_out.map(|e| e.rms_deg),
+        held_out_rms_after_deg: report.after.held_out.map(|e| e.rms_deg),
+        identifiable_directions: report.identifiability.rank,
+        free_parameters: report.identifiability.parameters,
+        condition_number: report.identifiability.condition,
+        std_errors_deg: report
+            .parameters
+            .iter()
+            .filter_map(|p| p.std_error_deg.map(|s| (p.name.as_str(), s)))
+            .collect(),
+        camera_translation_std_error_m: report.camera_translation_std_error_m,
+        markers_rms_before_mm: markers.map(|m| m.before.rms_mm),
+        markers_rms_after_mm: markers.map(|m| m.after.rms_mm),
+        cross_validated_rms_mm: cv("mm"),
+        cross_validated_rms_deg: cv("deg"),
+        verdict: report.verdict.label(),
+        warnings: report.warnings.iter().map(String::as_str).collect(),
+    };
+    serde_yaml::to_value(header).expect("the header serialises")
+}

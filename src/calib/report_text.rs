@@ -1,0 +1,235 @@
+//! The calibration report as text: what `calibrate` prints, and what the HTML report embeds.
+
+use std::fmt;
+
+use super::agreement::ErrorSummary;
+use super::config::FitLevel;
+use super::fit::Convergence;
+use super::report::{CalibrationReport, MarkerFitReport};
+
+/// How many excluded or flagged items a text report lists before "… and N more".
+const LISTED: usize = 10;
+
+fn error_line(f: &mut fmt::Formatter<'_>, label: &str, e: &ErrorSummary) -> fmt::Result {
+    writeln!(f, "  {label:<26} {:8.4} {:8.4} {:8.4}", e.rms_deg, e.median_deg, e.max_deg)
+}
+
+impl fmt::Display for CalibrationReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = self;
+        match r.fit {
+            FitLevel::Markers => writeln!(
+                f,
+                "{}: {} poses, {} excluded; marker-level fit, loss {:?}",
+                r.session,
+                r.poses,
+                r.excluded.len(),
+                r.loss
+            )?,
+            FitLevel::Orientations => writeln!(
+                f,
+                "{}: {} poses, {} fitted, {} held out, {} excluded; orientation-level fit, vision {:?}, loss {:?}",
+                r.session,
+                r.poses,
+                r.fit_poses,
+                r.held_out_poses,
+                r.excluded.len(),
+                r.vision_method,
+                r.loss
+            )?,
+        }
+        for e in r.excluded.iter().take(LISTED) {
+            writeln!(f, "  excluded {e}")?;
+        }
+        if r.excluded.len() > LISTED {
+            writeln!(f, "  … and {} more (all are listed by --json)", r.excluded.len() - LISTED)?;
+        }
+        writeln!(f, "verdict: {}", r.verdict)?;
+        for w in &r.warnings {
+            writeln!(f, "WARNING: {w}")?;
+        }
+        match &r.markers {
+            Some(m) => {
+                marker_summary(f, m)?;
+                per_pose_lines(f, r)?;
+            }
+            None => {
+                writeln!(f, "FDA vs vision (deg)          RMS      median   max")?;
+                error_line(f, "nominal, fitted poses", &r.before.fit)?;
+                error_line(f, "calibrated, fitted poses", &r.after.fit)?;
+                if let (Some(b), Some(a)) = (&r.before.held_out, &r.after.held_out) {
+                    error_line(f, "nominal, held out", b)?;
+                    error_line(f, "calibrated, held out", a)?;
+                }
+            }
+        }
+        let iterations = r.iterations.len();
+        match r.convergence {
+            Convergence::Converged => writeln!(f, "converged in {iterations} iterations")?,
+            Convergence::StalledAtMinimum => writeln!(
+                f,
+                "stalled at a minimum after {iterations} iterations (the cost stopped changing before the steps fell below the tolerance)"
+            )?,
+        }
+        writeln!(
+            f,
+            "identifiability: {} of {} directions, condition number {:.3e}",
+            r.identifiability.rank, r.identifiability.parameters, r.identifiability.condition
+        )?;
+        for d in &r.identifiability.weakest {
+            writeln!(f, "  weak: {}", d.describe())?;
+        }
+        for d in &r.regularised {
+            writeln!(f, "  REGULARISED (not identifiable, held at its start): {d}")?;
+        }
+        writeln!(f, "parameter                    change (deg)   std error (deg)")?;
+        for p in &r.parameters {
+            match p.std_error_deg {
+                Some(se) => writeln!(f, "  {:<26} {:+12.5} {:14.5}", p.name, p.change_deg, se)?,
+                None => writeln!(f, "  {:<26} {:+12.5}         frozen", p.name, p.change_deg)?,
+            }
+        }
+        if !r.not_significant.is_empty() {
+            writeln!(
+                f,
+                "not distinguishable from nominal (|change| < 2 std errors): {} of {}: {}",
+                r.not_significant.len(),
+                r.parameters.iter().filter(|p| !p.frozen).count(),
+                r.not_significant.join(", ")
+            )?;
+        }
+        for c in r.high_correlations.iter().take(5) {
+            writeln!(f, "  correlated: {} ~ {} (rho {:+.3})", c.a, c.b, c.rho)?;
+        }
+        for (markers, poses, sigma) in &r.residual_sigma_deg {
+            writeln!(
+                f,
+                "residual sigma, {poses} poses with {markers} markers: [{:.4}, {:.4}, {:.4}] deg (camera x, y, z)",
+                sigma[0], sigma[1], sigma[2]
+            )?;
+        }
+        if let Some(u) = &r.orientation_uncertainty_deg {
+            writeln!(
+                f,
+                "predicted orientation uncertainty (1 sigma, {}): mean {:.4} deg, max {:.4} deg",
+                if r.fit == FitLevel::Markers { "of each pose's FDA" } else { "as the camera sees it" },
+                u.mean,
+                u.max
+            )?;
+        }
+        match (r.camera_translation_m, r.camera_translation_std_error_m) {
+            (Some(t), Some(se)) => writeln!(
+                f,
+                "camera translation t_CB: [{:.4}, {:.4}, {:.4}] m (± [{:.4}, {:.4}, {:.4}] mm)",
+                t[0],
+                t[1],
+                t[2],
+                se[0] * 1e3,
+                se[1] * 1e3,
+                se[2] * 1e3
+            )?,
+            _ => writeln!(
+                f,
+                "camera translation t_CB: undetermined (the poses do not fix the centre of rotation); no camera registration written"
+            )?,
+        }
+        if let Some(m) = &r.markers {
+            marker_details(f, m)?;
+        }
+        flagged(f, r)
+    }
+}
+
+/// The marker errors of a marker-level calibration.
+fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
+    writeln!(f, "marker-level fit: {} observations at {} poses", m.observations, m.poses)?;
+    writeln!(f, "FDA vs camera, markers (mm)  RMS      median   max")?;
+    for (label, e) in [("nominal", &m.before), ("calibrated", &m.after)] {
+        writeln!(f, "  {:<26} {:8.4} {:8.4} {:8.4}", label, e.rms_mm, e.median_mm, e.max_mm)?;
+    }
+    let per_marker: Vec<String> = m
+        .before
+        .per_marker
+        .iter()
+        .zip(&m.after.per_marker)
+        .map(|((name, n, b), (_, _, a))| format!("{name} {b:.3} → {a:.3} ({n})"))
+        .collect();
+    writeln!(f, "  per marker, mm RMS (observations): {}", per_marker.join(", "))
+}
+
+/// The per-pose orientation errors beside a marker-level fit, when the estimator had poses.
+fn per_pose_lines(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
+    if r.before.fit.poses == 0 {
+        return writeln!(f, "FDA vs vision per pose: no pose (station) sees three markers");
+    }
+    writeln!(f, "FDA vs vision per pose (deg)  RMS      median   max")?;
+    error_line(f, "nominal", &r.before.fit)?;
+    error_line(f, "calibrated", &r.after.fit)
+}
+
+/// Fitted markers, stereo noise and fast captures of a marker-level calibration.
+fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
+    if let Some(l) = &m.latency {
+        match l.std_error_s {
+            Some(se) => writeln!(f, "camera latency: {:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3)?,
+            None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
+        }
+    }
+    if let Some(n) = &m.stereo_noise {
+        writeln!(
+            f,
+            "stereo noise at {:.3} m: across the line of sight {:.4} ± {:.4} mm, along it {:.4} ± {:.4} mm",
+            n.reference_distance_m,
+            n.lateral_m * 1e3,
+            n.lateral_std_error_m * 1e3,
+            n.depth_m * 1e3,
+            n.depth_std_error_m * 1e3
+        )?;
+    }
+    writeln!(f, "marker   fitted position in P (m)          change from the model (mm)         std error (mm)")?;
+    for k in &m.markers {
+        let se = k
+            .std_error_mm
+            .map_or("held at the model".to_string(), |s| format!("[{:.3}, {:.3}, {:.3}]", s[0], s[1], s[2]));
+        writeln!(
+            f,
+            "  {:<6} [{:+.5}, {:+.5}, {:+.5}]   [{:+7.3}, {:+7.3}, {:+7.3}]   {se}",
+            k.name, k.fitted_m[0], k.fitted_m[1], k.fitted_m[2], k.change_mm[0], k.change_mm[1], k.change_mm[2]
+        )?;
+    }
+    if !m.fast_captures.is_empty() {
+        writeln!(
+            f,
+            "fast captures: {} taken while a joint turned faster than `max_joint_speed_deg_s`, down-weighted (e.g. captures.csv line {}, {:.0} deg/s)",
+            m.fast_captures.len(),
+            m.fast_captures[0].line,
+            m.fast_captures[0].speed_deg_s
+        )?;
+    }
+    Ok(())
+}
+
+/// The observations the robust fit flagged.
+fn flagged(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
+    let excluded = r.flagged.iter().filter(|o| o.excluded).count();
+    writeln!(f, "flagged observations: {} ({excluded} excluded as gross errors)", r.flagged.len())?;
+    let source = if r.markers.as_ref().is_some_and(|m| m.latency.is_some()) { "captures.csv" } else { "markers.csv" };
+    for o in r.flagged.iter().take(LISTED) {
+        let place = match &o.marker {
+            Some(marker) => format!("pose {} marker {marker} ({source} line {})", o.pose, o.line),
+            None => format!("pose {}", o.pose),
+        };
+        writeln!(
+            f,
+            "  {place}: {:.3} {}, {:.1} sigma{}",
+            o.residual,
+            r.unit,
+            o.sigmas,
+            if o.excluded { ", excluded" } else { "" }
+        )?;
+    }
+    if r.flagged.len() > LISTED {
+        writeln!(f, "  … and {} more (all are listed by --json)", r.flagged.len() - LISTED)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,66 @@
+//! `spmcal compare`: model against camera, per pose, for the nominal model and a parameters file.
+
+use std::collections::BTreeSet;
+
+use anyhow::Result;
+use spmcal::compare::SetComparison;
+use spmcal::model::{Parameters, RobotModel};
+use spmcal::vision::Method;
+
+use super::args::CompareArgs;
+use super::envelope::Envelope;
+use super::output::{Outputs, out, record, reserve};
+
+pub(crate) fn run(args: CompareArgs) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
+    let (session, warnings) = args.session.load()?;
+    let model = RobotModel::load(&session.model)?;
+    let mut sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None))];
+    if let Some(path) = &args.params {
+        let params = Parameters::read(path)?;
+        let label = format!("{:?}", params.source).to_lowercase();
+        sets.push((label, params));
+    }
+    // A free-motion recording is drawn at the parameters' latency (each set is compared at its own).
+    let session = match sets.last().and_then(|(_, p)| p.latency_s) {
+        Some(latency_s) => session.at_latency(latency_s).0,
+        None => session,
+    };
+    let method: Method = args.method.into();
+    let result = spmcal::compare::compare(&session, &model, &sets, method, args.level.map(Into::into))?;
+    if let Some(slot) = rrd {
+        record(&outputs, slot, &spmcal::record::comparison_scene(&session, &model, &sets, &result, method)?)?;
+    }
+    outputs.commit()?;
+    if args.json {
+        let mut envelope = Envelope::new("compare", &result).input("dataset", args.session.dataset.display());
+        envelope.warnings = warnings;
+        return out(&(envelope.to_json() + "\n"));
+    }
+    out(&comparison_csv(&result))?;
+    for c in &result {
+        eprint!("{c}");
+    }
+    Ok(())
+}
+
+/// The table: one row per pose any set predicts, one column per set (empty where that set's FDA
+/// failed).
+fn comparison_csv(results: &[SetComparison]) -> String {
+    let mut table = String::from("pose");
+    for c in results {
+        table.push_str(&format!(",{}_{}", c.label, c.unit));
+    }
+    table.push('\n');
+    let poses: BTreeSet<u64> = results.iter().flat_map(|c| c.per_pose.iter().map(|(p, _)| *p)).collect();
+    for pose in poses {
+        table.push_str(&pose.to_string());
+        for c in results {
+            let value = c.per_pose.iter().find(|(p, _)| *p == pose).map_or(String::new(), |(_, a)| format!("{a:.5}"));
+            table.push_str(&format!(",{value}"));
+        }
+        table.push('\n');
+    }
+    table
+}

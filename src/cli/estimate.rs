@@ -1,0 +1,56 @@
+//! `spmcal estimate`: the MP orientation of every pose of a session from its markers, as a table
+//! and a summary, and optionally a recording.
+
+use anyhow::Result;
+use spmcal::math::so3;
+use spmcal::model::RobotModel;
+use spmcal::vision::{EstimateSummary, Method, SessionEstimate, estimate_session};
+
+use super::args::EstimateArgs;
+use super::envelope::Envelope;
+use super::output::{Outputs, out, record, reserve, table_to};
+
+pub(crate) fn run(args: EstimateArgs) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let (table_slot, rrd) = (reserve(&mut outputs, args.out.as_deref())?, reserve(&mut outputs, args.rrd.as_deref())?);
+    let (session, warnings) = args.session.load()?;
+    let method: Method = args.method.into();
+    let result = estimate_session(&session, method)?;
+    if let Some(slot) = rrd {
+        let model = RobotModel::load(&session.model)?;
+        record(&outputs, slot, &spmcal::record::estimate_scene(&session, &model, &result)?)?;
+    }
+    table_to(&mut outputs, table_slot, args.json, &estimate_csv(&result))?;
+    outputs.commit()?;
+    let summary = EstimateSummary::of(&result);
+    if args.json {
+        let mut envelope = Envelope::new("estimate", summary).input("dataset", args.session.dataset.display());
+        envelope.warnings = warnings;
+        return out(&(envelope.to_json() + "\n"));
+    }
+    // The table may be on standard output: the human summary goes to standard error then.
+    if args.out.is_some() {
+        return out(&summary.to_string());
+    }
+    eprint!("{summary}");
+    Ok(())
+}
+
+/// The table: `pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m`, numbers as every table of spmcal
+/// writes them (the shortest text that reads back to the same value).
+fn estimate_csv(result: &SessionEstimate) -> String {
+    let mut table = String::from("pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m\n");
+    let mut buffer = ryu::Buffer::new();
+    for (pose, e) in &result.poses {
+        let q = so3::to_wxyz(&e.rotation);
+        let t = e.translation;
+        let angle = so3::log(&e.rotation).norm().to_degrees();
+        table.push_str(&pose.to_string());
+        for x in [q[0], q[1], q[2], q[3], angle, e.error, t.x, t.y, t.z] {
+            table.push(',');
+            table.push_str(buffer.format(x));
+        }
+        table.push('\n');
+    }
+    table
+}

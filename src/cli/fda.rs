@@ -1,0 +1,53 @@
+//! `spmcal fda`: MP orientations for joint readings, in the working mode or in every assembly mode.
+
+use anyhow::{Result, anyhow};
+use spmcal::dataset::{OrientationRecord, read_joints, write_orientations};
+use spmcal::math::so3;
+use spmcal::model::FdaPose;
+
+use super::args::FdaArgs;
+use super::envelope::Envelope;
+use super::output::{Outputs, out, reserve, table_to};
+
+pub(crate) fn run(args: FdaArgs) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let slot = reserve(&mut outputs, args.out.as_deref())?;
+    let spm = args.geometry.spm()?;
+    let readings = read_joints(&args.joints)?;
+    let source = args.joints.display().to_string();
+    // The table of orientations (one row a mode with `--all-modes`) and the per-pose report; the
+    // first pose whose working-mode FDA fails stops it.
+    let mut records = Vec::new();
+    let mut poses = Vec::new();
+    for r in &readings {
+        if args.all_modes {
+            let pose = FdaPose::all_modes(&spm, r.pose, &r.joints);
+            for m in &pose.modes {
+                records.push(OrientationRecord {
+                    pose: r.pose,
+                    mode: Some(m.mode),
+                    rotation: so3::from_wxyz(m.q_wxyz).expect("a rotation's quaternion"),
+                    extra: vec![
+                        ("branches".into(), m.branches.clone()),
+                        ("conditioning".into(), format!("{:.6}", m.conditioning)),
+                        ("working".into(), m.working.to_string()),
+                    ],
+                    line: r.line,
+                });
+            }
+            poses.push(pose);
+        } else {
+            let (pose, rotation) = FdaPose::working(&spm, r.pose, &r.joints)
+                .map_err(|e| anyhow!("{source}:{}: pose {}: {e}", r.line, r.pose))?;
+            records.push(OrientationRecord { pose: r.pose, mode: None, rotation, extra: vec![], line: r.line });
+            poses.push(pose);
+        }
+    }
+    table_to(&mut outputs, slot, args.json, &write_orientations(&records))?;
+    outputs.commit()?;
+    if args.json {
+        let envelope = Envelope::new("fda", poses).input("joints", &source).input("all_modes", args.all_modes);
+        out(&(envelope.to_json() + "\n"))?;
+    }
+    Ok(())
+}

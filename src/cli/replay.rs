@@ -1,0 +1,28 @@
+//! `spmcal replay`: a session, pose by pose, as a Rerun recording to open offline.
+
+use anyhow::Result;
+use spmcal::model::{Parameters, RobotModel};
+
+use super::args::ReplayArgs;
+use super::envelope::Envelope;
+use super::output::{Outputs, out, record};
+
+pub(crate) fn run(args: ReplayArgs) -> Result<()> {
+    let mut outputs = Outputs::new();
+    let slot = outputs.reserve(&args.rrd)?;
+    let (session, warnings) = args.session.load()?;
+    let model = RobotModel::load(&session.model)?;
+    let params = args.params.as_deref().map(Parameters::read).transpose()?;
+    let session = match params.as_ref().and_then(|p| p.latency_s) {
+        Some(latency_s) => session.at_latency(latency_s).0,
+        None => session,
+    };
+    let summary = record(&outputs, slot, &spmcal::record::replay_scene(&session, &model, params.as_ref())?)?;
+    outputs.commit()?;
+    if args.json {
+        let mut envelope = Envelope::new("replay", summary).input("dataset", args.session.dataset.display());
+        envelope.warnings = warnings;
+        out(&(envelope.to_json() + "\n"))?;
+    }
+    Ok(())
+}

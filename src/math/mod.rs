@@ -1,0 +1,8 @@
+//! Mathematics that knows nothing of manipulators: rotations, the polar decomposition, bounded
+//! decompositions and marker constellations.
+
+#[cfg(feature = "full")]
+pub mod constellation;
+pub mod linalg;
+pub mod polar;
+pub mod so3;
