@@ -2,6 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
+#[path = "common/outside_tool.rs"]
+mod outside_tool;
+
 use nalgebra::{Rotation3, Vector3};
 use spmcal::model::{Body, CameraRegistration, ModelError, ParameterSource, Parameters, RobotModel, Spm};
 
@@ -121,8 +124,7 @@ fn encoder_offsets_in_the_companion_are_read_and_a_bad_one_is_located() {
 #[test]
 fn urdf_passes_the_ros_checker_when_installed() {
     let Ok(out) = std::process::Command::new("check_urdf").arg(URDF).output() else {
-        eprintln!("check_urdf not installed (Debian: liburdfdom-tools); skipped");
-        return;
+        return outside_tool::missing("check_urdf", "Debian: apt-get install liburdfdom-tools");
     };
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && text.contains("Successfully Parsed"), "{text}");
@@ -221,6 +223,6 @@ fn an_exported_urdf_gives_the_parameters_files_forward_kinematics_and_check_urdf
     // urdfdom's parser (an independent one) accepts it, where installed.
     match std::process::Command::new("check_urdf").arg(&urdf).output() {
         Ok(out) => assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stdout)),
-        Err(_) => eprintln!("skipped: check_urdf not installed"),
+        Err(_) => outside_tool::missing("check_urdf", "Debian: apt-get install liburdfdom-tools"),
     }
 }

@@ -5,6 +5,9 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
+#[path = "common/outside_tool.rs"]
+mod outside_tool;
+
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
 use spmcal::calib::{CalibConfig, FitLevel, calibrate};
@@ -182,13 +185,11 @@ fn every_command_writes_a_recording() {
 #[test]
 fn the_official_rerun_cli_verifies_the_recording() {
     let Ok(version) = std::process::Command::new("rerun").arg("--version").output() else {
-        eprintln!("the Rerun CLI is not installed (pip install rerun-sdk==0.36.3); skipped");
-        return;
+        return outside_tool::missing("the Rerun CLI", "pip install rerun-sdk==0.36.3");
     };
     let version = String::from_utf8_lossy(&version.stdout);
     if !version.contains("0.36") {
-        eprintln!("Rerun CLI {version} is not 0.36.x; skipped");
-        return;
+        return outside_tool::missing(&format!("the Rerun CLI 0.36.x (found {version})"), "pip install rerun-sdk==0.36.3");
     }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("replay.rrd");

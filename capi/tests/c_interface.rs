@@ -6,6 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+#[path = "../../tests/common/outside_tool.rs"]
+mod outside_tool;
+
 use spmcal::math::so3;
 use spmcal::model::Parameters;
 
@@ -26,8 +29,7 @@ fn build_dir() -> PathBuf {
 fn a_c_program_tracks_ten_thousand_steps_without_allocating_and_matches_rust_bit_for_bit() {
     let compiler = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     if Command::new(&compiler).arg("--version").output().is_err() {
-        eprintln!("skipped: no C compiler `{compiler}`");
-        return;
+        return outside_tool::missing(&format!("a C compiler `{compiler}`"), "Debian: apt-get install gcc");
     }
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
     let library = build_dir().join("libspmcal_c.a");
