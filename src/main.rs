@@ -6,7 +6,7 @@ mod cli;
 use std::process::ExitCode;
 
 use clap::Parser;
-use cli::args::{Cli, Command};
+use cli::{Cli, Command};
 
 fn main() -> ExitCode {
     cli::exit(match Cli::parse().command {

@@ -1,13 +1,40 @@
 //! `spmcal calibrate`: the fit with a spinner (or every iteration with `-v`), the parameters
 //! file, and optionally a recording and a shareable HTML report, written together.
 
+use std::path::PathBuf;
+
 use anyhow::{Context, Result};
+use clap::Args;
 use spmcal::calib::CalibConfig;
 use spmcal::model::RobotModel;
 
-use super::args::CalibrateArgs;
+use super::args::SessionArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out, record, reserve};
+
+#[derive(Args)]
+pub(crate) struct CalibrateArgs {
+    /// Print every iteration of the fit (RMS, step, trust radius, ratio) on standard error.
+    #[arg(long, short)]
+    pub(crate) verbose: bool,
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    pub(crate) rrd: Option<PathBuf>,
+    /// Also write a report a person can read and share here: one self-contained HTML file.
+    #[arg(long)]
+    pub(crate) report: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) session: SessionArgs,
+    /// Calibration settings (default: the built-in values, as in configs/calibrate.yaml).
+    #[arg(long)]
+    pub(crate) config: Option<PathBuf>,
+    /// The calibrated parameters file to write (atomically).
+    #[arg(long)]
+    pub(crate) out: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     let mut outputs = Outputs::new();

@@ -1,15 +1,54 @@
 //! `spmcal compare`: model against camera, per pose, for the nominal model and a parameters file.
 
 use std::collections::BTreeSet;
+use std::path::PathBuf;
 
 use anyhow::Result;
+use clap::Args;
 use spmcal::compare::SetComparison;
 use spmcal::model::{Parameters, RobotModel};
 use spmcal::vision::Method;
 
-use super::args::CompareArgs;
+use super::args::{MethodArg, SessionArgs};
 use super::envelope::Envelope;
 use super::output::{Outputs, out, record, reserve};
+
+#[derive(Args)]
+pub(crate) struct CompareArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    pub(crate) rrd: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) session: SessionArgs,
+    /// A parameters file (e.g. calibrated) to compare beside the nominal model.
+    #[arg(long)]
+    pub(crate) params: Option<PathBuf>,
+    /// Vision estimator.
+    #[arg(long, value_enum, default_value = "kabsch")]
+    pub(crate) method: MethodArg,
+    /// Compare orientations (degrees, from the per-pose estimator) or markers (millimetres);
+    /// default: orientations where a pose sees three markers, markers otherwise.
+    #[arg(long, value_enum)]
+    pub(crate) level: Option<LevelArg>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum LevelArg {
+    Orientations,
+    Markers,
+}
+
+impl From<LevelArg> for spmcal::calib::FitLevel {
+    fn from(l: LevelArg) -> Self {
+        match l {
+            LevelArg::Orientations => spmcal::calib::FitLevel::Orientations,
+            LevelArg::Markers => spmcal::calib::FitLevel::Markers,
+        }
+    }
+}
 
 pub(crate) fn run(args: CompareArgs) -> Result<()> {
     let mut outputs = Outputs::new();

@@ -1,14 +1,35 @@
 //! `spmcal estimate`: the MP orientation of every pose of a session from its markers, as a table
 //! and a summary, and optionally a recording.
 
+use std::path::PathBuf;
+
 use anyhow::Result;
+use clap::Args;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::vision::{EstimateSummary, Method, SessionEstimate, estimate_session};
 
-use super::args::EstimateArgs;
+use super::args::{MethodArg, SessionArgs};
 use super::envelope::Envelope;
 use super::output::{Outputs, out, record, reserve, table_to};
+
+#[derive(Args)]
+pub(crate) struct EstimateArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    pub(crate) rrd: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) session: SessionArgs,
+    /// `paper` (least squares + polar decomposition) or `kabsch` (optimal rotation).
+    #[arg(long, value_enum, default_value = "paper")]
+    pub(crate) method: MethodArg,
+    /// Write `pose,qw,qx,qy,qz,angle_deg,e,tx_m,ty_m,tz_m` here (atomically) instead of standard output.
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     let mut outputs = Outputs::new();

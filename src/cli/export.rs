@@ -3,11 +3,27 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
+use clap::Args;
 use spmcal::model::{Parameters, RobotModel, companion_path, export};
 
-use super::args::ExportArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out};
+
+#[derive(Args)]
+pub(crate) struct ExportArgs {
+    /// The (calibrated) parameters file.
+    #[arg(long)]
+    pub(crate) params: PathBuf,
+    /// The URDF to write; its companion `.yaml` is written beside it.
+    #[arg(long)]
+    pub(crate) urdf: PathBuf,
+    /// The model whose URDF is copied (default: the parameters file's `model`, else the nominal one).
+    #[arg(long)]
+    pub(crate) model: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: ExportArgs) -> Result<()> {
     let mut outputs = Outputs::new();

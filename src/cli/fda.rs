@@ -1,13 +1,34 @@
 //! `spmcal fda`: MP orientations for joint readings, in the working mode or in every assembly mode.
 
+use std::path::PathBuf;
+
 use anyhow::{Result, anyhow};
+use clap::Args;
 use spmcal::dataset::{OrientationRecord, read_joints, write_orientations};
 use spmcal::math::so3;
 use spmcal::model::FdaPose;
 
-use super::args::FdaArgs;
+use super::args::GeometryArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out, reserve, table_to};
+
+#[derive(Args)]
+pub(crate) struct FdaArgs {
+    #[command(flatten)]
+    pub(crate) geometry: GeometryArgs,
+    /// CSV of joint readings `pose,theta1_rad,theta2_rad,theta3_rad`.
+    #[arg(long)]
+    pub(crate) joints: PathBuf,
+    /// Every real assembly mode (up to 8) instead of the working mode.
+    #[arg(long)]
+    pub(crate) all_modes: bool,
+    /// Write the orientations here (atomically) instead of standard output.
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON) instead of the table.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: FdaArgs) -> Result<()> {
     let mut outputs = Outputs::new();

@@ -1,12 +1,33 @@
 //! `spmcal ik`: working-mode joint readings for MP orientations (a file of them, or one).
 
+use std::path::PathBuf;
+
 use anyhow::{Context, Result, bail};
+use clap::Args;
 use spmcal::dataset::{JointReading, OrientationRecord, joints_csv, read_orientations};
 use spmcal::math::so3;
 
-use super::args::IkArgs;
+use super::args::GeometryArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out, reserve, table_to};
+
+#[derive(Args)]
+pub(crate) struct IkArgs {
+    #[command(flatten)]
+    pub(crate) geometry: GeometryArgs,
+    /// CSV of orientations `pose,qw,qx,qy,qz` (MP → base, scalar first).
+    #[arg(long, conflicts_with = "quat", required_unless_present = "quat")]
+    pub(crate) orientations: Option<PathBuf>,
+    /// One orientation as `qw,qx,qy,qz`.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub(crate) quat: Option<Vec<f64>>,
+    /// Write `pose,theta1_rad,theta2_rad,theta3_rad` here (atomically) instead of standard output.
+    #[arg(long)]
+    pub(crate) out: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON) instead of the table.
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: IkArgs) -> Result<()> {
     let mut outputs = Outputs::new();

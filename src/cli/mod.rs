@@ -1,5 +1,6 @@
-//! The command line: one file per command (parse its arguments in [`args`], call the library,
-//! print), the plumbing they share ([`output`]) and the `--json` envelope ([`envelope`]).
+//! The command line: one file per command (its arguments, the library call, the printing), the
+//! arguments several commands share ([`args`]), the plumbing they share ([`output`]) and the
+//! `--json` envelope ([`envelope`]).
 
 pub(crate) mod args;
 pub(crate) mod calibrate;
@@ -15,6 +16,48 @@ pub(crate) mod replay;
 pub(crate) mod simulate;
 
 use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use calibrate::CalibrateArgs;
+use compare::CompareArgs;
+use estimate::EstimateArgs;
+use export::ExportArgs;
+use fda::FdaArgs;
+use ik::IkArgs;
+use plan::PlanArgs;
+use replay::ReplayArgs;
+use simulate::SimulateArgs;
+
+/// Calibration of spherical parallel manipulators (the Agile Wrist) from joints and camera markers.
+#[derive(Parser)]
+#[command(name = "spmcal", version, about)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Command,
+}
+
+#[derive(Subcommand)]
+pub(crate) enum Command {
+    /// Inverse kinematics: MP orientations in, working-mode joint readings out.
+    Ik(IkArgs),
+    /// Forward displacement analysis: joint readings in, MP orientations out.
+    Fda(FdaArgs),
+    /// Simulate a session with ground truth (true geometry, stereo camera, occlusion, collisions).
+    Simulate(SimulateArgs),
+    /// Estimate the MP orientation of every pose of a session from its markers.
+    Estimate(EstimateArgs),
+    /// Identify the link and misalignment parameters from a session; write a parameters file.
+    Calibrate(CalibrateArgs),
+    /// Compare FDA-predicted with vision-measured orientations, nominal and calibrated.
+    Compare(CompareArgs),
+    /// Write a session, pose by pose, as a Rerun recording to open offline.
+    Replay(ReplayArgs),
+    /// Choose the poses to capture that buy the most accuracy, in an order to follow.
+    Plan(PlanArgs),
+    /// Write a calibrated URDF and its companion from a parameters file.
+    Export(ExportArgs),
+}
 
 /// The exit code of a command, its error printed on standard error.
 pub(crate) fn exit(result: anyhow::Result<()>) -> ExitCode {

@@ -1,13 +1,48 @@
 //! `spmcal plan`: the capture plan, its summary, and optionally a recording of it.
 
+use std::path::PathBuf;
+
 use anyhow::{Result, anyhow};
+use clap::Args;
 use spmcal::dataset::Session;
 use spmcal::plan::{PlanSettings, plan_csv};
 use spmcal::sim::SimConfig;
 
-use super::args::PlanArgs;
+use super::args::GeometryArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out, record, reserve};
+
+#[derive(Args)]
+pub(crate) struct PlanArgs {
+    /// Poses to plan.
+    #[arg(long)]
+    pub(crate) poses: usize,
+    #[command(flatten)]
+    pub(crate) geometry: GeometryArgs,
+    /// Simulation settings (YAML) giving the workspace, the camera and its noise; default:
+    /// `configs/simulate_agile_wrist.yaml`'s values.
+    #[arg(long)]
+    pub(crate) config: Option<PathBuf>,
+    /// Candidate poses drawn from the workspace.
+    #[arg(long, default_value_t = 2000)]
+    pub(crate) candidates: usize,
+    /// Plan the poses that add most to this session.
+    #[arg(long)]
+    pub(crate) augment: Option<PathBuf>,
+    /// Candidates must pass the workspace checks and keep their markers this far beyond (tilt
+    /// outwards, yaw either way), degrees: how far the real mechanism and hand may be from the model.
+    #[arg(long, default_value_t = 2.0)]
+    pub(crate) margin_deg: f64,
+    /// The plan to write (`step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad`).
+    #[arg(long)]
+    pub(crate) out: PathBuf,
+    /// Also write a Rerun recording of the plan here (open it with `rerun FILE`).
+    #[arg(long)]
+    pub(crate) rrd: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: PlanArgs) -> Result<()> {
     let mut outputs = Outputs::new();

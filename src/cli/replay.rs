@@ -1,11 +1,29 @@
 //! `spmcal replay`: a session, pose by pose, as a Rerun recording to open offline.
 
+use std::path::PathBuf;
+
 use anyhow::Result;
+use clap::Args;
 use spmcal::model::{Parameters, RobotModel};
 
-use super::args::ReplayArgs;
+use super::args::SessionArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out, record};
+
+#[derive(Args)]
+pub(crate) struct ReplayArgs {
+    #[command(flatten)]
+    pub(crate) session: SessionArgs,
+    /// Parameters (e.g. calibrated) that draw the mechanism; default: the nominal model.
+    #[arg(long)]
+    pub(crate) params: Option<PathBuf>,
+    /// The recording to write.
+    #[arg(long)]
+    pub(crate) rrd: PathBuf,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     let mut outputs = Outputs::new();

@@ -1,13 +1,46 @@
 //! `spmcal simulate`: a synthetic session with ground truth, and optionally a recording of it.
 
+use std::path::PathBuf;
+
 use anyhow::{Result, anyhow};
+use clap::Args;
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
-use super::args::SimulateArgs;
 use super::envelope::Envelope;
 use super::output::{Outputs, out, progress_bar, record, reserve};
+
+#[derive(Args)]
+pub(crate) struct SimulateArgs {
+    /// Also write a Rerun recording of the run here (open it with `rerun FILE`).
+    #[arg(long)]
+    pub(crate) rrd: Option<PathBuf>,
+    /// Simulation settings (YAML).
+    #[arg(long)]
+    pub(crate) config: PathBuf,
+    /// The session folder to write (created; an existing session there is replaced).
+    #[arg(long)]
+    pub(crate) out: PathBuf,
+    /// Random seed (overrides the config's).
+    #[arg(long)]
+    pub(crate) seed: Option<u64>,
+    /// Number of poses (overrides the config's).
+    #[arg(long)]
+    pub(crate) poses: Option<usize>,
+    /// Session name (overrides the config's).
+    #[arg(long)]
+    pub(crate) name: Option<String>,
+    /// Capture exactly the poses of this plan (`spmcal plan`), in its order.
+    #[arg(long, conflicts_with = "poses")]
+    pub(crate) plan: Option<PathBuf>,
+    /// The URDF model (overrides the config's).
+    #[arg(long)]
+    pub(crate) model: Option<PathBuf>,
+    /// Print a machine-readable summary (JSON).
+    #[arg(long)]
+    pub(crate) json: bool,
+}
 
 pub(crate) fn run(args: SimulateArgs) -> Result<()> {
     let mut config = SimConfig::read(&args.config)?;
