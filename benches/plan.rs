@@ -12,7 +12,7 @@ use spmcal::sim::SimConfig;
 
 fn planning(c: &mut Criterion) {
     let config = SimConfig::default();
-    let model = RobotModel::load(std::path::Path::new(spmcal::sim::DEFAULT_MODEL)).unwrap();
+    let model = RobotModel::load(std::path::Path::new("models/agile_wrist.urdf")).unwrap();
     let settings = PlanSettings { poses: 40, candidates: 2000, ..PlanSettings::default() };
     let mut group = c.benchmark_group("plan");
     group.sample_size(10);

@@ -5,7 +5,14 @@ use nalgebra::Vector3;
 use proptest::prelude::*;
 use rand::SeedableRng;
 use spmcal::math::so3;
-use spmcal::model::{Branch, GeometrySpread, Spm, perturb, wrap_angle};
+use spmcal::model::{Branch, GeometrySpread, Spm, perturb};
+
+/// `a` wrapped into (−π, π].
+fn wrap_angle(a: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let w = a - two_pi * (a / two_pi).round();
+    if w <= -std::f64::consts::PI { w + two_pi } else { w }
+}
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 

@@ -189,7 +189,10 @@ fn the_official_rerun_cli_verifies_the_recording() {
     };
     let version = String::from_utf8_lossy(&version.stdout);
     if !version.contains("0.36") {
-        return outside_tool::missing(&format!("the Rerun CLI 0.36.x (found {version})"), "pip install rerun-sdk==0.36.3");
+        return outside_tool::missing(
+            &format!("the Rerun CLI 0.36.x (found {version})"),
+            "pip install rerun-sdk==0.36.3",
+        );
     }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("replay.rrd");

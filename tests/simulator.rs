@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::{Body, RobotModel};
-use spmcal::sim::{Scene, SimConfig, simulate};
+use spmcal::sim::{CollisionScene, SimConfig, simulate};
 
 fn config() -> SimConfig {
     SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap()
@@ -49,7 +49,7 @@ fn noise_free_markers_reproduce_the_joint_readings_to_quantisation() {
 #[test]
 fn a_marker_behind_a_link_is_occluded() {
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
-    let scene = Scene::new(&model);
+    let scene = CollisionScene::new(&model);
     let home = scene.body_rotations(&model.spm, &model.spm.home_joints(), &Rotation3::identity());
     // The middle of leg 1's distal arc (radius 0.16 m from z1 to v0_1): a point inside the
     // sphere seen from a point outside it along the same direction is hidden by that link.
@@ -67,7 +67,7 @@ fn a_marker_behind_a_link_is_occluded() {
 #[test]
 fn colliding_poses_are_detected_and_never_written() {
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
-    let scene = Scene::new(&model);
+    let scene = CollisionScene::new(&model);
     let spm = &model.spm;
     let rotations = |r: &Rotation3<f64>| scene.body_rotations(spm, &spm.ik(r).unwrap(), r);
     assert_eq!(scene.collision(&rotations(&Rotation3::identity())), None, "home must be collision-free");

@@ -200,7 +200,7 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
     // The analytic column uses the joint velocity over ±10 ms (`VELOCITY_WINDOW_S`), not the
     // quantised slope of one 1 ms interval: central differences over the same ±10 ms agree with
     // it up to the curvature of the motion over that window (well under 1%).
-    let h = spmcal::dataset::VELOCITY_WINDOW_S;
+    let h = 0.01; // the velocity window, ±10 ms
     let (mut plus, mut minus) = (x.clone(), x.clone());
     plus[i] += h;
     minus[i] -= h;

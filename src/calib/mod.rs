@@ -43,7 +43,7 @@ pub use model::{EvalError, Evaluation, Model};
 pub(crate) use orientation_model::observations;
 pub use orientation_model::{Observation, OrientationModel};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
-pub use pipeline::{CalibError, Calibration, Fitted, MIN_MOTION_DEG, Solution, calibrate};
+pub use pipeline::{CalibError, Calibration, Fitted, Solution, calibrate};
 pub use report::{
     CalibrationReport, Errors, FastCapture, FlaggedObservation, Latency, MarkerFitReport, MarkerReport, Verdict,
 };

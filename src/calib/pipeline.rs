@@ -155,7 +155,7 @@ pub struct Calibration {
 
 /// Below this largest rotation (degrees) the session holds no motion to calibrate from: a few
 /// camera noise levels (~0.05° per pose at the Agile Wrist's scale).
-pub const MIN_MOTION_DEG: f64 = 0.5;
+pub(crate) const MIN_MOTION_DEG: f64 = 0.5;
 
 /// The data of one fit level: what the pipeline asks of it beyond its model.
 pub(crate) trait Level {

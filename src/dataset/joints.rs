@@ -72,6 +72,6 @@ pub fn joints_csv(readings: &[JointReading]) -> String {
 ///
 /// # Errors
 /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
-pub fn write_joints(path: &Path, readings: &[JointReading]) -> Result<(), FileError> {
+pub(crate) fn write_joints(path: &Path, readings: &[JointReading]) -> Result<(), FileError> {
     write_atomic(path, joints_csv(readings).as_bytes())
 }

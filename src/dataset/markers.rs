@@ -11,7 +11,7 @@ use crate::io::table::{Table, first_repeat};
 
 /// One marker measurement.
 #[derive(Debug, Clone, PartialEq)]
-pub struct MarkerRow {
+pub(crate) struct MarkerRow {
     /// Pose id.
     pub pose: u64,
     /// Index of the marker in the session's marker list.
@@ -27,7 +27,7 @@ pub struct MarkerRow {
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first bad value, unknown marker or repeated pair.
-pub fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, FileError> {
+pub(crate) fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, FileError> {
     let mut table = Table::open(path, &["pose", "marker", "x_m", "y_m", "z_m"])?;
     let out = table.read_all(|row, _| {
         let (pose, marker) = (row.index(0)?, row.marker(1, names)?);
@@ -41,7 +41,7 @@ pub fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, Fil
 }
 
 /// `markers.csv` text, with full precision.
-pub fn markers_csv(rows: &[MarkerRow], names: &[String]) -> String {
+pub(crate) fn markers_csv(rows: &[MarkerRow], names: &[String]) -> String {
     let mut text = String::from("pose,marker,x_m,y_m,z_m\n");
     for r in rows {
         let _ = write!(text, "{},{}", r.pose, names[r.marker]);
@@ -55,6 +55,6 @@ pub fn markers_csv(rows: &[MarkerRow], names: &[String]) -> String {
 ///
 /// # Errors
 /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
-pub fn write_markers(path: &Path, rows: &[MarkerRow], names: &[String]) -> Result<(), FileError> {
+pub(crate) fn write_markers(path: &Path, rows: &[MarkerRow], names: &[String]) -> Result<(), FileError> {
     write_atomic(path, markers_csv(rows, names).as_bytes())
 }

@@ -25,7 +25,7 @@ use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
 use crate::model::Parameters;
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
-pub const MIN_MARKERS: usize = 3;
+pub(crate) const MIN_MARKERS: usize = 3;
 
 /// One pose of a session.
 #[derive(Debug, Clone, PartialEq)]

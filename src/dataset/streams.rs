@@ -39,7 +39,7 @@ pub struct Capture {
 }
 
 /// Half-width of the window over which the joint velocity is taken (s).
-pub const VELOCITY_WINDOW_S: f64 = 0.01;
+pub(crate) const VELOCITY_WINDOW_S: f64 = 0.01;
 
 /// Limits a recording must meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,7 +72,7 @@ pub struct Streams {
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first problem.
-pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSample>, FileError> {
+pub(crate) fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSample>, FileError> {
     let mut table = Table::open(path, &["time_s", "theta1_rad", "theta2_rad", "theta3_rad"])?;
     let out = table.read_all(|row, before: &[EncoderSample]| {
         let time_s = row.number(0)?;
@@ -107,7 +107,7 @@ pub fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<EncoderSa
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first problem.
-pub fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, FileError> {
+pub(crate) fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, FileError> {
     let mut table = Table::open(path, &["time_s", "marker", "x_m", "y_m", "z_m"])?;
     let out = table.read_all(|row, before: &[Capture]| {
         let time_s = row.number(0)?;
@@ -184,7 +184,7 @@ impl Streams {
 }
 
 /// `encoders.csv` text, with full precision.
-pub fn encoders_csv(samples: &[EncoderSample]) -> String {
+pub(crate) fn encoders_csv(samples: &[EncoderSample]) -> String {
     let mut text = String::from("time_s,theta1_rad,theta2_rad,theta3_rad\n");
     for e in samples {
         text.push_str(&number(e.time_s));
@@ -195,7 +195,7 @@ pub fn encoders_csv(samples: &[EncoderSample]) -> String {
 }
 
 /// `captures.csv` text, with full precision.
-pub fn captures_csv(captures: &[Capture], names: &[String]) -> String {
+pub(crate) fn captures_csv(captures: &[Capture], names: &[String]) -> String {
     let mut text = String::from("time_s,marker,x_m,y_m,z_m\n");
     for c in captures {
         let _ = write!(text, "{},{}", number(c.time_s), names[c.marker]);

@@ -7,11 +7,11 @@ use nalgebra::{Matrix3, Vector3};
 
 /// The noise (1σ, metres) the degeneracy tests assume for a marker position: a Bumblebee-class
 /// stereo camera at 0.8 m measures across the line of sight to ~0.2 mm and along it to ~1 mm.
-pub const MARKER_NOISE_M: f64 = 1e-3;
+pub(crate) const MARKER_NOISE_M: f64 = 1e-3;
 
 /// How many noise deviations two markers must be apart, or the constellation be wide off its
 /// principal line, to count as distinct (a 3σ separation is the conventional detection limit).
-pub const SEPARATION_SIGMAS: f64 = 3.0;
+pub(crate) const SEPARATION_SIGMAS: f64 = 3.0;
 
 /// Why a constellation cannot fix an orientation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -55,7 +55,7 @@ pub enum Degeneracy {
 
 /// The principal spreads of a constellation about its centroid: RMS extents along its three
 /// principal axes, largest first (metres).
-pub fn spreads(points: &[Vector3<f64>]) -> Vector3<f64> {
+pub(crate) fn spreads(points: &[Vector3<f64>]) -> Vector3<f64> {
     let n = points.len().max(1) as f64;
     let c = points.iter().sum::<Vector3<f64>>() / n;
     let scatter: Matrix3<f64> = points.iter().map(|p| (p - c) * (p - c).transpose()).sum::<Matrix3<f64>>() / n;
@@ -70,7 +70,7 @@ pub fn spreads(points: &[Vector3<f64>]) -> Vector3<f64> {
 ///
 /// # Errors
 /// The first [`Degeneracy`] found.
-pub fn check(points: &[Vector3<f64>], noise_m: f64) -> Result<(), Degeneracy> {
+pub(crate) fn check(points: &[Vector3<f64>], noise_m: f64) -> Result<(), Degeneracy> {
     if points.len() < 3 {
         return Err(Degeneracy::TooFew { count: points.len() });
     }

@@ -3,10 +3,10 @@
 
 /// Iterations allowed to nalgebra's SVD and eigen solvers: they converge in tens; unbounded, they
 /// loop for ever on NaN or infinite input (found by fuzzing: a session with a 1e300 coordinate).
-pub const MAX_DECOMPOSITION_ITERATIONS: usize = 1000;
+pub(crate) const MAX_DECOMPOSITION_ITERATIONS: usize = 1000;
 
 /// The SVD of `m` with bounded work: `None` for non-finite input or no convergence.
-pub fn bounded_svd<R, C, S>(
+pub(crate) fn bounded_svd<R, C, S>(
     m: &nalgebra::Matrix<f64, R, C, S>,
     compute_u: bool,
     compute_v: bool,
@@ -32,7 +32,7 @@ where
 
 /// The eigen-decomposition of the symmetric `m` with bounded work: `None` for non-finite input
 /// or no convergence.
-pub fn bounded_symmetric_eigen<D>(m: &nalgebra::OMatrix<f64, D, D>) -> Option<nalgebra::SymmetricEigen<f64, D>>
+pub(crate) fn bounded_symmetric_eigen<D>(m: &nalgebra::OMatrix<f64, D, D>) -> Option<nalgebra::SymmetricEigen<f64, D>>
 where
     D: nalgebra::DimSub<nalgebra::U1>,
     nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D, D>

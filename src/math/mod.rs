@@ -3,6 +3,6 @@
 
 #[cfg(feature = "full")]
 pub mod constellation;
-pub mod linalg;
+pub(crate) mod linalg;
 pub mod polar;
 pub mod so3;

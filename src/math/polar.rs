@@ -15,11 +15,11 @@
 use nalgebra::Matrix3;
 
 /// Steps below this end the iteration (see the module documentation).
-pub const STEP_TOLERANCE: f64 = 4.2e-8;
+pub(crate) const STEP_TOLERANCE: f64 = 4.2e-8;
 /// Steps below this switch the scaling off.
 const UNSCALED_BELOW: f64 = 1e-2;
 /// More iterations than this means the input is too close to singular for Newton: use the SVD.
-pub const MAX_ITERATIONS: u32 = 30;
+pub(crate) const MAX_ITERATIONS: u32 = 30;
 
 /// `A = Q T`.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 /// Skew-symmetric matrix `[a]×` with `[a]× b = a × b`.
-pub fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
     a.cross_matrix()
 }
 
@@ -33,7 +33,7 @@ pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
 }
 
 /// Left Jacobian of SO(3): `exp(φ + dφ) = exp(J_l(φ) dφ) exp(φ)` to first order.
-pub fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = skew(phi);
     // Series below 1e-4 rad: the closed forms lose precision to cancellation there.
@@ -46,7 +46,7 @@ pub fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Inverse of the left Jacobian: `log(exp(ε) exp(φ)) = φ + J_l⁻¹(φ) ε` to first order.
-pub fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = skew(phi);
     let c = if theta < 1e-4 {
@@ -85,7 +85,7 @@ pub fn from_wxyz(q: [f64; 4]) -> Option<Rotation3<f64>> {
 
 /// The right-handed orthonormal frame `[e1, e2, e3]` of two non-parallel vectors: `e1 ∥ a`,
 /// `e2 ∝ b − (e1·b) e1`, `e3 = e1 × e2`.
-pub fn pair_frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn pair_frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
     let e1 = a.normalize();
     let e2 = (b - e1 * e1.dot(b)).normalize();
     Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
@@ -97,11 +97,13 @@ pub fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vecto
     Rotation3::from_matrix_unchecked(pair_frame(a2, b2) * pair_frame(a1, b1).transpose())
 }
 
-/// The proper rotation nearest to `m` in the Frobenius norm (via SVD), or `None` when
-/// `m` is rank-deficient (no unique nearest rotation).
+/// The proper rotation nearest to `m` in the Frobenius norm (the polar factor by Higham's
+/// iteration when `det m` is clearly positive, else the SVD with its sign correction), or `None` when `m` is
+/// rank-deficient (no unique nearest rotation).
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     // With det m > 8ε‖m‖³ (so σ_min > 8ε σ_max: σ1σ2σ3 ≤ σ_max²σ_min) the answer is the orthogonal
-    // polar factor, which Higham's iteration finds about five times faster than the SVD.
+    // polar factor, which Higham's iteration finds about six times faster than the SVD (93 ns
+    // against 548 ns, docs/benchmarks.md).
     let scale = m.norm();
     if m.determinant() > 8.0 * f64::EPSILON * scale * scale * scale
         && let Ok(p) = super::polar::polar(m)

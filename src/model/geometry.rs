@@ -69,7 +69,7 @@ pub enum GeometryError {
 
 /// Tolerance on unit length and orthogonality of axes read from files: loose enough for
 /// axes printed with 9 significant digits, tight enough to catch a wrong axis.
-pub const AXIS_TOLERANCE: f64 = 1e-6;
+pub(crate) const AXIS_TOLERANCE: f64 = 1e-6;
 
 impl GeometryError {
     /// The leg the error is about (0-based index; messages print it 1-based).

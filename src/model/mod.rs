@@ -19,17 +19,12 @@ mod urdf_check;
 pub use assembly::AssemblyMode;
 #[cfg(feature = "full")]
 pub use export::{ExportedModel, export};
-pub use geometry::{AXIS_TOLERANCE, GeometryError, LegGeometry};
+pub use geometry::{GeometryError, LegGeometry};
 #[cfg(feature = "full")]
 pub use modes::{FdaPose, ModeReport};
-pub use params::{CameraRegistration, MarkerPosition, PARAMETERS_FORMAT, ParameterSource, Parameters};
+pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters};
 #[cfg(feature = "full")]
 pub use perturb::{GeometrySpread, perturb, tilt};
-pub use spm::{
-    Branch, FdaError, FdaSettings, IK_SINGULAR_SINE, IkError, Jacobians, Spm, SpmError, conditioning_index, wrap_angle,
-};
+pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError, conditioning_index};
 #[cfg(feature = "full")]
-pub use urdf::{
-    Body, BodyShape, CLOSURE_TOLERANCE_RAD, CONCURRENCY_TOLERANCE_M, Marker, ModelError, RobotModel, Shape,
-    companion_path,
-};
+pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape, companion_path};

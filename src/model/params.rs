@@ -31,7 +31,7 @@ use crate::io::files::write_atomic;
 use crate::math::so3;
 
 /// The format tag written at the top of every parameters file.
-pub const PARAMETERS_FORMAT: &str = "spmcal-parameters/1";
+pub(crate) const PARAMETERS_FORMAT: &str = "spmcal-parameters/1";
 
 /// Where a parameter set came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -89,7 +89,7 @@ pub enum IkError {
 /// Below this sine of the angle between a leg's platform axis and its actuated axis, IK refuses:
 /// the joint angle's sensitivity to the orientation is 1/sine, and rounding alone (1e-16) would
 /// move it by more than 1e-10 rad.
-pub const IK_SINGULAR_SINE: f64 = 1e-6;
+pub(crate) const IK_SINGULAR_SINE: f64 = 1e-6;
 
 /// Why the forward displacement analysis gave no trustworthy working-mode orientation.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -450,7 +450,7 @@ impl Spm {
 }
 
 /// Wrap an angle to `(−π, π]`.
-pub fn wrap_angle(a: f64) -> f64 {
+pub(crate) fn wrap_angle(a: f64) -> f64 {
     let two_pi = 2.0 * std::f64::consts::PI;
     let w = a - two_pi * (a / two_pi).round();
     if w <= -std::f64::consts::PI { w + two_pi } else { w }

@@ -23,9 +23,9 @@ use crate::math::constellation;
 
 /// Largest distance (m) from O of a joint axis line still accepted as passing through O:
 /// a few CAD rounding steps, far below any real misalignment worth calibrating.
-pub const CONCURRENCY_TOLERANCE_M: f64 = 1e-6;
+pub(crate) const CONCURRENCY_TOLERANCE_M: f64 = 1e-6;
 /// Largest angle (rad) between a closure link and the MP at the zero configuration.
-pub const CLOSURE_TOLERANCE_RAD: f64 = 1e-6;
+pub(crate) const CLOSURE_TOLERANCE_RAD: f64 = 1e-6;
 
 /// A named marker on the MP.
 #[derive(Debug, Clone, PartialEq)]

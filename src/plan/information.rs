@@ -85,7 +85,7 @@ pub fn stereo_noise(camera: &crate::sim::Camera) -> StereoNoise {
 
 /// The predicted RMS orientation error (rad, the norm of the error vector) at each of the
 /// candidates' poses, for parameter covariance `covariance`.
-pub fn orientation_errors(info: &Information, covariance: &DMatrix<f64>) -> Vec<f64> {
+pub(crate) fn orientation_errors(info: &Information, covariance: &DMatrix<f64>) -> Vec<f64> {
     info.sensitivities.iter().map(|g| (g * covariance * g.transpose()).trace().max(0.0).sqrt()).collect()
 }
 

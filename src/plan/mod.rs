@@ -19,12 +19,12 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use serde::Serialize;
 
-pub use design::{
-    ContinuousDesign, ExactDesign, cone_program, criterion, exact, information_of, log_det, multiplicative,
-};
+pub(crate) use design::information_of;
+pub(crate) use design::{cone_program, criterion, exact, log_det, multiplicative};
 pub use file::{PlannedPose, plan_csv, read_plan};
-pub use information::{Information, information, orientation_errors, stereo_noise};
-pub use route::tour;
+pub(crate) use information::{Information, orientation_errors};
+pub use information::{information, stereo_noise};
+pub(crate) use route::tour;
 
 use crate::calib::{CalibConfig, MarkerModel, Parameterisation, marker_observations, marker_pose_errors};
 use crate::dataset::Session;

@@ -11,7 +11,7 @@ use crate::math::so3::geodesic_angle;
 ///
 /// # Panics
 /// Never: the tour always starts at home.
-pub fn tour(poses: &[Rotation3<f64>]) -> (Vec<usize>, f64) {
+pub(crate) fn tour(poses: &[Rotation3<f64>]) -> (Vec<usize>, f64) {
     // Node 0 is home, node k + 1 is poses[k].
     let nodes: Vec<Rotation3<f64>> = std::iter::once(Rotation3::identity()).chain(poses.iter().copied()).collect();
     let n = nodes.len();

@@ -25,8 +25,7 @@ use crate::dataset::Session;
 use crate::model::{CameraRegistration, RobotModel, Spm};
 
 pub use scenes::{
-    SceneError, calibration_scene, comparison_scene, estimate_scene, parameters_markdown, plan_scene, replay_scene,
-    simulation_scene,
+    SceneError, calibration_scene, comparison_scene, estimate_scene, plan_scene, replay_scene, simulation_scene,
 };
 
 /// MP orientations of one source, by pose.
@@ -109,7 +108,7 @@ pub enum RecordError {
 const FIT_TABLE: &str = "fit/iterations";
 
 /// The Rerun application id of every recording.
-pub const APPLICATION: &str = "spmcal";
+pub(crate) const APPLICATION: &str = "spmcal";
 
 /// Write `scene` to `path` (atomically: a temporary file beside it, renamed when complete).
 ///

@@ -94,7 +94,7 @@ fn registration(
 }
 
 /// A markdown table of a parameter set.
-pub fn parameters_markdown(title: &str, p: &Parameters) -> String {
+pub(crate) fn parameters_markdown(title: &str, p: &Parameters) -> String {
     let mut s = format!("# {title}\n\n| leg | u | z | α1 (°) | α2 (°) | v0 | δ (°) |\n|---|---|---|---|---|---|---|\n");
     let v = |x: &Vector3<f64>| format!("[{:.5}, {:.5}, {:.5}]", x.x, x.y, x.z);
     for (i, g) in p.legs.iter().enumerate() {

@@ -54,7 +54,7 @@ pub struct SimConfig {
     /// The joint encoders.
     pub encoders: Encoders,
     /// How markers are captured.
-    pub capture: Capture,
+    pub capture: CaptureSettings,
     /// A free-motion recording (encoder and camera streams) instead of static poses.
     pub recording: Option<Recording>,
     /// The orientations to capture, in order, instead of drawing them (`simulate --plan`; not
@@ -132,7 +132,7 @@ pub struct Encoders {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 /// How markers are captured.
-pub struct Capture {
+pub struct CaptureSettings {
     /// One marker at a time, as in the paper: each capture is its own pose, with the encoder
     /// reading of its instant, and the captures of one station share its `station` number.
     pub sequential: bool,
@@ -190,7 +190,7 @@ impl Default for SimConfig {
             workspace: Workspace::default(),
             camera: Camera::default(),
             encoders: Encoders::default(),
-            capture: Capture::default(),
+            capture: CaptureSettings::default(),
             recording: None,
             plan: None,
         }
@@ -243,14 +243,14 @@ impl Default for Encoders {
     }
 }
 
-impl Default for Capture {
+impl Default for CaptureSettings {
     fn default() -> Self {
-        Capture { sequential: false, motion_deg: 0.05, interval_s: 0.5 }
+        CaptureSettings { sequential: false, motion_deg: 0.05, interval_s: 0.5 }
     }
 }
 
 /// The model used when a config names none.
-pub const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
+pub(crate) const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
 
 impl SimConfig {
     /// Read and check a config; `model` is resolved against the config's folder.

@@ -33,7 +33,7 @@ fn adjacent(a: Body, b: Body) -> bool {
 }
 
 /// Rotation of each body about O (all bodies of an SPM only rotate).
-pub type BodyRotations = [Rotation3<f64>; 8];
+pub(crate) type BodyRotations = [Rotation3<f64>; 8];
 
 struct PlacedShape {
     body: usize,
@@ -43,7 +43,7 @@ struct PlacedShape {
 }
 
 /// Collision geometry of a model, ready to be posed.
-pub struct Scene {
+pub struct CollisionScene {
     shapes: Vec<PlacedShape>,
     /// Per leg, the home directions the links carry: `(u, w(0))` for the proximal and
     /// `(w(0), v0)` for the distal link.
@@ -58,7 +58,7 @@ fn to_vector(v: &Vector3<f64>) -> Vector {
     Vector::new(v.x, v.y, v.z)
 }
 
-impl Scene {
+impl CollisionScene {
     /// The model's collision primitives. URDF cylinders and capsules run along z, parry's
     /// cylinders along y: a quarter turn about x maps one onto the other.
     pub fn new(model: &RobotModel) -> Self {
@@ -86,7 +86,7 @@ impl Scene {
             let g = &home[i];
             [g.u, g.u * g.alpha1.cos() + g.z * g.alpha1.sin(), g.v0]
         });
-        Scene { shapes, home_axes }
+        CollisionScene { shapes, home_axes }
     }
 
     /// Rotation of every body for joint readings `joints` and MP orientation `r` of manipulator

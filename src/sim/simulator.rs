@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use super::camera::{lenses, looking_down, measure};
 use super::config::{Recording, SimConfig, Trajectory};
-use super::scene::Scene;
+use super::scene::CollisionScene;
 use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, Streams, Truth};
 use crate::math::so3;
 use crate::model::{
@@ -108,7 +108,7 @@ struct Simulator<'a> {
     camera: CameraRegistration,
     /// True marker positions in P.
     markers: Vec<Vector3<f64>>,
-    scene: Scene,
+    scene: CollisionScene,
     rng: ChaCha8Rng,
     summary: SimSummary,
 }
@@ -144,7 +144,7 @@ pub fn simulate(
     let markers =
         model.markers.iter().map(|m| m.position + Vector3::from_fn(|_, _| misplacement.sample(&mut rng))).collect();
     let summary = SimSummary { name: config.name.clone(), seed: config.seed, ..Default::default() };
-    let mut sim = Simulator { config, model, spm, camera, markers, scene: Scene::new(model), rng, summary };
+    let mut sim = Simulator { config, model, spm, camera, markers, scene: CollisionScene::new(model), rng, summary };
     let session = match &config.recording {
         Some(r) => sim.record_streams(r, progress)?,
         None => sim.run(progress)?,
@@ -186,7 +186,7 @@ pub fn candidates(
         spm: spm.clone(),
         camera: *camera,
         markers: markers.to_vec(),
-        scene: Scene::new(model),
+        scene: CollisionScene::new(model),
         rng: ChaCha8Rng::seed_from_u64(config.seed),
         summary: SimSummary::default(),
     };

@@ -27,7 +27,9 @@ pub struct CentreOfRotation {
 /// and cost 30 times more, and with the conditioning required below the normal equations lose
 /// at most six of sixteen digits).
 /// `None` when the rotations leave `o` undetermined (all about one axis, or too few poses).
-pub fn centre_of_rotation<'a>(estimates: impl Iterator<Item = &'a PoseEstimate> + Clone) -> Option<CentreOfRotation> {
+pub(crate) fn centre_of_rotation<'a>(
+    estimates: impl Iterator<Item = &'a PoseEstimate> + Clone,
+) -> Option<CentreOfRotation> {
     let (mut normal, mut rhs, mut n) = (Matrix3::zeros(), Vector3::zeros(), 0_usize);
     for e in estimates.clone() {
         let a = Matrix3::identity() - e.rotation.matrix();

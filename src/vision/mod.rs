@@ -6,7 +6,7 @@ mod pose;
 mod session;
 mod summary;
 
-pub use centre::{CentreOfRotation, centre_of_rotation};
-pub use pose::{MarkerError, Method, PLANAR_RATIO, PoseEstimate, Reference, orthogonality_error};
+pub use centre::CentreOfRotation;
+pub use pose::{MarkerError, Method, PoseEstimate, Reference, orthogonality_error};
 pub use session::{SessionEstimate, Stats, VisionError, estimate_session};
 pub use summary::EstimateSummary;

@@ -32,7 +32,7 @@ pub enum Method {
 /// Below this ratio of the third to the largest singular value the markers count as planar and
 /// get the virtual normal marker (a 4th marker 5% of the triangle's size off the plane adds
 /// little but noise in the normal direction).
-pub const PLANAR_RATIO: f64 = 0.05;
+pub(crate) const PLANAR_RATIO: f64 = 0.05;
 /// Why markers cannot give an orientation (the pose is named by the caller).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
