@@ -11,8 +11,9 @@ use serde::Serialize;
 
 use crate::calib::{FitLevel, SetError, marker_pose_errors, pose_errors};
 use crate::dataset::Session;
+use crate::math::stats::Stats;
 use crate::model::{Parameters, RobotModel};
-use crate::vision::{MarkerError, Method, Stats, VisionError, estimate_session};
+use crate::vision::{MarkerError, Method, VisionError, estimate_session};
 
 /// The unit of the per-pose errors at `level`.
 fn unit(level: FitLevel) -> &'static str {
@@ -35,12 +36,9 @@ pub struct SetComparison {
     pub registration: &'static str,
     /// `(pose, error)`.
     pub per_pose: Vec<(u64, f64)>,
-    /// RMS error.
-    pub rms: f64,
-    /// Median error.
-    pub median: f64,
-    /// Largest error.
-    pub max: f64,
+    /// Their statistics.
+    #[serde(flatten)]
+    pub errors: Stats,
     /// Poses left out with this set, and why.
     pub excluded: Vec<String>,
 }
@@ -99,17 +97,13 @@ impl SetComparison {
     fn new(label: &str, level: FitLevel, errors: crate::calib::PoseErrors) -> Self {
         let crate::calib::PoseErrors { registration, per_pose, excluded, .. } = errors;
         let values: Vec<f64> = per_pose.iter().map(|(_, e)| *e).collect();
-        let stats = Stats::of(&values).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
-        let rms = (values.iter().map(|e| e * e).sum::<f64>() / values.len().max(1) as f64).sqrt();
         SetComparison {
             label: label.to_string(),
             level,
             unit: unit(level),
             registration,
             per_pose,
-            rms,
-            median: stats.median,
-            max: stats.max,
+            errors: Stats::of_or_zero(&values),
             excluded,
         }
     }
@@ -122,9 +116,9 @@ impl std::fmt::Display for SetComparison {
             f,
             "{:<11} RMS {:.4}{unit}, median {:.4}{unit}, max {:.4}{unit} over {} poses (registration: {})",
             self.label,
-            self.rms,
-            self.median,
-            self.max,
+            self.errors.rms,
+            self.errors.median,
+            self.errors.max,
             self.per_pose.len(),
             self.registration
         )

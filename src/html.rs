@@ -167,18 +167,14 @@ fn residuals(c: &Calibration) -> String {
                         .filter(|(o, _)| o.marker == k)
                         .map(|(_, r)| r)
                         .collect();
-                    let rms = |axis: usize| {
-                        (of_k.iter().map(|r| (r[axis] * 1e3).powi(2)).sum::<f64>() / of_k.len().max(1) as f64).sqrt()
-                    };
+                    let rms = |axis: usize| crate::math::stats::rms(of_k.iter().map(|r| r[axis] * 1e3));
                     (name.clone(), [rms(0), rms(1), rms(2)])
                 })
                 .collect()
         }
         FitLevel::Orientations => {
             let r = &c.calibrated.residuals;
-            let rms = |axis: usize| {
-                (r.iter().map(|v| v[axis].to_degrees().powi(2)).sum::<f64>() / r.len().max(1) as f64).sqrt()
-            };
+            let rms = |axis: usize| crate::math::stats::rms(r.iter().map(|v| v[axis].to_degrees()));
             vec![("rotation".into(), [rms(0), rms(1), rms(2)])]
         }
     };

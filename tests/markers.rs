@@ -243,7 +243,7 @@ fn gross_marker_errors_are_excluded_with_their_line() {
     }
     assert!(calibration.report.excluded.iter().any(|e| e.contains("gross error")));
     // Without them, the fit is as good as on clean data: residuals at the noise level.
-    assert!(report.after.rms_mm < 1.0, "{}", report.after.rms_mm);
+    assert!(report.after.errors.rms < 1.0, "{}", report.after.errors.rms);
 }
 
 #[test]

@@ -1,4 +1,6 @@
-//! The URDF model, its companion and parameters files: loading, validation, round trips.
+//! The URDF model, its companion and parameters files: loading, validation, round trips, the
+//! calibrated URDF export, and urdfdom's `check_urdf` on both URDFs (missing: a failure under
+//! `CI=true`, elsewhere a visible skip).
 
 use std::path::{Path, PathBuf};
 

@@ -1,7 +1,8 @@
-//! Capture planning: the continuous design meets the equivalence theorem and agrees with the
-//! cone program, the rounded plan is near the continuous bound and far better than random poses,
-//! its prediction matches what calibrating on it achieves, the plan file round-trips and the
-//! simulator captures exactly its poses.
+//! Capture planning: the rounded plan is near the continuous bound and far better than random
+//! poses, its prediction matches what calibrating on it achieves, the plan file round-trips, the
+//! simulator captures exactly its poses, and a plan that augments a session counts what the
+//! session already knows. (The continuous design against the equivalence theorem and the cone
+//! program is tested inside the crate, in `plan::design`.)
 
 use std::path::Path;
 

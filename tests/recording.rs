@@ -1,6 +1,7 @@
 //! Rerun recordings, decoded with the rerun crate's own decoder: entity paths, the poses on the
-//! timeline, and logged values against what the library computed. And, where the official Rerun
-//! CLI of the same version is installed, `rerun rrd verify`.
+//! timeline, and logged values against what the library computed. And `rerun rrd verify` by the
+//! official Rerun CLI of the same version (missing: a failure under `CI=true`, elsewhere a
+//! visible skip).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -101,8 +102,8 @@ fn calibration_recording_has_the_entities_poses_and_values() {
     let after = scalars(&chunks, "errors/fda_vs_vision/calibrated", "pose");
     let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
     let report = &calibration.report.after;
-    let expected = ((report.fit.rms_deg.powi(2) * report.fit.poses as f64
-        + report.held_out.unwrap().rms_deg.powi(2) * report.held_out.unwrap().poses as f64)
+    let expected = ((report.fit.rms.powi(2) * report.fit.count as f64
+        + report.held_out.unwrap().rms.powi(2) * report.held_out.unwrap().count as f64)
         / 400.0)
         .sqrt();
     assert!((rms - expected).abs() < 1e-12, "{rms} vs {expected}");
@@ -281,7 +282,7 @@ fn marker_level_calibration_recording_shows_fitted_and_model_markers_and_per_pos
     assert_eq!(after.len(), calibration.report.markers.as_ref().unwrap().poses);
     // One marker per capture here, so each pose's value is its one residual.
     let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
-    let report = calibration.report.markers.as_ref().unwrap().after.rms_mm;
+    let report = calibration.report.markers.as_ref().unwrap().after.errors.rms;
     assert!((rms - report).abs() < 1e-9, "{rms} vs {report}");
 }
 
@@ -316,7 +317,7 @@ fn a_free_motion_calibration_is_recorded_at_its_fitted_latency() {
     let chunks = chunks(&path);
     let after = scalars(&chunks, "errors/markers_mm/calibrated", "pose");
     let rms = (after.values().map(|d| d * d).sum::<f64>() / after.len() as f64).sqrt();
-    let report = calibration.report.markers.as_ref().unwrap().after.rms_mm;
+    let report = calibration.report.markers.as_ref().unwrap().after.errors.rms;
     assert!((rms - report).abs() < 1e-9 * report.max(1.0), "{rms} vs {report}");
     // The frames are on the `time` timeline too (camera time, seconds), which the layout selects.
     let frame_times = scalars(&chunks, "errors/markers_mm/calibrated", "time");

@@ -1,5 +1,6 @@
-//! Session folders: the corpus of bad sessions (each rejected with its expected message),
-//! warnings for poses the vision estimator must skip, and the write → read round trip.
+//! Session folders: the corpus of bad sessions (each rejected with its expected message), poses
+//! with few markers kept as data (only the per-pose estimator skips them, and says so), the model
+//! override, and the write → read round trip.
 
 use std::path::Path;
 

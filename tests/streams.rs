@@ -103,7 +103,7 @@ fn a_recording_of_a_sessions_readings_calibrates_as_the_session_at_its_latency()
     // Ignoring the 40 ms latency reads the joints 40 ms late — about 1° at this hand speed, against
     // markers measured to 0.2–0.7 mm: 2.3× the marker error (measured), far beyond 1.2×.
     let ignored = calibrate(&recording, &model, &CalibConfig { freeze, ..config }, &mut |_| {}).unwrap();
-    let rms = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().after.rms_mm;
+    let rms = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().after.errors.rms;
     eprintln!("latency ignored: {:.3} mm, at 40 ms: {:.3} mm", rms(&ignored), rms(&streamed));
     assert!(rms(&ignored) > 1.2 * rms(&streamed), "{} vs {}", rms(&ignored), rms(&streamed));
 }
@@ -235,7 +235,7 @@ fn a_simulated_free_motion_recording_gives_back_its_latency() {
     // Held at zero instead, the joints are read 40 ms late: the markers fit worse.
     let ignored = CalibConfig { freeze: vec![spmcal::calib::Group::Latency], ..config };
     let worse = calibrate(&recording, &model, &ignored, &mut |_| {}).unwrap();
-    let rms = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().after.rms_mm;
+    let rms = |c: &spmcal::calib::Calibration| c.report.markers.as_ref().unwrap().after.errors.rms;
     eprintln!("latency ignored: {:.3} mm, estimated: {:.3} mm", rms(&worse), rms(&calibration));
     // A hand at ~10–20°/s read 40 ms late is about half a degree off, beside 0.2–0.7 mm of marker
     // noise: 2.1× the marker error (measured). The RMS over n ≈ 560 observations has a relative
@@ -282,13 +282,13 @@ fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recordi
     let compared = spmcal::compare::compare(&recording, &model, &sets, method, None).unwrap();
     assert!(compared.iter().all(|c| c.level == spmcal::calib::FitLevel::Markers && c.unit == "mm"));
     let (nominal, calibrated) = (&compared[0], &compared[1]);
-    eprintln!("markers: nominal {:.3} mm, calibrated {:.3} mm", nominal.rms, calibrated.rms);
+    eprintln!("markers: nominal {:.3} mm, calibrated {:.3} mm", nominal.errors.rms, calibrated.errors.rms);
     // The calibrated file's prediction on its own recording is the fit's (same registration,
     // markers and latency): its RMS over poses equals the fit's marker RMS (one marker per pose),
     // and the nominal model with its best-fit registration is several times worse.
-    let fit_rms = calibration.report.markers.as_ref().unwrap().after.rms_mm;
-    assert!((calibrated.rms - fit_rms).abs() < 0.02 * fit_rms, "{} vs {fit_rms}", calibrated.rms);
-    assert!(nominal.rms > 3.0 * calibrated.rms, "{} vs {}", nominal.rms, calibrated.rms);
+    let fit_rms = calibration.report.markers.as_ref().unwrap().after.errors.rms;
+    assert!((calibrated.errors.rms - fit_rms).abs() < 0.02 * fit_rms, "{} vs {fit_rms}", calibrated.errors.rms);
+    assert!(nominal.errors.rms > 3.0 * calibrated.errors.rms, "{} vs {}", nominal.errors.rms, calibrated.errors.rms);
     // Asking for orientations names why it cannot be done.
     let orientations = Some(spmcal::calib::FitLevel::Orientations);
     let err = spmcal::compare::compare(&recording, &model, &sets, method, orientations).unwrap_err().to_string();

@@ -22,84 +22,42 @@ use super::params::Parameterisation;
 use super::registration;
 use crate::dataset::Session;
 use crate::math::so3;
+use crate::math::stats::{Stats, rms};
 use crate::model::{CameraRegistration, Parameters, RobotModel, Spm, SpmError};
-use crate::vision::{SessionEstimate, Stats};
+use crate::vision::SessionEstimate;
 
-/// RMS, median and maximum of per-pose angles.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ErrorSummary {
-    /// Poses summarised.
-    pub poses: usize,
-    /// RMS angle, degrees.
-    pub rms_deg: f64,
-    /// Median angle, degrees.
-    pub median_deg: f64,
-    /// Largest angle, degrees.
-    pub max_deg: f64,
-}
-
-impl ErrorSummary {
-    /// Summary of per-pose residual rotation vectors (angle = norm).
-    pub fn of(residuals: &[Vector3<f64>]) -> ErrorSummary {
-        let deg: Vec<f64> = residuals.iter().map(|r| r.norm().to_degrees()).collect();
-        let stats = Stats::of(&deg).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
-        ErrorSummary {
-            poses: deg.len(),
-            rms_deg: super::model::rms(residuals).to_degrees(),
-            median_deg: stats.median,
-            max_deg: stats.max,
-        }
-    }
-
-    /// Summary of per-pose angles in degrees.
-    pub fn of_degrees(degrees: &[f64]) -> ErrorSummary {
-        let stats = Stats::of(degrees).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
-        let rms = (degrees.iter().map(|d| d * d).sum::<f64>() / degrees.len().max(1) as f64).sqrt();
-        ErrorSummary { poses: degrees.len(), rms_deg: rms, median_deg: stats.median, max_deg: stats.max }
-    }
-}
-
-/// RMS, median and largest distance (mm) between measured and predicted markers.
+/// Per-observation distances (mm) between measured and predicted markers: their statistics, and
+/// per marker.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MarkerErrors {
-    /// Observations summarised.
-    pub observations: usize,
-    /// RMS distance, mm.
-    pub rms_mm: f64,
-    /// Median distance, mm.
-    pub median_mm: f64,
-    /// Largest distance, mm.
-    pub max_mm: f64,
+    /// Over every observation, mm.
+    #[serde(flatten)]
+    pub errors: Stats,
     /// `(marker, observations, RMS mm)` per marker.
     pub per_marker: Vec<(String, usize, f64)>,
 }
 
 impl MarkerErrors {
-    /// The summary of marker residuals (m) of `observations`, per marker of `names`.
-    pub fn of(residuals: &[Vector3<f64>], observations: &[MarkerObservation], names: &[String]) -> Self {
+    /// The statistics of marker residuals (m) of `observations`, per marker of `names`.
+    pub(crate) fn of(residuals: &[Vector3<f64>], observations: &[MarkerObservation], names: &[String]) -> Self {
         let mm: Vec<f64> = residuals.iter().map(|r| r.norm() * 1e3).collect();
-        let stats = Stats::of(&mm).unwrap_or(Stats { mean: 0.0, median: 0.0, max: 0.0 });
-        let rms = |values: &mut dyn Iterator<Item = f64>| {
-            let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v * v, n + 1));
-            (sum / n.max(1) as f64).sqrt()
-        };
         let per_marker = names
             .iter()
             .enumerate()
             .map(|(k, name)| {
                 let of_k: Vec<f64> =
                     observations.iter().zip(&mm).filter(|(o, _)| o.marker == k).map(|(_, d)| *d).collect();
-                (name.clone(), of_k.len(), rms(&mut of_k.iter().copied()))
+                (name.clone(), of_k.len(), rms(of_k.iter().copied()))
             })
             .collect();
-        MarkerErrors {
-            observations: mm.len(),
-            rms_mm: rms(&mut mm.iter().copied()),
-            median_mm: stats.median,
-            max_mm: stats.max,
-            per_marker,
-        }
+        MarkerErrors { errors: Stats::of_or_zero(&mm), per_marker }
     }
+}
+
+/// The statistics (degrees) of per-pose residual rotation vectors (angle = norm).
+pub(crate) fn degrees(residuals: &[Vector3<f64>]) -> Stats {
+    let deg: Vec<f64> = residuals.iter().map(|r| r.norm().to_degrees()).collect();
+    Stats::of_or_zero(&deg)
 }
 
 /// Why a parameter set cannot be compared with the camera on a session.

@@ -1,4 +1,5 @@
-//! Calibration settings (`configs/calibrate.yaml`). Angles in degrees; unknown keys are errors.
+//! Calibration settings (`configs/calibrate.yaml`). Angles in degrees (`_deg`), lengths in metres
+//! or millimetres (`_m`, `_mm`), times in seconds (`_s`); unknown keys are errors.
 
 use std::path::Path;
 
@@ -58,7 +59,7 @@ pub enum IfNotBetter {
     Refuse,
 }
 
-/// The loss applied to each pose's residual norm.
+/// The loss applied to each observation's (whitened) residual norm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Loss {
@@ -84,15 +85,17 @@ pub enum Unidentifiable {
 pub struct CalibConfig {
     /// What to fit: marker observations (default) or per-pose orientations.
     pub fit: FitLevel,
-    /// Folds of the cross-validation that measures the error on unseen poses (marker-level fit;
-    /// stations kept together). 0 or 1: none.
+    /// Folds of the cross-validation that measures the error on unseen poses (both fit levels;
+    /// stations, else poses, kept together). 0 or 1: none.
     pub folds: usize,
     /// What to do when the calibrated model does not predict unseen data clearly better.
     pub if_not_better: IfNotBetter,
-    /// The HTML report (`calibrate --report`) passes a calibration whose cross-validated marker
-    /// error is at most this (mm; marker-level fit) and that is clearly better than nominal.
+    /// The verdict (one for the text, JSON and HTML reports) passes a calibration whose
+    /// cross-validated marker error is at most this (mm; marker-level fit) and that is clearly
+    /// better than nominal.
     pub pass_held_out_mm: f64,
-    /// The same for the orientation-level fit's held-out FDA-vs-vision error (degrees).
+    /// The same for the orientation-level fit's FDA-vs-vision error (degrees): cross-validated, or
+    /// on the held-out poses when `folds` < 2.
     pub pass_held_out_deg: f64,
     /// The camera's latency behind the encoders (s), for free-motion recordings: each capture's
     /// joints are interpolated at its time less this. The marker-level fit estimates it from here
@@ -105,22 +108,26 @@ pub struct CalibConfig {
     pub max_joint_speed_deg_s: f64,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
-    /// Loss applied to each pose residual.
+    /// Loss applied to each observation's residual.
     pub loss: Loss,
     /// Huber threshold, in robust standard deviations of the residuals.
     pub huber_threshold: f64,
-    /// Poses whose residual exceeds this many robust standard deviations are flagged as outliers.
+    /// Observations whose residual exceeds this many robust standard deviations are flagged as
+    /// outliers; beyond twice this, excluded as gross errors and the fit repeated without them.
     pub outlier_threshold: f64,
     /// Parameter groups held fixed.
     #[serde(default)]
     pub freeze: Vec<Group>,
-    /// Every `holdout_every`-th pose is held out of the fit for validation (0: none).
+    /// Every `holdout_every`-th pose is held out of the fit for validation (orientation-level fit;
+    /// 0: none).
     pub holdout_every: usize,
     /// Iteration budget of each fit.
     pub max_iterations: u32,
-    /// Initial trust-region radius (the parameters are all angles).
+    /// Initial trust-region radius, as an angle (the marker-level fit's positions and latency
+    /// take the same number of radians as metres or seconds).
     pub initial_radius_deg: f64,
-    /// Converged when a step changes no parameter by more than this.
+    /// Converged when a step changes no parameter by more than this (as an angle; positions and
+    /// the latency compare their metres or seconds with the same number of radians).
     pub step_tolerance_deg: f64,
     /// Physical bounds on the departures from nominal.
     pub bounds: Bounds,
@@ -130,7 +137,7 @@ pub struct CalibConfig {
     pub min_singular_ratio: f64,
 }
 
-/// Physical bounds on the departures from nominal, degrees.
+/// Physical bounds on the departures from nominal: angles in degrees, marker positions in metres.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Bounds {

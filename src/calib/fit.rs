@@ -1,8 +1,8 @@
 //! The fit: a trust-region sequence of convex subproblems solved by clarabel.
 //!
-//! Each iteration linearises the residuals, `r(x + Δ) ≈ r + J Δ`, weights each pose by its robust
-//! (Huber) weight — iteratively reweighted least squares, whose fixed point is the Huber estimate —
-//! and solves the quadratic program
+//! Each iteration linearises the residuals, `r(x + Δ) ≈ r + J Δ`, weights each observation (a
+//! pose's rotation or a marker's position) by its robust (Huber) weight — iteratively reweighted
+//! least squares, whose fixed point is the Huber estimate — and solves the quadratic program
 //!
 //! ```text
 //! minimise ½ Δᵀ (Jᵀ W J + Λ) Δ + (Jᵀ W r + Λ (x − x_prior))ᵀ Δ
@@ -10,9 +10,11 @@
 //!            ‖Δ‖ ≤ ρ                 (trust region, a second-order cone)
 //! ```
 //!
-//! (`Λ` is the weak prior on unidentifiable directions, if any). A step is accepted when the
-//! actual reduction of the weighted cost is at least a quarter of the predicted one; the radius
-//! shrinks fourfold after a poor step and doubles after a good step that reached it.
+//! (`Λ` is the weak prior on unidentifiable directions, if any; `‖Δ‖` takes each parameter in its
+//! own unit: radians for angles, metres for positions, seconds for the latency). A step is
+//! accepted when the actual reduction of the weighted cost is at least a quarter of the predicted
+//! one; the radius shrinks fourfold after a poor step and doubles after a good step that reached
+//! it.
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -33,11 +35,13 @@ const MAXWELL_MEDIAN: f64 = 1.5382;
 pub(crate) struct FitSettings {
     /// Iteration budget.
     pub max_iterations: u32,
-    /// Initial trust-region radius, radians.
+    /// Initial trust-region radius, in the parameters' units (radians for the angles; the same
+    /// number counts as metres or seconds for a position or the latency).
     pub initial_radius: f64,
-    /// Converged when an accepted step moves no parameter by more than this (radians).
+    /// Converged when an accepted step moves no parameter by more than this (radians, or metres
+    /// or seconds alike).
     pub step_tolerance: f64,
-    /// Loss on each pose residual.
+    /// Loss on each observation's residual.
     pub loss: Loss,
     /// Huber threshold in robust standard deviations.
     pub huber_threshold: f64,
@@ -72,9 +76,10 @@ pub struct IterationLog {
     /// RMS residual before the step, in the model's unit: degrees (orientations) or
     /// millimetres (markers).
     pub rms: f64,
-    /// Length of the proposed step (rad).
+    /// Length of the proposed step, in the parameters' own units (radians; marker positions in
+    /// metres, the latency in seconds).
     pub step: f64,
-    /// Trust-region radius (rad).
+    /// Trust-region radius (in the same units as `step`).
     pub radius: f64,
     /// Actual over predicted reduction.
     pub ratio: f64,
@@ -89,7 +94,7 @@ pub struct IterationLog {
 #[serde(rename_all = "snake_case")]
 pub enum Convergence {
     /// The last steps moved no parameter by more than the step tolerance, or the cost stopped
-    /// changing (relative change below [`RELATIVE_COST_TOLERANCE`] over a reweighting cycle, or
+    /// changing (relative change below 1e-10 over a reweighting cycle, or
     /// no predicted decrease the cost can resolve).
     Converged,
     /// No step of useful size reduced the cost (the trust radius collapsed), or the iteration
@@ -209,7 +214,7 @@ impl<N> Weighting<N> {
         }
     }
 
-    /// The whitened residual of pose `j`.
+    /// The whitened residual of observation `j`.
     pub(crate) fn whiten(&self, j: usize, r: &Vector3<f64>) -> Vector3<f64> {
         self.whitening[j] * r
     }
@@ -259,8 +264,8 @@ const PRECISION: f64 = 1e-12;
 const MAX_REWEIGHTINGS: u32 = 30;
 
 /// Fit `x` from `x0` to the observations, by two-step feasible generalised least squares:
-/// stage 1 fits with unwhitened residuals; their class covariances then fix the whitening for
-/// stage 2. In each stage the robust scale is fixed and an outer loop re-estimates the Huber
+/// stage 1 fits with unwhitened residuals; the noise the model estimates from them (per-class
+/// covariances, or the stereo σ's) then fixes the whitening for stage 2. In each stage the robust scale is fixed and an outer loop re-estimates the Huber
 /// weights (IRLS, a monotone majorise–minimise scheme) while an inner trust-region loop minimises
 /// the cost with the weights fixed; a stage ends when a reweighting moves no parameter by more
 /// than the step tolerance.

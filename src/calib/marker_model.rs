@@ -447,7 +447,8 @@ impl MarkerModel<'_> {
             let in_camera = (camera * rp).cross_matrix() * jc;
             let rotation = camera.matrix() * orientations[pose].matrix();
             let mut block = jac.fixed_rows_mut::<3>(3 * j);
-            // The mechanism's columns in one product (∂ω/∂x is zero in the others), then the rest.
+            // The mechanism's (and the latency's) columns in one product (∂ω/∂x is zero in the
+            // others), then the rest.
             if mechanism {
                 block.gemm(1.0, &mech, &sensitivities[pose], 0.0);
             }

@@ -10,7 +10,7 @@
 //! `model` (the trait), `orientation_model` and `marker_model` (its two implementations),
 //! `registration` (starting registrations), `fit` (the trust-region fit), `identify`,
 //! `uncertainty`, `validation`, `agreement` (how far a parameter set and the camera disagree),
-//! `report` and `text` (the report and its text view), `levels` (what each level prepares and
+//! `report` and `report_text` (the report and its text view), `levels` (what each level prepares and
 //! adds to the report) and `pipeline` (the one flow).
 
 mod agreement;
@@ -32,7 +32,7 @@ mod tests;
 mod uncertainty;
 mod validation;
 
-pub use agreement::{ErrorSummary, MarkerErrors, SetError};
+pub use agreement::{MarkerErrors, SetError};
 pub(crate) use agreement::{PoseErrors, marker_pose_errors, pose_errors};
 pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 pub use fit::{Convergence, IterationLog};

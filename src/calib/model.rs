@@ -123,5 +123,5 @@ pub trait Model {
 
 /// RMS of the norms of `residuals` (in their own unit).
 pub(crate) fn rms(residuals: &[Vector3<f64>]) -> f64 {
-    (residuals.iter().map(|r| r.norm_squared()).sum::<f64>() / residuals.len().max(1) as f64).sqrt()
+    crate::math::stats::rms(residuals.iter().map(|r| r.norm()))
 }

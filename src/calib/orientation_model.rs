@@ -1,4 +1,4 @@
-//! Residuals of the fit and their analytic Jacobian.
+//! The orientation-level model: one rotation residual per pose and its analytic Jacobian.
 //!
 //! The camera measures `Q_j`, the rotation of the MP's markers from the reference pose to pose j
 //! (camera frame). The model predicts `R_j = FDA(θ_j)` (P → B). With `A` the orientation of the

@@ -8,10 +8,12 @@
 //! `v0_3` tilt freely (two each). The identifiability analysis confirms that no null direction is
 //! left (tests/calibration.rs).
 //!
-//! All parameters are angles (radians), measured from the initial values so that bounds are
-//! boxes: per leg the axis tilts (tangent coordinates of the rotation vector that carries the
-//! nominal axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and the reference
-//! rotation `A = exp(a) A⁰` (see `residual.rs`).
+//! Every parameter is measured from its initial value, so that bounds are boxes. Angles (radians):
+//! per leg the axis tilts (tangent coordinates of the rotation vector that carries the nominal
+//! axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
+//! level, the reference rotation `A = exp(a) A⁰` (see `orientation_model.rs`). The marker level
+//! has instead of `A` the camera translation `t_CB` and the markers' positions in P (metres), and
+//! for a free-motion recording the camera's latency (seconds).
 
 use nalgebra::{DVector, Rotation3, Vector3};
 
@@ -111,14 +113,15 @@ impl Kind {
     }
 }
 
-/// One parameter: what it is, its name, and its physical bound (|value| ≤ bound, radians).
+/// One parameter: what it is, its name, and its physical bound (|value| ≤ bound, in the
+/// parameter's unit).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Entry {
     /// What the entry is.
     pub kind: Kind,
-    /// Its name in reports, e.g. `u_1.t0`.
+    /// Its name in reports, e.g. `leg3.u_tilt1`.
     pub name: String,
-    /// Its physical bound, radians.
+    /// Its physical bound: radians, metres for a marker position, seconds for the latency.
     pub bound: Option<f64>,
 }
 
@@ -131,7 +134,7 @@ pub struct Parameterisation {
     pub camera0: Rotation3<f64>,
     /// Reference-pose orientation at `x = 0`.
     pub reference0: Rotation3<f64>,
-    /// Rotation directions that tilt `u_i` (0, 1 and 2 of them) and `v0_i`.
+    /// Rotation directions that tilt `u_i` (0, 1 or 2 of them).
     pub actuated_dirs: [Vec<Vector3<f64>>; 3],
     /// Rotation directions that tilt `v0_i` (0, 1 or 2 of them).
     pub platform_dirs: [Vec<Vector3<f64>>; 3],
@@ -360,7 +363,7 @@ impl Parameterisation {
                 }
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
-                // Marker-level entries are set by `TruthInGauge::for_markers`.
+                // `t_CB` and the markers are set by `TruthInGauge::for_markers`; the latency stays 0.
                 Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency => 0.0,
             };
         }
@@ -384,7 +387,7 @@ fn tilt_between(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
 pub struct TruthInGauge {
     /// The true parameters in the fit's coordinates (camera rotation included).
     pub x: DVector<f64>,
-    /// Base-frame change `G` (true B → fit's B) and platform-frame change `H` (true P → fit's P).
+    /// Base-frame change `G` (true B → fit's B).
     pub base: Rotation3<f64>,
     /// Platform-frame change `H` (true P → fit's P).
     pub platform: Rotation3<f64>,

@@ -44,17 +44,19 @@ pub enum CalibError {
     /// The session names a marker the model does not have.
     UnknownMarker(String),
     #[error("only {usable} usable poses; at least {needed} are needed for {parameters} parameters")]
-    /// Too few usable poses for the number of free parameters.
+    /// Too few usable observations (poses at the orientation level, marker observations at the
+    /// marker level) for the number of free parameters.
     TooFewPoses {
-        /// Poses (observations) left after vision and FDA exclusions.
+        /// Observations left after vision and FDA exclusions.
         usable: usize,
-        /// Poses needed (free parameters plus redundancy).
+        /// Observations needed: three residuals each, for the free parameters plus three.
         needed: usize,
         /// Free parameters.
         parameters: usize,
     },
     #[error("the camera registration cannot be started: every pose rotates about one axis")]
-    /// No starting camera registration: the poses do not span two rotation axes.
+    /// No starting camera registration: the poses do not span two rotation axes (orientation
+    /// level), or the marker observations are fewer than three or lie in a line (marker level).
     Registration,
     #[error(
         "the MP barely moves: the largest rotation {}is {max_deg:.3}°, too little to calibrate from{}",
@@ -88,7 +90,7 @@ pub enum CalibError {
     /// The nominal model cannot predict the session's poses.
     Nominal(EvalError),
     #[error("held-out poses: {0}")]
-    /// The calibrated model cannot predict a held-out pose.
+    /// The nominal or the calibrated model cannot predict a held-out pose (orientation level).
     HeldOut(EvalError),
 }
 
@@ -323,8 +325,8 @@ fn run<L: Level>(
         verdict: Verdict { pass: false, summary: String::new() },
         warnings,
         cross_validation,
-        before: report::Errors { fit: super::agreement::ErrorSummary::of(&[]), held_out: None },
-        after: report::Errors { fit: super::agreement::ErrorSummary::of(&[]), held_out: None },
+        before: report::Errors::default(),
+        after: report::Errors::default(),
         iterations: calibrated.log.clone(),
         convergence: calibrated.status,
         parameters: Vec::new(),

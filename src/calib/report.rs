@@ -3,22 +3,23 @@
 
 use serde::Serialize;
 
-use super::agreement::{ErrorSummary, MarkerErrors};
+use super::agreement::MarkerErrors;
 use super::config::{CalibConfig, FitLevel, Loss};
 use super::fit::{Convergence, IterationLog};
 use super::identify::Identifiability;
 use super::marker_model::StereoNoise;
 use super::uncertainty::{Correlation, ParameterReport};
 use super::validation::CrossValidation;
-use crate::vision::{Method, Stats};
+use crate::math::stats::Stats;
+use crate::vision::Method;
 
 /// FDA-vs-vision errors of one parameter set, on the fitted and on the held-out poses.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Errors {
-    /// On the fitted poses.
-    pub fit: ErrorSummary,
-    /// On the held-out poses, when some were held out.
-    pub held_out: Option<ErrorSummary>,
+    /// On the fitted poses, degrees.
+    pub fit: Stats,
+    /// On the held-out poses, when some were held out, degrees.
+    pub held_out: Option<Stats>,
 }
 
 /// An observation (a pose's orientation, or a marker at a capture) that the robust fit flagged.
@@ -77,11 +78,11 @@ impl Verdict {
         }
         match (before.held_out, after.held_out) {
             (Some(b), Some(a)) => Verdict {
-                pass: a.rms_deg < b.rms_deg && a.rms_deg <= config.pass_held_out_deg,
+                pass: a.rms < b.rms && a.rms <= config.pass_held_out_deg,
                 summary: format!(
                     "on held-out poses the calibrated model's FDA agrees with vision to {:.4}° RMS against the \
                      nominal model's {:.4}° (threshold {:.3}°)",
-                    a.rms_deg, b.rms_deg, config.pass_held_out_deg
+                    a.rms, b.rms, config.pass_held_out_deg
                 ),
             },
             _ => Verdict {
@@ -193,7 +194,7 @@ pub struct CalibrationReport {
     pub iterations: Vec<IterationLog>,
     /// How the fit ended: converged, or stalled at a minimum.
     pub convergence: Convergence,
-    /// Every parameter with its change and standard error.
+    /// Every angle parameter with its change and standard error (degrees).
     pub parameters: Vec<ParameterReport>,
     /// Singular values and weakest directions of the scaled Jacobian.
     pub identifiability: Identifiability,
@@ -204,7 +205,9 @@ pub struct CalibrationReport {
     pub not_significant: Vec<String>,
     /// Parameter pairs with |ρ| above 0.9.
     pub high_correlations: Vec<Correlation>,
-    /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance.
+    /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance: of
+    /// each pose's orientation as the camera sees it (`R_CB R_j Aᵀ`, orientation level) or of its
+    /// FDA in B (marker level).
     pub orientation_uncertainty_deg: Option<Stats>,
     /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
     /// `(markers, poses, [σx, σy, σz])` (orientation-level fit).
@@ -267,10 +270,10 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         fit_poses: report.fit_poses,
         held_out_poses: report.held_out_poses,
         iterations: report.iterations.len(),
-        rms_before_deg: report.before.fit.rms_deg,
-        rms_after_deg: report.after.fit.rms_deg,
-        held_out_rms_before_deg: report.before.held_out.map(|e| e.rms_deg),
-        held_out_rms_after_deg: report.after.held_out.map(|e| e.rms_deg),
+        rms_before_deg: report.before.fit.rms,
+        rms_after_deg: report.after.fit.rms,
+        held_out_rms_before_deg: report.before.held_out.map(|e| e.rms),
+        held_out_rms_after_deg: report.after.held_out.map(|e| e.rms),
         identifiable_directions: report.identifiability.rank,
         free_parameters: report.identifiability.parameters,
         condition_number: report.identifiability.condition,
@@ -280,8 +283,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
             .filter_map(|p| p.std_error_deg.map(|s| (p.name.as_str(), s)))
             .collect(),
         camera_translation_std_error_m: report.camera_translation_std_error_m,
-        markers_rms_before_mm: markers.map(|m| m.before.rms_mm),
-        markers_rms_after_mm: markers.map(|m| m.after.rms_mm),
+        markers_rms_before_mm: markers.map(|m| m.before.errors.rms),
+        markers_rms_after_mm: markers.map(|m| m.after.errors.rms),
         cross_validated_rms_mm: cv("mm"),
         cross_validated_rms_deg: cv("deg"),
         verdict: report.verdict.label(),

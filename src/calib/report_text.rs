@@ -2,16 +2,16 @@
 
 use std::fmt;
 
-use super::agreement::ErrorSummary;
 use super::config::FitLevel;
 use super::fit::Convergence;
 use super::report::{CalibrationReport, MarkerFitReport};
+use crate::math::stats::Stats;
 
 /// How many excluded or flagged items a text report lists before "… and N more".
 const LISTED: usize = 10;
 
-fn error_line(f: &mut fmt::Formatter<'_>, label: &str, e: &ErrorSummary) -> fmt::Result {
-    writeln!(f, "  {label:<26} {:8.4} {:8.4} {:8.4}", e.rms_deg, e.median_deg, e.max_deg)
+fn error_line(f: &mut fmt::Formatter<'_>, label: &str, e: &Stats) -> fmt::Result {
+    writeln!(f, "  {label:<26} {:8.4} {:8.4} {:8.4}", e.rms, e.median, e.max)
 }
 
 impl fmt::Display for CalibrationReport {
@@ -145,7 +145,7 @@ fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
     writeln!(f, "marker-level fit: {} observations at {} poses", m.observations, m.poses)?;
     writeln!(f, "FDA vs camera, markers (mm)  RMS      median   max")?;
     for (label, e) in [("nominal", &m.before), ("calibrated", &m.after)] {
-        writeln!(f, "  {:<26} {:8.4} {:8.4} {:8.4}", label, e.rms_mm, e.median_mm, e.max_mm)?;
+        writeln!(f, "  {:<26} {:8.4} {:8.4} {:8.4}", label, e.errors.rms, e.errors.median, e.errors.max)?;
     }
     let per_marker: Vec<String> = m
         .before
@@ -159,7 +159,7 @@ fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
 
 /// The per-pose orientation errors beside a marker-level fit, when the estimator had poses.
 fn per_pose_lines(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
-    if r.before.fit.poses == 0 {
+    if r.before.fit.count == 0 {
         return writeln!(f, "FDA vs vision per pose: no pose (station) sees three markers");
     }
     writeln!(f, "FDA vs vision per pose (deg)  RMS      median   max")?;

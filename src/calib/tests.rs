@@ -34,7 +34,7 @@ fn the_orientation_level_fit_reaches_the_noise_floor_on_held_out_poses() {
     let registered = fit(&model_true, &DVector::zeros(p.len()), &settings, &mut |_| {}).unwrap();
     let held = OrientationModel::new(&p, held_out).evaluate(&registered.x, None, false).unwrap();
     let floor = super::model::rms(&held.residuals).to_degrees();
-    let achieved = calibration.report.after.held_out.unwrap().rms_deg;
+    let achieved = calibration.report.after.held_out.unwrap().rms;
     eprintln!("held-out FDA vs vision: calibrated {achieved:.4}°, true parameters {floor:.4}°");
     assert!(achieved <= 1.10 * floor, "calibrated {achieved:.4}° vs floor {floor:.4}°");
     assert_eq!(calibration.report.held_out_poses, 100);

@@ -9,16 +9,17 @@ use super::config::CalibConfig;
 use super::fit::{FitOutcome, weighted_normal};
 use super::identify::{Identifiability, analyse_gram};
 use super::params::Parameterisation;
-use crate::vision::Stats;
+use crate::math::stats::Stats;
 
-/// One parameter of the report (angles in degrees; `change` is the departure from nominal).
+/// One angle parameter of the report, in degrees (`change` is the departure from nominal; the
+/// marker level reports `t_CB`, the markers' positions and the latency apart).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ParameterReport {
-    /// Parameter name, e.g. `alpha1_2`.
+    /// Parameter name, e.g. `leg2.alpha1`.
     pub name: String,
     /// Departure from nominal, degrees.
     pub change_deg: f64,
-    /// Standard error, degrees (`None` when frozen or regularised).
+    /// Standard error, degrees (`None` when frozen; a regularised parameter keeps its own).
     pub std_error_deg: Option<f64>,
     /// Held at its initial value.
     pub frozen: bool,
@@ -95,7 +96,8 @@ pub(crate) fn std_error(cov: &DMatrix<f64>, free: &[bool], i: usize) -> Option<f
     free[i].then(|| cov[(i, i)].max(0.0).sqrt())
 }
 
-/// Every parameter with its change and standard error.
+/// Every parameter with its change and standard error, converted as angles to degrees (the marker
+/// level keeps only the angles).
 pub(crate) fn parameter_reports(
     p: &Parameterisation,
     x: &DVector<f64>,

@@ -6,7 +6,8 @@
 //! `H_f`, `g_f` the normal equations of the other folds at `x` (weights and noise model of the full
 //! fit): the full solution is a minimum of the sum over all folds, so leaving one out moves it by
 //! a small step that one Newton step on a nearly linear least-squares problem takes to second
-//! order (tests/markers.rs checks it against refitting). Each fold costs a 33 × 33 solve and an
+//! order (tests/markers.rs checks it against refitting). Each fold costs a solve of the free
+//! parameters' normal equations (33 × 33 at the marker level with four markers) and an
 //! evaluation, not a fit.
 
 use nalgebra::{DMatrix, DVector, Rotation3};

@@ -1,14 +1,17 @@
-//! A session folder: `session.yaml`, `joints.csv`, `markers.csv`, and for simulated sessions
+//! A session folder: `session.yaml`, `joints.csv`, `markers.csv` (a free-motion recording has
+//! `encoders.csv` and `captures.csv` instead of the two CSV files), and for simulated sessions
 //! `truth.yaml` (the true parameters) and `truth_orientations.csv` (the true MP orientations).
 //!
 //! What is an error (loading stops, naming file, line and column): malformed YAML or CSV, an
 //! unknown key in `session.yaml`, fewer than 3 or repeated marker names, no model, non-numbers
 //! and NaN/inf, a repeated pose or (pose, marker) pair, an unknown marker name, marker rows for a
-//! pose that `joints.csv` does not have, an empty session, a missing reference pose, or a
-//! reference pose with fewer than 3 markers seen.
+//! pose that `joints.csv` does not have, an empty session, or a reference pose that is not in
+//! `joints.csv`.
 //!
-//! What is a warning (the pose is kept for kinematics and skipped by the vision estimator): a pose
-//! with joint readings but fewer than 3 markers seen (none at all included).
+//! A pose with fewer than 3 markers seen (none at all included) is data like any other: the
+//! marker-level fit uses each observation, and only the per-pose vision estimator skips it (and
+//! says so). The warnings a load returns are a free-motion recording's: camera frames that fall
+//! outside the encoder stream, left out.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
@@ -84,7 +87,8 @@ pub struct Session {
     pub streams: Option<Streams>,
 }
 
-/// A pose kept in the session but skipped by the vision estimator, and why.
+/// A pose left out of the session, and why (a free-motion recording's camera frame that falls
+/// outside the encoder stream).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Warning {
     /// The file the pose came from.

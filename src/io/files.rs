@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 /// An error in an input file, located as precisely as the format allows.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub struct FileError {
     /// The file.
     pub path: PathBuf,

@@ -6,3 +6,4 @@ pub mod constellation;
 pub(crate) mod linalg;
 pub mod polar;
 pub mod so3;
+pub mod stats;

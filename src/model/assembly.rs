@@ -177,7 +177,7 @@ impl Spm {
                 self.add_polished(&w, joints, &guess, &mut modes);
             }
         }
-        // Distance from home grows as the trace falls: sort on the trace, computed once per mode.
+        // Distance from home grows as the trace falls: sort on the trace, largest first.
         modes.sort_by(|a, b| b.rotation.matrix().trace().total_cmp(&a.rotation.matrix().trace()));
         modes
     }

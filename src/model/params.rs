@@ -1,5 +1,7 @@
 //! The parameters file (`params.yaml`): per-leg geometry, optional camera registration,
-//! and a header saying where it came from. Angles are degrees (`_deg`), lengths metres (`_m`).
+//! and a header saying where it came from; a fit adds the markers' positions and a free-motion
+//! recording the camera's latency. Angles are degrees (`_deg`), lengths metres (`_m`), times
+//! seconds (`_s`).
 //!
 //! ```yaml
 //! format: spmcal-parameters/1
@@ -202,7 +204,7 @@ impl Parameters {
             delta: l.delta_deg.to_radians(),
         });
         Spm::new(legs).map_err(|e| {
-            // Locate the leg the error is about (leg numbers are 1-based, the file's list 0-based).
+            // Locate the leg the error is about (its 0-based index is the file's `legs[k]`).
             let key = match &e {
                 super::SpmError::Geometry(g) => format!("legs[{}]", g.leg()),
                 _ => "legs".to_string(),

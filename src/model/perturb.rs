@@ -21,7 +21,7 @@ pub struct GeometrySpread {
 /// Tilt the unit vector `a` by a random tangent vector with components of deviation `sigma`.
 ///
 /// # Panics
-/// If `sigma` is NaN.
+/// If `sigma` is infinite (a NaN or negative `sigma` counts as 0: no tilt).
 pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vector3<f64> {
     let normal = Normal::new(0.0, sigma.max(0.0)).expect("finite, non-negative deviation");
     let e1 = a.cross(&if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
@@ -34,7 +34,7 @@ pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vecto
 /// re-orthogonalised against the moved `u`, as the conventions require.
 ///
 /// # Panics
-/// If a spread is NaN.
+/// If a spread is infinite (a NaN or negative one counts as 0).
 pub fn perturb<R: Rng + ?Sized>(nominal: &[LegGeometry; 3], spread: &GeometrySpread, rng: &mut R) -> [LegGeometry; 3] {
     let angle = Normal::new(0.0, spread.link_angle.max(0.0)).expect("finite deviation");
     let offset = Normal::new(0.0, spread.joint_offset.max(0.0)).expect("finite deviation");

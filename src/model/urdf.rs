@@ -109,7 +109,8 @@ pub struct RobotModel {
 #[non_exhaustive]
 pub enum ModelError {
     #[error("{path}: {reason}")]
-    /// The URDF cannot be read or parsed.
+    /// A file of the model (the URDF or its companion) cannot be read or parsed, or the URDF's
+    /// tree as a whole is invalid (no links, not exactly one root).
     Unreadable {
         /// The file.
         path: PathBuf,

@@ -7,7 +7,8 @@
 //! A- and I-criteria, Yu 2010), and checked by the general equivalence theorem: `w` is optimal
 //! iff no candidate's directional derivative `d_c` exceeds `Σ w d` (= `φ` without `M₀`). On small
 //! candidate sets the same optimum comes from the second-order cone program of Sagnol (2011),
-//! solved by clarabel ([`cone_program`]), which checks the algorithm.
+//! solved by clarabel ([`cone_program`]): `plan` uses it on small fresh candidate sets, and the
+//! tests check each method against the other.
 //!
 //! The exact design takes N distinct candidates: the N heaviest of the continuous design, then
 //! exchanges (Fedorov) of a chosen pose for a better candidate while `φ` decreases.

@@ -6,8 +6,9 @@
 //! the camera sees ([`crate::sim::candidates`]). Each candidate's Fisher information for the
 //! marker-level fit and the workspace weighting are in [`information`]; the I-optimal design —
 //! the poses that minimise the mean predicted orientation variance over the workspace after
-//! calibration — continuous by [`multiplicative`] (or [`cone_program`]), rounded by [`exact`];
-//! the capture order by [`tour`].
+//! calibration — continuous by the cone program for small fresh candidate sets, else by the
+//! multiplicative algorithm (`design`), rounded and improved by exchanges (`design::exact`); the
+//! capture order by `route::tour`.
 
 mod design;
 mod file;

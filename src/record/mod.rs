@@ -5,8 +5,9 @@
 //!
 //! Entities: `world/base` (frame and actuated axes), `world/camera`, `world/legs/leg{i}/{proximal,
 //! distal}` (arcs on their spheres), `world/mp/<frame>` (one MP frame per source: `fda_nominal`,
-//! `fda_calibrated`, `vision`, `truth`), `world/markers/{measured,predicted}`, scalars under
-//! `errors/` and `fit/`, and documents under `parameters/`.
+//! `fda_calibrated`, `vision`, `truth`, `planned`, …), `world/markers/{measured,predicted,model}`
+//! (`model`: the model's positions beside fitted ones), scalars under `errors/` and `fit/`, and
+//! documents under `parameters/`.
 
 mod draw;
 mod scenes;
@@ -141,11 +142,12 @@ pub fn write_recording_to(tmp: &Path, destination: &Path, scene: &Scene) -> Resu
     Ok(RecordingSummary { path: path.to_path_buf(), poses: scene.session.poses.len(), bytes })
 }
 
-/// The default layout: the 3-D scene beside the plots — FDA-vs-vision angles (degrees), `e_j`
-/// (dimensionless, so on its own axes) — and tabs of documents: the fit's iterations and the
-/// parameter sets (a text view shows one document). Only panels with data are laid out, so the
-/// viewer opens with none empty; the fit's plots live on the `iteration` timeline (the time
-/// panel shows `pose`), so the layout shows the fit as a table, which needs no timeline. The 3-D
+/// The default layout: the 3-D scene beside the plots — FDA-vs-vision angles (degrees), marker
+/// errors (mm), `e_j` (dimensionless, so on its own axes), a plan's predicted errors — and tabs of
+/// documents: the fit's iterations and the parameter sets (a text view shows one document). Only
+/// panels with data are laid out, so the viewer opens with none empty; the fit's plots live on
+/// the `iteration` timeline (the time panel shows `pose`, or `time` for a free-motion recording),
+/// so the layout shows the fit as a table, which needs no timeline. The 3-D
 /// view leaves out the camera (0.8 m away, it would shrink the wrist to a few pixels).
 fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::RecordingStreamResult<()> {
     let has = |prefix: &str| scene.series.iter().any(|s| s.name == prefix || s.name.starts_with(&format!("{prefix}/")));

@@ -1,5 +1,5 @@
-//! The scene of each command: what `replay`, `simulate`, `estimate`, `calibrate` and `compare`
-//! put in their recordings.
+//! The scene of each command: what `replay`, `simulate`, `estimate`, `calibrate`, `compare` and
+//! `plan` put in their recordings.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -129,7 +129,7 @@ pub(crate) fn parameters_markdown(title: &str, p: &Parameters) -> String {
 /// the camera, the MP frames from FDA and vision, and `e_j`.
 ///
 /// # Errors
-/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
+/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA; with no pose that sees three markers, when the markers cannot be compared with the model.
 pub fn replay_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,
@@ -176,7 +176,7 @@ fn fitted_markers(session: &Session, params: &Parameters) -> Option<Vec<nalgebra
 /// ones the command computed (with the method it was asked for).
 ///
 /// # Errors
-/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
+/// A [`SceneError`] when no registration can be estimated or the reference pose has no FDA.
 pub fn estimate_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,
@@ -221,7 +221,7 @@ fn vision_scene<'a>(
 /// `spmcal simulate --rrd`: the true mechanism and camera, the true MP frames, the measured markers.
 ///
 /// # Errors
-/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
+/// A [`SceneError`] when the true parameters make no valid manipulator.
 pub fn simulation_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
     let truth = session.truth.as_ref();
     let spm = match truth {
@@ -337,7 +337,7 @@ fn marker_residuals(session: &Session, calibration: &Calibration, residuals: &[n
 /// the fit's iterations, and the parameters before and after.
 ///
 /// # Errors
-/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
+/// A [`SceneError`] when the calibrated parameters make no valid manipulator.
 pub fn calibration_scene<'a>(
     session: &'a Session,
     model: &'a RobotModel,

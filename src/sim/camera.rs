@@ -36,7 +36,8 @@ pub struct Measurement {
 /// rarely, an outlier.
 ///
 /// # Panics
-/// If a noise deviation is negative or NaN (configs are checked when read).
+/// If a noise deviation is not finite or the outlier probability lies outside [0, 1] (configs
+/// are checked when read).
 pub fn measure<R: Rng + ?Sized>(
     point_b: &Vector3<f64>,
     registration: &CameraRegistration,

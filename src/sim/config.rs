@@ -1,5 +1,5 @@
 //! Simulation settings (`configs/simulate_*.yaml`). Angles in degrees (`_deg`), lengths in
-//! metres (`_m`); unknown keys are errors.
+//! metres (`_m`), times in seconds (`_s`), rates in hertz (`_hz`); unknown keys are errors.
 
 use std::path::{Path, PathBuf};
 

@@ -114,13 +114,15 @@ struct Simulator<'a> {
 }
 
 /// Simulate a session with `config` on `model`, with the counts of what was rejected, occluded
-/// and perturbed; `progress` is told the number of poses made so far. Deterministic for a seed.
+/// and drawn as an outlier; `progress` is told the number of poses made so far. Deterministic for
+/// a seed.
 ///
 /// # Errors
 /// A [`SimError`] when the drawn geometry is invalid or too few candidate poses pass the checks (naming the config key to loosen).
 ///
 /// # Panics
-/// If `config` holds a negative or NaN deviation (configs are checked when read).
+/// If `config` holds a deviation that is not finite or an outlier probability outside [0, 1]
+/// (configs are checked when read).
 pub fn simulate(
     config: &SimConfig,
     model: &RobotModel,

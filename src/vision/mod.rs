@@ -8,5 +8,5 @@ mod summary;
 
 pub use centre::CentreOfRotation;
 pub use pose::{MarkerError, Method, PoseEstimate, Reference, orthogonality_error};
-pub use session::{SessionEstimate, Stats, VisionError, estimate_session};
+pub use session::{SessionEstimate, VisionError, estimate_session};
 pub use summary::EstimateSummary;

@@ -25,7 +25,8 @@ pub enum Method {
     /// Least-squares putative rotation, then its polar decomposition (the paper).
     #[default]
     Paper,
-    /// The rotation minimising the squared marker residuals (orthogonal Procrustes, via the SVD).
+    /// The rotation minimising the squared marker residuals (orthogonal Procrustes: the nearest
+    /// rotation, by Higham's polar iteration with an SVD fallback).
     Kabsch,
 }
 
@@ -89,7 +90,8 @@ pub struct PoseEstimate {
     pub reference_centroid: Vector3<f64>,
     /// Markers used (seen in both poses).
     pub markers_used: usize,
-    /// False for planar marker sets (three markers): no redundancy filters the noise.
+    /// False for planar marker sets (three markers, or more in a plane): no redundancy filters
+    /// the noise.
     pub redundant: bool,
     /// Iterations of Higham's polar decomposition.
     pub polar_iterations: u32,
@@ -224,7 +226,8 @@ impl Reference {
     }
 
     /// The rotation minimising `Σ |p_i − c − Q (p0_i − c0)|²`: the nearest rotation to
-    /// `Σ (p_i − c)(p0_i − c0)ᵀ` (Kabsch; the SVD's sign correction keeps it proper). Planar sets
+    /// `Σ (p_i − c)(p0_i − c0)ᵀ` (Kabsch, by [`so3::nearest_rotation`]: the polar factor, or the
+    /// SVD whose sign correction keeps it proper when the determinant is not positive). Planar sets
     /// include the virtual normal pair, without which the sum has rank 2.
     fn kabsch(&self, points: &[Vector3<f64>], centroid: &Vector3<f64>) -> Result<Rotation3<f64>, MarkerError> {
         let mut h: Matrix3<f64> = points.iter().zip(&self.columns).map(|(p, p0)| (p - centroid) * p0.transpose()).sum();

@@ -4,7 +4,6 @@
 use std::collections::HashMap;
 
 use nalgebra::Vector3;
-use serde::Serialize;
 
 use super::centre::{CentreOfRotation, centre_of_rotation};
 use super::pose::{MarkerError, Method, PoseEstimate, Reference};
@@ -14,36 +13,12 @@ use crate::math::so3;
 /// A pose the estimator could not use, and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("pose {pose}: {reason}")]
+#[non_exhaustive]
 pub struct VisionError {
     /// Pose id.
     pub pose: u64,
     /// Why it was skipped.
     pub reason: MarkerError,
-}
-
-/// Statistics of a column of numbers.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Stats {
-    /// Mean.
-    pub mean: f64,
-    /// Median.
-    pub median: f64,
-    /// Largest value.
-    pub max: f64,
-}
-
-impl Stats {
-    /// `None` for an empty column.
-    pub fn of(values: &[f64]) -> Option<Stats> {
-        if values.is_empty() {
-            return None;
-        }
-        let mut sorted = values.to_vec();
-        sorted.sort_by(f64::total_cmp);
-        let mid = sorted.len() / 2;
-        let median = if sorted.len().is_multiple_of(2) { (sorted[mid - 1] + sorted[mid]) / 2.0 } else { sorted[mid] };
-        Some(Stats { mean: values.iter().sum::<f64>() / values.len() as f64, median, max: sorted[sorted.len() - 1] })
-    }
 }
 
 /// The estimates of a session.

@@ -6,7 +6,8 @@ use serde::Serialize;
 
 use super::centre::CentreOfRotation;
 use super::pose::Method;
-use super::session::{SessionEstimate, Stats};
+use super::session::SessionEstimate;
+use crate::math::stats::Stats;
 
 /// How many skipped poses the text lists before "… and N more".
 const LISTED: usize = 10;
@@ -20,7 +21,8 @@ pub struct EstimateSummary {
     pub reference_pose: u64,
     /// Poses estimated (the reference included).
     pub poses_estimated: usize,
-    /// Poses estimated from three markers (no redundancy to filter the noise).
+    /// Poses estimated from a planar marker set (three markers, or more in a plane: no redundancy
+    /// to filter the noise).
     pub poses_without_redundancy: usize,
     /// Poses skipped, with the reason.
     pub skipped: Vec<String>,

@@ -6,7 +6,7 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::calib::agreement::{
-    ErrorSummary, MarkerErrors, SetError, largest_rotation, model_markers, pose_errors, pose_orientations,
+    MarkerErrors, SetError, largest_rotation, model_markers, pose_errors, pose_orientations,
 };
 use crate::calib::config::{CalibConfig, Group};
 use crate::calib::marker_model::{MarkerModel, MarkerObservation, marker_observations};
@@ -17,6 +17,7 @@ use crate::calib::registration;
 use crate::calib::report::{Errors, FastCapture, Latency, MarkerFitReport, MarkerReport};
 use crate::calib::uncertainty::{orientation_uncertainty, parameter_reports, std_error};
 use crate::dataset::{Session, Streams};
+use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
 use crate::vision::{Method, estimate_session};
 
@@ -162,7 +163,7 @@ impl Level for MarkerLevel<'_> {
         let per_pose = |params: &Parameters| {
             let fit = vision.as_ref().and_then(|v| pose_errors(r.session, v, params).ok());
             let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();
-            Errors { fit: ErrorSummary::of_degrees(&degrees), held_out: None }
+            Errors { fit: Stats::of_or_zero(&degrees), held_out: None }
         };
         let mut report = r.report;
         report.vision_method = Method::Kabsch;

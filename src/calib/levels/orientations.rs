@@ -4,7 +4,7 @@
 
 use nalgebra::{DVector, Rotation3, Vector3};
 
-use crate::calib::agreement::ErrorSummary;
+use crate::calib::agreement::degrees;
 use crate::calib::config::{CalibConfig, Group};
 use crate::calib::model::Model;
 use crate::calib::orientation_model::{Observation, OrientationModel, observations};
@@ -14,6 +14,7 @@ use crate::calib::registration;
 use crate::calib::report::Errors;
 use crate::calib::uncertainty::{parameter_reports, residual_uncertainty};
 use crate::dataset::Session;
+use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::{SessionEstimate, estimate_session};
 
@@ -96,18 +97,17 @@ impl Level for OrientationLevel {
 
     fn finish(&self, r: Results<'_, OrientationModel<'_>>) -> Result<Calibration, CalibError> {
         let (p, x, cov) = (&self.p, &r.calibrated.x, &r.covariance);
-        let held = |x: &DVector<f64>| -> Result<Option<ErrorSummary>, CalibError> {
+        let held = |x: &DVector<f64>| -> Result<Option<Stats>, CalibError> {
             if self.held_out.is_empty() {
                 return Ok(None);
             }
             let eval =
                 OrientationModel::new(p, &self.held_out).evaluate(x, None, false).map_err(CalibError::HeldOut)?;
-            Ok(Some(ErrorSummary::of(&eval.residuals)))
+            Ok(Some(degrees(&eval.residuals)))
         };
         let mut report = r.report;
-        report.before =
-            Errors { fit: ErrorSummary::of(&r.nominal.evaluation.residuals), held_out: held(&r.nominal.x)? };
-        report.after = Errors { fit: ErrorSummary::of(&r.calibrated.evaluation.residuals), held_out: held(x)? };
+        report.before = Errors { fit: degrees(&r.nominal.evaluation.residuals), held_out: held(&r.nominal.x)? };
+        report.after = Errors { fit: degrees(&r.calibrated.evaluation.residuals), held_out: held(x)? };
         report.held_out_poses = self.held_out.len();
         // Orientations fix R_CB; t_CB comes from the centre of rotation. When the poses leave the
         // centre undetermined (all about one axis) no registration is written rather than a
