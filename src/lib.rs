@@ -35,6 +35,55 @@
 //! assert!((qw * qw + qx * qx + qy * qy + qz * qz - 1.0).abs() < 1e-12);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! The common path with the default feature `full` — load a model and a session, calibrate,
+//! compare nominal and calibrated parameters with the camera, use the result — is in the
+//! [`prelude`]:
+//!
+//! ```
+//! # #[cfg(feature = "full")]
+//! # {
+//! use spmcal::prelude::*;
+//!
+//! let (session, _warnings) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None)?;
+//! let model = RobotModel::load(&session.model)?;
+//! // FDA and IK of the nominal model: joints → MP orientation → joints.
+//! let joints = nalgebra::Vector3::new(0.2, -0.1, 0.05);
+//! let r = model.spm.forward(&joints)?;
+//! assert!((model.spm.ik(&r)? - joints).amax() < 1e-9);
+//! // Calibrate (the marker-level fit by default) and read the one verdict.
+//! let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {})?;
+//! assert!(calibration.report.verdict.pass, "{}", calibration.report.verdict);
+//! // The camera against each parameter set, per pose: the calibrated one agrees far better.
+//! let sets = [
+//!     ("nominal".to_string(), Parameters::nominal(&model.spm, None)),
+//!     ("calibrated".to_string(), calibration.parameters.clone()),
+//! ];
+//! let compared = compare(&session, &model, &sets, Method::Kabsch, None)?;
+//! assert!(compared[1].errors.rms < compared[0].errors.rms / 2.0);
+//! // The calibrated model, ready for a controller.
+//! let spm = calibration.parameters.spm()?;
+//! let _ = spm.forward(&joints)?;
+//! # }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+/// The common path in one import: models and parameters, FDA/IK, sessions, calibration and
+/// comparison.
+pub mod prelude {
+    pub use std::path::Path;
+
+    pub use crate::math::so3;
+    pub use crate::model::{Parameters, Spm};
+    #[cfg(feature = "full")]
+    pub use crate::{
+        calib::{CalibConfig, Calibration, FitLevel, calibrate},
+        compare::compare,
+        dataset::Session,
+        model::RobotModel,
+        vision::Method,
+    };
+}
 
 // The lean core (always): the model, the parameters file and their plumbing.
 pub mod io;

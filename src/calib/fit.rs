@@ -265,10 +265,10 @@ const MAX_REWEIGHTINGS: u32 = 30;
 
 /// Fit `x` from `x0` to the observations, by two-step feasible generalised least squares:
 /// stage 1 fits with unwhitened residuals; the noise the model estimates from them (per-class
-/// covariances, or the stereo σ's) then fixes the whitening for stage 2. In each stage the robust scale is fixed and an outer loop re-estimates the Huber
-/// weights (IRLS, a monotone majorise–minimise scheme) while an inner trust-region loop minimises
-/// the cost with the weights fixed; a stage ends when a reweighting moves no parameter by more
-/// than the step tolerance.
+/// covariances, or the stereo σ's) then fixes the whitening for stage 2. In each stage the robust
+/// scale is fixed and an outer loop re-estimates the Huber weights (IRLS, a monotone
+/// majorise–minimise scheme) while an inner trust-region loop minimises the cost with the weights
+/// fixed; a stage ends when a reweighting moves no parameter by more than the step tolerance.
 ///
 /// # Errors
 /// A [`FitError`] when the start cannot be evaluated, clarabel fails, the budget runs out while the cost still falls, the reweighting does not settle or the fit diverges.

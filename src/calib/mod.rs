@@ -10,8 +10,8 @@
 //! `model` (the trait), `orientation_model` and `marker_model` (its two implementations),
 //! `registration` (starting registrations), `fit` (the trust-region fit), `identify`,
 //! `uncertainty`, `validation`, `agreement` (how far a parameter set and the camera disagree),
-//! `report` and `report_text` (the report and its text view), `levels` (what each level prepares and
-//! adds to the report) and `pipeline` (the one flow).
+//! `report` and `report_text` (the report and its text view), `levels` (what each level prepares
+//! and adds to the report) and `pipeline` (the one flow).
 
 mod agreement;
 mod config;

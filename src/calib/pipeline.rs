@@ -159,6 +159,9 @@ pub struct Calibration {
 /// camera noise levels (~0.05° per pose at the Agile Wrist's scale).
 pub(crate) const MIN_MOTION_DEG: f64 = 0.5;
 
+/// Where an observation came from, as the report names it: `(pose, marker, line)`.
+pub(crate) type Origin = (u64, Option<String>, usize);
+
 /// The data of one fit level: what the pipeline asks of it beyond its model.
 pub(crate) trait Level {
     /// The level's residual model.
@@ -179,7 +182,7 @@ pub(crate) trait Level {
     fn motion_deg(&self) -> f64;
 
     /// Observation `j` of `model` as the report names it: `(pose, marker, line)`.
-    fn origin(&self, model: &Self::Model<'_>, j: usize) -> (u64, Option<String>, usize);
+    fn origin(&self, model: &Self::Model<'_>, j: usize) -> Origin;
 
     /// The parameters file and the report, from the fit's results.
     ///
@@ -375,7 +378,7 @@ fn flag<M: Model>(
     model: &M,
     outcome: &FitOutcome<M::Noise>,
     threshold: f64,
-    origin: &dyn Fn(&M, usize) -> (u64, Option<String>, usize),
+    origin: &dyn Fn(&M, usize) -> Origin,
 ) -> Vec<(usize, FlaggedObservation)> {
     let w = &outcome.weighting;
     let mut out: Vec<(usize, FlaggedObservation)> = outcome

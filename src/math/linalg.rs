@@ -32,6 +32,7 @@ where
 
 /// The eigen-decomposition of the symmetric `m` with bounded work: `None` for non-finite input
 /// or no convergence.
+#[cfg(feature = "full")]
 pub(crate) fn bounded_symmetric_eigen<D>(m: &nalgebra::OMatrix<f64, D, D>) -> Option<nalgebra::SymmetricEigen<f64, D>>
 where
     D: nalgebra::DimSub<nalgebra::U1>,

@@ -9,6 +9,7 @@
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 
 /// Skew-symmetric matrix `[a]×` with `[a]× b = a × b`.
+#[cfg(feature = "full")]
 pub(crate) fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
     a.cross_matrix()
 }
@@ -33,6 +34,7 @@ pub fn log(r: &Rotation3<f64>) -> Vector3<f64> {
 }
 
 /// Left Jacobian of SO(3): `exp(φ + dφ) = exp(J_l(φ) dφ) exp(φ)` to first order.
+#[cfg(feature = "full")]
 pub(crate) fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = skew(phi);
@@ -46,6 +48,7 @@ pub(crate) fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Inverse of the left Jacobian: `log(exp(ε) exp(φ)) = φ + J_l⁻¹(φ) ε` to first order.
+#[cfg(feature = "full")]
 pub(crate) fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = skew(phi);
@@ -152,6 +155,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "full")]
     fn left_jacobians_match_finite_differences_and_invert() {
         for phi in [Vector3::new(0.3, -0.2, 0.5), Vector3::new(1e-6, 2e-6, -1e-6), Vector3::new(2.0, 0.5, -1.0)] {
             let jl = left_jacobian(&phi);

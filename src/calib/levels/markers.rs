@@ -12,7 +12,7 @@ use crate::calib::config::{CalibConfig, Group};
 use crate::calib::marker_model::{MarkerModel, MarkerObservation, marker_observations};
 use crate::calib::model::Model;
 use crate::calib::params::{Kind, Parameterisation};
-use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Results, Solution};
+use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Origin, Results, Solution};
 use crate::calib::registration;
 use crate::calib::report::{Errors, FastCapture, Latency, MarkerFitReport, MarkerReport};
 use crate::calib::uncertainty::{orientation_uncertainty, parameter_reports, std_error};
@@ -131,7 +131,7 @@ impl Level for MarkerLevel<'_> {
         self.max_deg
     }
 
-    fn origin(&self, model: &MarkerModel<'_>, j: usize) -> (u64, Option<String>, usize) {
+    fn origin(&self, model: &MarkerModel<'_>, j: usize) -> Origin {
         let o = &model.observations()[j];
         (o.pose, Some(self.names[o.marker].clone()), o.line)
     }

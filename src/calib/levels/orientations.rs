@@ -9,7 +9,9 @@ use crate::calib::config::{CalibConfig, Group};
 use crate::calib::model::Model;
 use crate::calib::orientation_model::{Observation, OrientationModel, observations};
 use crate::calib::params::Parameterisation;
-use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, MIN_MOTION_DEG, Results, Solution, check_enough};
+use crate::calib::pipeline::{
+    CalibError, Calibration, Fitted, Level, MIN_MOTION_DEG, Origin, Results, Solution, check_enough,
+};
 use crate::calib::registration;
 use crate::calib::report::Errors;
 use crate::calib::uncertainty::{parameter_reports, residual_uncertainty};
@@ -91,7 +93,7 @@ impl Level for OrientationLevel {
         self.max_deg
     }
 
-    fn origin(&self, model: &OrientationModel<'_>, j: usize) -> (u64, Option<String>, usize) {
+    fn origin(&self, model: &OrientationModel<'_>, j: usize) -> Origin {
         (model.observations()[j].pose, None, 0)
     }
 
