@@ -125,8 +125,10 @@ pub(crate) fn best_registration<M: Model + Clone>(
     let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(config, registration.to_vec()) };
     let light = model.clone().with_columns(registration.to_vec());
     let mut outcome = fit(&light, start, &settings, &mut |_| {})?;
-    outcome.evaluation =
-        model.evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true).map_err(FitError::Start)?;
+    let iteration = outcome.log.len() as u32;
+    outcome.evaluation = model
+        .evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true)
+        .map_err(|error| FitError::Evaluation { iteration, error })?;
     Ok(outcome)
 }
 

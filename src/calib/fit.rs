@@ -131,6 +131,14 @@ pub enum FitError {
     #[error("cannot evaluate the model at the start point: {0}")]
     /// The model cannot be evaluated at the start point.
     Start(EvalError),
+    #[error("cannot evaluate the model after iteration {iteration}: {error}")]
+    /// The model cannot be evaluated where an accepted step (or the solution) put it.
+    Evaluation {
+        /// The iteration whose step was accepted.
+        iteration: u32,
+        /// Why.
+        error: EvalError,
+    },
     #[error("clarabel failed on the subproblem of iteration {iteration}: status {status}")]
     /// clarabel failed on a trust-region subproblem.
     Solver {
@@ -140,7 +148,7 @@ pub enum FitError {
         status: String,
     },
     #[error(
-        "the fit was still improving after `max_iterations` = {iterations} iterations (last step {step:.3e} rad, radius {radius:.3e} rad, cost still falling by {relative_decrease:.1e} per iteration): raise `max_iterations`"
+        "the fit was still improving after `max_iterations` = {iterations} iterations (last step {step:.3e}, radius {radius:.3e}, in the parameters' units; cost still falling by {relative_decrease:.1e} per iteration): raise `max_iterations`"
     )]
     /// The iteration budget ran out while the cost was still falling.
     IterationLimit {
@@ -406,7 +414,9 @@ impl<M: Model> Problem<'_, M> {
         let done = if accepted {
             let orientations = trial.expect("accepted steps evaluated").orientations;
             *x = trial_x;
-            let new = model.evaluate(x, Some(&orientations), true).map_err(FitError::Start)?;
+            let new = model
+                .evaluate(x, Some(&orientations), true)
+                .map_err(|error| FitError::Evaluation { iteration, error })?;
             model.recycle(std::mem::replace(eval, new));
             *normal = None;
             if ratio > 0.75 && step_norm > 0.9 * *radius {

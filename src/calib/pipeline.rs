@@ -43,7 +43,7 @@ pub enum CalibError {
     #[error("the session's marker `{0}` is not among the model's markers")]
     /// The session names a marker the model does not have.
     UnknownMarker(String),
-    #[error("only {usable} usable poses; at least {needed} are needed for {parameters} parameters")]
+    #[error("only {usable} usable {what}; at least {needed} are needed for {parameters} parameters")]
     /// Too few usable observations (poses at the orientation level, marker observations at the
     /// marker level) for the number of free parameters.
     TooFewPoses {
@@ -53,11 +53,21 @@ pub enum CalibError {
         needed: usize,
         /// Free parameters.
         parameters: usize,
+        /// What is counted: `poses` (orientation level) or `marker observations`.
+        what: &'static str,
     },
     #[error("the camera registration cannot be started: every pose rotates about one axis")]
     /// No starting camera registration: the poses do not span two rotation axes (orientation
     /// level), or the marker observations are fewer than three or lie in a line (marker level).
     Registration,
+    #[error(
+        "the camera registration cannot be started: {observations} marker observation(s) with a forward kinematics solution, all of them in a line or fewer than three"
+    )]
+    /// No starting camera registration from the markers.
+    MarkerRegistration {
+        /// Marker observations with a nominal FDA.
+        observations: usize,
+    },
     #[error(
         "the MP barely moves: the largest rotation {}is {max_deg:.3}°, too little to calibrate from{}",
         if unidentifiable.is_empty() { "the camera sees from the reference pose " } else { "between the session's poses " },
@@ -258,7 +268,7 @@ fn run<L: Level>(
     let p = level.parameterisation();
     let free = level.free();
     let model = level.model();
-    check_enough(&free, model.len())?;
+    check_enough(&free, model.len(), if model.unit() == "mm" { "marker observations" } else { "poses" })?;
     let registration = registration_mask(p, &free);
     let stage = |stage| move |error| CalibError::Fit { stage, error };
     let x0 = DVector::zeros(p.len());
@@ -356,7 +366,7 @@ fn run<L: Level>(
 
 /// Something to fit, and enough residuals (3 per observation) for the free parameters: checked
 /// before anything indexes them.
-pub(crate) fn check_enough(free: &[bool], observations: usize) -> Result<(), CalibError> {
+pub(crate) fn check_enough(free: &[bool], observations: usize, what: &'static str) -> Result<(), CalibError> {
     let n_free = free.iter().filter(|f| **f).count();
     if n_free == 0 {
         let reason = "every parameter is frozen: there is nothing to fit".to_string();
@@ -367,6 +377,7 @@ pub(crate) fn check_enough(free: &[bool], observations: usize) -> Result<(), Cal
             usable: observations,
             needed: n_free.div_ceil(3) + 1,
             parameters: n_free,
+            what,
         });
     }
     Ok(())

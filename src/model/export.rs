@@ -38,9 +38,9 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
     let unreadable = |reason: String| ModelError::Unreadable { path: path.clone(), reason };
     let mut robot = urdf_rs::read_file(path).map_err(|e| unreadable(e.to_string()))?;
     let (mut companion, _) = read_companion(&companion_path(path))?;
-    let spm = params.spm().map_err(|source| ModelError::Geometry { path: path.clone(), source })?;
-    let home =
-        spm.ik(&Rotation3::identity()).map_err(|e| unreadable(format!("the parameters do not reach home: {e}")))?;
+    let export = |reason: String| ModelError::Export { path: path.clone(), reason };
+    let spm = params.spm().map_err(|e| export(format!("the parameters make no valid manipulator: {e}")))?;
+    let home = spm.ik(&Rotation3::identity()).map_err(|e| export(format!("the parameters do not reach home: {e}")))?;
     let mut axes: Vec<(String, Vector3<f64>)> = Vec::new();
     for (i, (leg, names)) in params.legs.iter().zip(&companion.legs).enumerate() {
         let phi = home[i] + leg.delta;
@@ -75,16 +75,16 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
     }
     companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -home[i].to_degrees()));
     let comments: String = provenance.iter().map(|l| format!("  {l}\n")).collect();
-    let body = urdf_rs::write_to_string(&robot).map_err(|e| unreadable(e.to_string()))?;
+    let body = urdf_rs::write_to_string(&robot).map_err(|e| export(format!("the URDF cannot be written: {e}")))?;
     let urdf = match body.strip_prefix("<?xml version=\"1.0\"?>") {
         Some(rest) => format!("<?xml version=\"1.0\"?>\n<!--\n{comments}-->{rest}"),
         None => format!("<!--\n{comments}-->\n{body}"),
     };
     let exported = ExportedModel { urdf, companion: companion_text(&companion, provenance) };
     // Loaded back, it must be a valid model (axes through O, loops closed at home).
-    let back = urdf_rs::read_from_string(&exported.urdf).map_err(|e| unreadable(format!("exported URDF: {e}")))?;
+    let back = urdf_rs::read_from_string(&exported.urdf).map_err(|e| export(format!("the exported URDF: {e}")))?;
     let reread: Companion =
-        serde_yaml::from_str(&exported.companion).map_err(|e| unreadable(format!("exported companion: {e}")))?;
+        serde_yaml::from_str(&exported.companion).map_err(|e| export(format!("the exported companion: {e}")))?;
     Loader { path, robot: &back }.build(reread)?;
     Ok(exported)
 }

@@ -120,6 +120,14 @@ pub enum ModelError {
     #[error(transparent)]
     /// The companion file is invalid.
     File(FileError),
+    #[error("exporting {path} with the parameters: {reason}")]
+    /// A calibrated copy of the model cannot be made (`export`).
+    Export {
+        /// The model's URDF.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
     #[error("{path}: joint `{joint}` {reason}")]
     /// A joint is invalid.
     Joint {

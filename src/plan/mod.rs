@@ -89,6 +89,9 @@ pub enum PlanError {
     #[error("even all {0} candidates together leave some parameter undetermined")]
     /// The information of every candidate together is singular.
     Singular(usize),
+    #[error("the {0} poses chosen leave some parameter undetermined: ask for more poses")]
+    /// The information of the chosen design is singular.
+    SingularPlan(usize),
 }
 
 /// Predicted orientation error after calibration over the workspace (degrees): RMS and worst.
@@ -304,7 +307,7 @@ pub fn plan(
             PlannedPose { step: step as u64 + 1, rotation: c.rotation, joints: c.joints }
         })
         .collect();
-    let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::Singular(n))?;
+    let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::SingularPlan(n))?;
     let uncertainty_deg = orientation_errors(&info, &covariance).iter().map(|e| e.to_degrees()).collect();
     let summary = PlanSummary {
         poses: n,

@@ -65,8 +65,8 @@ impl<'s> MarkerLevel<'s> {
             })
             .collect();
         let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
-        let registration =
-            registration::from_markers(&observations, &nominal_r, &markers0).ok_or(CalibError::Registration)?;
+        let registration = registration::from_markers(&observations, &nominal_r, &markers0)
+            .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
         let p =
             Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).

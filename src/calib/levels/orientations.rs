@@ -53,7 +53,7 @@ impl OrientationLevel {
             Rotation3::identity(),
             &config.bounds,
         );
-        check_enough(&free_of(&layout, &config.freeze), fitted.len())?;
+        check_enough(&free_of(&layout, &config.freeze), fitted.len(), "poses")?;
         // Nothing moving is its own problem, not "one axis": say which.
         let max_deg = fitted.iter().map(|o| o.measured.angle().to_degrees()).fold(0.0, f64::max);
         if max_deg < MIN_MOTION_DEG {
