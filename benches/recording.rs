@@ -18,8 +18,8 @@ fn recording(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("calibration_400_poses", |b| {
         b.iter(|| {
-            let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
-            spmcal::record::write_recording(&path, &scene).unwrap()
+            let scene = spmcal::record::Scene::calibration(&session, &model, &calibration).unwrap();
+            scene.write(&path).unwrap()
         })
     });
     group.finish();

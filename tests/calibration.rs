@@ -344,7 +344,7 @@ fn too_few_usable_poses_are_an_error_not_a_panic() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("only 0 marker observations"), "{err}");
-    assert!(spmcal::record::replay_scene(&session, &model, None).is_err());
+    assert!(spmcal::record::Scene::replay(&session, &model, None).is_err());
 }
 
 /// Small sessions (the paper's 20 poses) under many draws of truth and noise, including the noisy

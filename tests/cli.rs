@@ -18,8 +18,8 @@ fn ik_then_fda_through_files_recovers_the_orientations() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let out = spmcal(&["fda", "--joints", joints.to_str().unwrap(), "--out", back.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let a = spmcal::dataset::read_orientations(&orientations).unwrap();
-    let b = spmcal::dataset::read_orientations(&back).unwrap();
+    let a = spmcal::dataset::OrientationRecord::read(&orientations).unwrap();
+    let b = spmcal::dataset::OrientationRecord::read(&back).unwrap();
     assert_eq!(a.len(), b.len());
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(x.pose, y.pose);

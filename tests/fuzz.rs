@@ -11,7 +11,7 @@ use std::path::Path;
 
 use proptest::prelude::*;
 use spmcal::calib::CalibConfig;
-use spmcal::dataset::{Session, read_joints, read_orientations};
+use spmcal::dataset::{JointReading, OrientationRecord, Session};
 use spmcal::model::{Parameters, RobotModel};
 use spmcal::sim::SimConfig;
 use spmcal::vision::{Method, estimate_session};
@@ -160,8 +160,8 @@ proptest! {
 
     #[test]
     fn mutated_kinematics_csv_never_panic(e in edits()) {
-        fuzz_file("datasets/joystick_circle/joints.csv", "j.csv", &e, read_joints);
-        fuzz_file("datasets/joystick_circle/orientations.csv", "o.csv", &e, read_orientations);
+        fuzz_file("datasets/joystick_circle/joints.csv", "j.csv", &e, JointReading::read);
+        fuzz_file("datasets/joystick_circle/orientations.csv", "o.csv", &e, OrientationRecord::read);
     }
 }
 

@@ -195,7 +195,7 @@ fn an_exported_urdf_gives_the_parameters_files_forward_kinematics_and_check_urdf
     let dir = tempfile::tempdir().unwrap();
     let urdf = dir.path().join("calibrated.urdf");
     std::fs::write(&urdf, &exported.urdf).unwrap();
-    std::fs::write(spmcal::model::companion_path(&urdf), &exported.companion).unwrap();
+    std::fs::write(spmcal::model::RobotModel::companion_path(&urdf), &exported.companion).unwrap();
     let loaded = spmcal::model::RobotModel::load(&urdf).unwrap();
     assert_eq!(
         loaded.markers.iter().map(|m| m.position).collect::<Vec<_>>(),

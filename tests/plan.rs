@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use spmcal::model::RobotModel;
-use spmcal::plan::{PlanSettings, plan, plan_csv, read_plan};
+use spmcal::plan::{PlanSettings, PlannedPose, plan};
 use spmcal::sim::SimConfig;
 
 #[path = "../examples/plan_study/study.rs"]
@@ -52,8 +52,8 @@ fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
     let planned = plan(&model, None, &config, &settings, None).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plan.csv");
-    std::fs::write(&path, plan_csv(&planned.poses)).unwrap();
-    let back = read_plan(&path).unwrap();
+    std::fs::write(&path, PlannedPose::csv(&planned.poses)).unwrap();
+    let back = PlannedPose::read(&path).unwrap();
     for (a, b) in back.iter().zip(&planned.poses) {
         // Numbers read back exactly; the rotation goes through its quaternion (rounding only).
         assert_eq!((a.step, a.joints), (b.step, b.joints));
@@ -70,15 +70,15 @@ fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
     let visited: Vec<_> = session.poses.iter().map(|p| truth[&p.id]).collect();
     assert_eq!(visited, back.iter().map(|p| p.rotation).collect::<Vec<_>>());
     // Bad plan files are located errors.
-    let text = plan_csv(&planned.poses);
+    let text = PlannedPose::csv(&planned.poses);
     let mut lines: Vec<&str> = text.lines().collect();
     let repeated = lines[2].replacen("2,", "1,", 1);
     lines[2] = &repeated;
     std::fs::write(&path, lines.join("\n")).unwrap();
-    let err = read_plan(&path).unwrap_err().to_string();
+    let err = PlannedPose::read(&path).unwrap_err().to_string();
     assert!(err.contains("plan.csv:3: column `step`: step 1 appears twice"), "{err}");
     std::fs::write(&path, "step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad\n1,0.9,0,0,0,0,0,0\n").unwrap();
-    let err = read_plan(&path).unwrap_err().to_string();
+    let err = PlannedPose::read(&path).unwrap_err().to_string();
     assert!(err.contains("plan.csv:2: column `qw`") && err.contains("unit norm"), "{err}");
 }
 

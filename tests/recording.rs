@@ -54,8 +54,8 @@ fn calibration_recording_has_the_entities_poses_and_values() {
     let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("calibration.rrd");
-    let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
-    let summary = spmcal::record::write_recording(&path, &scene).unwrap();
+    let scene = spmcal::record::Scene::calibration(&session, &model, &calibration).unwrap();
+    let summary = scene.write(&path).unwrap();
     assert!(summary.bytes > 0 && summary.poses == 400);
 
     let chunks = chunks(&path);
@@ -242,12 +242,12 @@ fn the_default_blueprint_shows_only_panels_with_data() {
     let plan = spmcal::plan::plan(&model, None, &config, &settings, None).unwrap();
     let planned = plan.session(&model);
     for (name, scene) in [
-        ("replay", spmcal::record::replay_scene(&session, &model, None).unwrap()),
-        ("calibration", spmcal::record::calibration_scene(&session, &model, &calibration).unwrap()),
-        ("plan", spmcal::record::plan_scene(&planned, &model, &plan, None).unwrap()),
+        ("replay", spmcal::record::Scene::replay(&session, &model, None).unwrap()),
+        ("calibration", spmcal::record::Scene::calibration(&session, &model, &calibration).unwrap()),
+        ("plan", spmcal::record::Scene::plan(&planned, &model, &plan, None).unwrap()),
     ] {
         let path = dir.path().join(format!("{name}.rrd"));
-        spmcal::record::write_recording(&path, &scene).unwrap();
+        scene.write(&path).unwrap();
         let found = entities(&chunks(&path));
         let origins = blueprint_views(&path);
         assert!(origins.iter().any(|o| o == "/world"), "{name}: no 3-D view in {origins:?}");
@@ -268,8 +268,8 @@ fn marker_level_calibration_recording_shows_fitted_and_model_markers_and_per_pos
     let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("markers.rrd");
-    let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
-    spmcal::record::write_recording(&path, &scene).unwrap();
+    let scene = spmcal::record::Scene::calibration(&session, &model, &calibration).unwrap();
+    scene.write(&path).unwrap();
     let chunks = chunks(&path);
     let found = entities(&chunks);
     for e in
@@ -294,8 +294,8 @@ fn a_session_captured_one_marker_at_a_time_replays_with_calibrated_parameters() 
         calibrate(&session, &model, &CalibConfig { folds: 0, ..CalibConfig::default() }, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("replay.rrd");
-    let scene = spmcal::record::replay_scene(&session, &model, Some(&calibration.parameters)).unwrap();
-    spmcal::record::write_recording(&path, &scene).unwrap();
+    let scene = spmcal::record::Scene::replay(&session, &model, Some(&calibration.parameters)).unwrap();
+    scene.write(&path).unwrap();
     let found = entities(&chunks(&path));
     for e in ["world/mp/fda_calibrated", "world/markers/measured", "world/markers/predicted", "world/markers/model"] {
         assert!(found.contains(e), "{e} missing; found {found:?}");
@@ -310,8 +310,8 @@ fn a_free_motion_calibration_is_recorded_at_its_fitted_latency() {
         calibrate(&session, &model, &CalibConfig { folds: 0, ..CalibConfig::default() }, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("free_motion.rrd");
-    let scene = spmcal::record::calibration_scene(&session, &model, &calibration).unwrap();
-    spmcal::record::write_recording(&path, &scene).unwrap();
+    let scene = spmcal::record::Scene::calibration(&session, &model, &calibration).unwrap();
+    scene.write(&path).unwrap();
     // One marker per frame: each frame's logged error is its residual, and their RMS is the fit's
     // (the recording sees the joints at the fitted latency, not at the start's).
     let chunks = chunks(&path);

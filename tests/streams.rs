@@ -295,6 +295,6 @@ fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recordi
     assert!(err.contains("no pose sees 3 markers"), "{err}");
 
     // `replay` without a parameters file registers the nominal model to the markers itself.
-    let scene = spmcal::record::replay_scene(&recording, &model, None).unwrap();
+    let scene = spmcal::record::Scene::replay(&recording, &model, None).unwrap();
     assert!(scene.registration.is_some() && scene.series.iter().any(|s| s.name == "markers_mm/replayed"));
 }

@@ -69,7 +69,7 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     spinner.finish_and_clear();
     outputs.write(params_slot, calibration.parameters.to_yaml().as_bytes())?;
     if let Some(slot) = rrd {
-        record(&outputs, slot, &spmcal::record::calibration_scene(&session, &model, &calibration)?)?;
+        record(&outputs, slot, &spmcal::record::Scene::calibration(&session, &model, &calibration)?)?;
     }
     if let Some(slot) = html {
         let text = calibration.report.to_string();

@@ -69,7 +69,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     let method: Method = args.method.into();
     let result = spmcal::compare::compare(&session, &model, &sets, method, args.level.map(Into::into))?;
     if let Some(slot) = rrd {
-        record(&outputs, slot, &spmcal::record::comparison_scene(&session, &model, &sets, &result, method)?)?;
+        record(&outputs, slot, &spmcal::record::Scene::comparison(&session, &model, &sets, &result, method)?)?;
     }
     outputs.commit()?;
     if args.json {

@@ -39,7 +39,7 @@ pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     let result = estimate_session(&session, method)?;
     if let Some(slot) = rrd {
         let model = RobotModel::load(&session.model)?;
-        record(&outputs, slot, &spmcal::record::estimate_scene(&session, &model, &result)?)?;
+        record(&outputs, slot, &spmcal::record::Scene::estimate(&session, &model, &result)?)?;
     }
     table_to(&mut outputs, table_slot, args.json, &estimate_csv(&result))?;
     outputs.commit()?;

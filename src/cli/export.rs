@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use spmcal::model::{Parameters, RobotModel, companion_path, export};
+use spmcal::model::{Parameters, RobotModel, export};
 
 use super::envelope::Envelope;
 use super::output::{Outputs, out};
@@ -27,7 +27,7 @@ pub(crate) struct ExportArgs {
 
 pub(crate) fn run(args: ExportArgs) -> Result<()> {
     let mut outputs = Outputs::new();
-    let companion = companion_path(&args.urdf);
+    let companion = RobotModel::companion_path(&args.urdf);
     let (urdf_slot, companion_slot) = (outputs.reserve(&args.urdf)?, outputs.reserve(&companion)?);
     let params = Parameters::read(&args.params)?;
     let model_path = args

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
 use clap::Args;
-use spmcal::dataset::{OrientationRecord, read_joints, write_orientations};
+use spmcal::dataset::{JointReading, OrientationRecord};
 use spmcal::math::so3;
 use spmcal::model::FdaPose;
 
@@ -34,7 +34,7 @@ pub(crate) fn run(args: FdaArgs) -> Result<()> {
     let mut outputs = Outputs::new();
     let slot = reserve(&mut outputs, args.out.as_deref())?;
     let spm = args.geometry.spm()?;
-    let readings = read_joints(&args.joints)?;
+    let readings = JointReading::read(&args.joints)?;
     let source = args.joints.display().to_string();
     // The table of orientations (one row a mode with `--all-modes`) and the per-pose report; the
     // first pose whose working-mode FDA fails stops it.
@@ -64,7 +64,7 @@ pub(crate) fn run(args: FdaArgs) -> Result<()> {
             poses.push(pose);
         }
     }
-    table_to(&mut outputs, slot, args.json, &write_orientations(&records))?;
+    table_to(&mut outputs, slot, args.json, &OrientationRecord::csv(&records))?;
     outputs.commit()?;
     if args.json {
         let envelope = Envelope::new("fda", poses).input("joints", &source).input("all_modes", args.all_modes);

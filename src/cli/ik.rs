@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use spmcal::dataset::{JointReading, OrientationRecord, joints_csv, read_orientations};
+use spmcal::dataset::{JointReading, OrientationRecord};
 use spmcal::math::so3;
 
 use super::args::GeometryArgs;
@@ -34,7 +34,7 @@ pub(crate) fn run(args: IkArgs) -> Result<()> {
     let slot = reserve(&mut outputs, args.out.as_deref())?;
     let spm = args.geometry.spm()?;
     let (source, orientations) = match (&args.orientations, &args.quat) {
-        (Some(path), _) => (path.display().to_string(), read_orientations(path)?),
+        (Some(path), _) => (path.display().to_string(), OrientationRecord::read(path)?),
         (None, Some(q)) => {
             let &[w, x, y, z] = q.as_slice() else { bail!("--quat takes four numbers qw,qx,qy,qz, got {}", q.len()) };
             let rotation = so3::from_wxyz([w, x, y, z]).context("--quat is not a unit quaternion")?;
@@ -47,7 +47,7 @@ pub(crate) fn run(args: IkArgs) -> Result<()> {
         let joints = spm.ik(&o.rotation).with_context(|| format!("{source}:{}: pose {}", o.line, o.pose))?;
         readings.push(JointReading { pose: o.pose, line: o.line, joints, time_s: None, station: None });
     }
-    table_to(&mut outputs, slot, args.json, &joints_csv(&readings))?;
+    table_to(&mut outputs, slot, args.json, &JointReading::csv(&readings))?;
     outputs.commit()?;
     if args.json {
         let solutions: Vec<_> = readings.iter().map(|r| (r.pose, [r.joints[0], r.joints[1], r.joints[2]])).collect();

@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::Result;
 use spmcal::FileError;
 use spmcal::io::StagedFile;
-use spmcal::record::{RecordingSummary, Scene, write_recording_to};
+use spmcal::record::{RecordingSummary, Scene};
 
 /// The outputs of one command, reserved before the work and written together after it, so that a
 /// failed run changes no existing file: every destination is checked first (not a folder, its
@@ -89,7 +89,7 @@ pub(crate) fn table_to(outputs: &mut Outputs, slot: Option<Slot>, json: bool, ta
 /// Write a recording into its reserved slot and say so on standard error.
 pub(crate) fn record(outputs: &Outputs, slot: Slot, scene: &Scene) -> Result<RecordingSummary> {
     let file = &outputs.staged[slot.0];
-    let summary = write_recording_to(file.temp_path(), file.destination(), scene)?;
+    let summary = scene.write_staged(file.temp_path(), file.destination())?;
     eprintln!("recording: {} ({} poses, {} bytes)", summary.path.display(), summary.poses, summary.bytes);
     Ok(summary)
 }

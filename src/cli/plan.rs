@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 use clap::Args;
 use spmcal::dataset::Session;
-use spmcal::plan::{PlanSettings, plan_csv};
+use spmcal::plan::{PlanSettings, PlannedPose};
 use spmcal::sim::SimConfig;
 
 use super::args::GeometryArgs;
@@ -71,10 +71,10 @@ pub(crate) fn run(args: PlanArgs) -> Result<()> {
         anyhow::bail!("--margin-deg must be between 0 and 20 degrees (got {})", settings.margin_deg);
     }
     let plan = spmcal::plan::plan(&model, params.as_ref(), &config, &settings, augment.as_ref())?;
-    outputs.write(slot, plan_csv(&plan.poses).as_bytes())?;
+    outputs.write(slot, PlannedPose::csv(&plan.poses).as_bytes())?;
     if let Some(slot) = rrd {
         let session = plan.session(&model);
-        record(&outputs, slot, &spmcal::record::plan_scene(&session, &model, &plan, params.as_ref())?)?;
+        record(&outputs, slot, &spmcal::record::Scene::plan(&session, &model, &plan, params.as_ref())?)?;
     }
     outputs.commit()?;
     if args.json {

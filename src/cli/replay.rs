@@ -35,7 +35,7 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
         Some(latency_s) => session.at_latency(latency_s).0,
         None => session,
     };
-    let summary = record(&outputs, slot, &spmcal::record::replay_scene(&session, &model, params.as_ref())?)?;
+    let summary = record(&outputs, slot, &spmcal::record::Scene::replay(&session, &model, params.as_ref())?)?;
     outputs.commit()?;
     if args.json {
         let mut envelope = Envelope::new("replay", summary).input("dataset", args.session.dataset.display());

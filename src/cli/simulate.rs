@@ -48,7 +48,7 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
     config.poses = args.poses.unwrap_or(config.poses);
     config.name = args.name.unwrap_or(config.name);
     if let Some(path) = &args.plan {
-        let plan = spmcal::plan::read_plan(path)?;
+        let plan = spmcal::plan::PlannedPose::read(path)?;
         config.poses = plan.len();
         config.plan = Some(plan.iter().map(|p| p.rotation).collect());
     }
@@ -64,7 +64,7 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
     let (session, summary) = spmcal::sim::simulate(&config, &model, &mut |n| bar.set_position(n as u64))?;
     bar.finish_and_clear();
     if let Some(slot) = rrd {
-        record(&outputs, slot, &spmcal::record::simulation_scene(&session, &model)?)?;
+        record(&outputs, slot, &spmcal::record::Scene::simulation(&session, &model)?)?;
     }
     session.write(&args.out)?;
     outputs.commit()?;

@@ -31,7 +31,7 @@ const COLUMNS: [&str; 4] = ["pose", "theta1_rad", "theta2_rad", "theta3_rad"];
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first bad value, missing column or repeated pose.
-pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
+pub(crate) fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
     let mut table = Table::open_with_optional(path, &COLUMNS, &["time_s", "station"])?;
     let out = table.read_all(|row, _| {
         let pose = row.index(0)?;
@@ -48,7 +48,7 @@ pub fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
 
 /// `joints.csv` text, with full precision; `time_s` (`station`) is written when every reading
 /// has one.
-pub fn joints_csv(readings: &[JointReading]) -> String {
+pub(crate) fn joints_csv(readings: &[JointReading]) -> String {
     let all = |f: fn(&JointReading) -> bool| !readings.is_empty() && readings.iter().all(f);
     let (timed, stations) = (all(|r| r.time_s.is_some()), all(|r| r.station.is_some()));
     let mut text = COLUMNS.join(",");
@@ -74,4 +74,20 @@ pub fn joints_csv(readings: &[JointReading]) -> String {
 /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
 pub(crate) fn write_joints(path: &Path, readings: &[JointReading]) -> Result<(), FileError> {
     write_atomic(path, joints_csv(readings).as_bytes())
+}
+
+impl JointReading {
+    /// Read `joints.csv`; non-numbers, non-finite values and repeated poses are errors naming the line.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the line and column of the first bad value, missing column or repeated pose.
+    pub fn read(path: &Path) -> Result<Vec<JointReading>, FileError> {
+        read_joints(path)
+    }
+
+    /// `joints.csv` text, with full precision; `time_s` (`station`) is written when every reading
+    /// has one.
+    pub fn csv(readings: &[JointReading]) -> String {
+        joints_csv(readings)
+    }
 }

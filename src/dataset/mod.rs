@@ -6,8 +6,8 @@ mod orientations;
 mod session;
 mod streams;
 
-pub use joints::{JointReading, joints_csv, read_joints};
-pub use orientations::{OrientationRecord, read_orientations, write_orientations};
+pub use joints::JointReading;
+pub use orientations::OrientationRecord;
 pub(crate) use session::MIN_MARKERS;
 pub use session::{Session, SessionPose, Truth, Warning};
-pub use streams::{Capture, EncoderSample, StreamLimits, Streams};
+pub use streams::{Capture, EncoderSample, Streams};

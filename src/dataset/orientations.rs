@@ -29,7 +29,7 @@ pub struct OrientationRecord {
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first bad value or non-unit quaternion.
-pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
+pub(crate) fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
     let mut table = Table::open(path, &["pose", "qw", "qx", "qy", "qz"])?;
     table.read_all(|row, _| {
         let (pose, rotation) = (row.index(0)?, row.quaternion(1)?);
@@ -39,7 +39,7 @@ pub fn read_orientations(path: &Path) -> Result<Vec<OrientationRecord>, FileErro
 
 /// The table as CSV text; a `mode` column follows `pose` when any record has a mode, and the
 /// extra columns of the first record name the trailing columns.
-pub fn write_orientations(records: &[OrientationRecord]) -> String {
+pub(crate) fn write_orientations(records: &[OrientationRecord]) -> String {
     let with_mode = records.iter().any(|r| r.mode.is_some());
     let mut text = String::from(if with_mode { "pose,mode,qw,qx,qy,qz" } else { "pose,qw,qx,qy,qz" });
     if let Some(first) = records.first() {
@@ -61,4 +61,20 @@ pub fn write_orientations(records: &[OrientationRecord]) -> String {
         text.push('\n');
     }
     text
+}
+
+impl OrientationRecord {
+    /// Read `pose,qw,qx,qy,qz`; a quaternion whose norm is not 1 (within 1e-6) is an error.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the line and column of the first bad value or non-unit quaternion.
+    pub fn read(path: &Path) -> Result<Vec<OrientationRecord>, FileError> {
+        read_orientations(path)
+    }
+
+    /// The table as CSV text; a `mode` column follows `pose` when any record has a mode, and the
+    /// extra columns of the first record name the trailing columns.
+    pub fn csv(records: &[OrientationRecord]) -> String {
+        write_orientations(records)
+    }
 }

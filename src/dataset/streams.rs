@@ -43,7 +43,7 @@ pub(crate) const VELOCITY_WINDOW_S: f64 = 0.01;
 
 /// Limits a recording must meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StreamLimits {
+pub(crate) struct StreamLimits {
     /// Longest gap between encoder samples that the interpolation may bridge (s).
     pub max_encoder_gap_s: f64,
     /// Largest camera latency considered, either sign (s).
@@ -135,7 +135,7 @@ impl Streams {
     ///
     /// # Errors
     /// A [`FileError`] naming the file, line and column of the first problem.
-    pub fn read(dir: &Path, names: &[String], limits: &StreamLimits) -> Result<Streams, FileError> {
+    pub(crate) fn read(dir: &Path, names: &[String], limits: &StreamLimits) -> Result<Streams, FileError> {
         let encoders = read_encoders(&dir.join("encoders.csv"), limits)?;
         let captures_path = dir.join("captures.csv");
         let captures = read_captures(&captures_path, names)?;

@@ -43,7 +43,7 @@ impl Stats {
 }
 
 /// The root mean square of `values` (0 for none).
-pub fn rms(values: impl IntoIterator<Item = f64>) -> f64 {
+pub(crate) fn rms(values: impl IntoIterator<Item = f64>) -> f64 {
     let (sum, n) = values.into_iter().fold((0.0, 0usize), |(s, n), v| (s + v * v, n + 1));
     (sum / n.max(1) as f64).sqrt()
 }

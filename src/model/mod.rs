@@ -27,4 +27,4 @@ pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters
 pub use perturb::{GeometrySpread, perturb, tilt};
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError, conditioning_index};
 #[cfg(feature = "full")]
-pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape, companion_path};
+pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape};

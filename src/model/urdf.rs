@@ -204,7 +204,7 @@ pub(super) struct CompanionLeg {
 }
 
 /// The companion file of a URDF: same folder and stem, extension `.yaml`.
-pub fn companion_path(urdf: &Path) -> PathBuf {
+pub(crate) fn companion_path(urdf: &Path) -> PathBuf {
     urdf.with_extension("yaml")
 }
 
@@ -227,6 +227,11 @@ pub(super) fn origin_isometry(pose: &urdf_rs::Pose) -> Isometry3<f64> {
 }
 
 impl RobotModel {
+    /// The companion file of the URDF `urdf`: same folder and stem, extension `.yaml`.
+    pub fn companion_path(urdf: &Path) -> PathBuf {
+        companion_path(urdf)
+    }
+
     /// Load `urdf` and its companion, derive and validate the geometry.
     ///
     /// # Errors

@@ -23,7 +23,7 @@ pub struct PlannedPose {
 const COLUMNS: [&str; 8] = ["step", "qw", "qx", "qy", "qz", "theta1_rad", "theta2_rad", "theta3_rad"];
 
 /// `plan.csv` text.
-pub fn plan_csv(poses: &[PlannedPose]) -> String {
+pub(crate) fn plan_csv(poses: &[PlannedPose]) -> String {
     let mut text = COLUMNS.join(",") + "\n";
     for p in poses {
         text.push_str(&p.step.to_string());
@@ -39,7 +39,7 @@ pub fn plan_csv(poses: &[PlannedPose]) -> String {
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first problem.
-pub fn read_plan(path: &Path) -> Result<Vec<PlannedPose>, FileError> {
+pub(crate) fn read_plan(path: &Path) -> Result<Vec<PlannedPose>, FileError> {
     let mut table = Table::open(path, &COLUMNS)?;
     let mut poses = table.read_all(|row, _| {
         let (step, rotation) = (row.index(0)?, row.quaternion(1)?);
@@ -54,4 +54,20 @@ pub fn read_plan(path: &Path) -> Result<Vec<PlannedPose>, FileError> {
     }
     poses.sort_by_key(|(p, _)| p.step);
     Ok(poses.into_iter().map(|(p, _)| p).collect())
+}
+
+impl PlannedPose {
+    /// Read a `plan.csv`: its quaternions must agree with its joint readings and any non-number is
+    /// an error naming the line; an empty plan is an error.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the line and column of the first problem.
+    pub fn read(path: &Path) -> Result<Vec<PlannedPose>, FileError> {
+        read_plan(path)
+    }
+
+    /// `plan.csv` text.
+    pub fn csv(poses: &[PlannedPose]) -> String {
+        plan_csv(poses)
+    }
 }

@@ -22,7 +22,7 @@ use serde::Serialize;
 
 pub(crate) use design::information_of;
 pub(crate) use design::{cone_program, criterion, exact, log_det, multiplicative};
-pub use file::{PlannedPose, plan_csv, read_plan};
+pub use file::PlannedPose;
 pub(crate) use information::{Information, orientation_errors};
 pub use information::{information, stereo_noise};
 pub(crate) use route::tour;

@@ -25,9 +25,7 @@ use crate::calib::IterationLog;
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, RobotModel, Spm};
 
-pub use scenes::{
-    SceneError, calibration_scene, comparison_scene, estimate_scene, plan_scene, replay_scene, simulation_scene,
-};
+pub use scenes::SceneError;
 
 /// MP orientations of one source, by pose.
 #[derive(Debug, Clone)]
@@ -111,35 +109,39 @@ const FIT_TABLE: &str = "fit/iterations";
 /// The Rerun application id of every recording.
 pub(crate) const APPLICATION: &str = "spmcal";
 
-/// Write `scene` to `path` (atomically: a temporary file beside it, renamed when complete).
-///
-/// # Errors
-/// The destination cannot be written, or Rerun refuses to log an entity.
-pub fn write_recording(path: &Path, scene: &Scene) -> Result<RecordingSummary, RecordError> {
-    let create = |e: crate::io::FileError| RecordError::Create { path: path.to_path_buf(), reason: e.reason };
-    let file = crate::io::StagedFile::create(path).map_err(create)?;
-    let summary = write_recording_to(file.temp_path(), path, scene)?;
-    file.commit().map_err(create)?;
-    Ok(summary)
-}
+impl Scene<'_> {
+    /// Write `scene` to `path` (atomically: a temporary file beside it, renamed when complete).
+    ///
+    /// # Errors
+    /// The destination cannot be written, or Rerun refuses to log an entity.
+    pub fn write(&self, path: &Path) -> Result<RecordingSummary, RecordError> {
+        let scene = self;
+        let create = |e: crate::io::FileError| RecordError::Create { path: path.to_path_buf(), reason: e.reason };
+        let file = crate::io::StagedFile::create(path).map_err(create)?;
+        let summary = scene.write_staged(file.temp_path(), path)?;
+        file.commit().map_err(create)?;
+        Ok(summary)
+    }
 
-/// Write `scene` into the file `tmp`, which the caller puts in place as `destination` (e.g. a
-/// [`crate::io::StagedFile`] written together with other outputs); errors and the summary name
-/// `destination`.
-///
-/// # Errors
-/// `tmp` cannot be written, or Rerun refuses to log an entity.
-pub fn write_recording_to(tmp: &Path, destination: &Path, scene: &Scene) -> Result<RecordingSummary, RecordError> {
-    let path = destination;
-    let create = |reason: String| RecordError::Create { path: path.to_path_buf(), reason };
-    let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp).map_err(|e| create(e.to_string()))?;
-    let mut logger = draw::Logger { rec: &rec, path };
-    send_blueprint(&rec, scene).map_err(|e| create(e.to_string()))?;
-    logger.scene(scene)?;
-    rec.flush_blocking().map_err(|e| create(e.to_string()))?;
-    drop(rec);
-    let bytes = std::fs::metadata(tmp).map_or(0, |m| m.len());
-    Ok(RecordingSummary { path: path.to_path_buf(), poses: scene.session.poses.len(), bytes })
+    /// Write `scene` into the file `tmp`, which the caller puts in place as `destination` (e.g. a
+    /// [`crate::io::StagedFile`] written together with other outputs); errors and the summary name
+    /// `destination`.
+    ///
+    /// # Errors
+    /// `tmp` cannot be written, or Rerun refuses to log an entity.
+    pub fn write_staged(&self, tmp: &Path, destination: &Path) -> Result<RecordingSummary, RecordError> {
+        let scene = self;
+        let path = destination;
+        let create = |reason: String| RecordError::Create { path: path.to_path_buf(), reason };
+        let rec = rerun::RecordingStreamBuilder::new(APPLICATION).save(tmp).map_err(|e| create(e.to_string()))?;
+        let mut logger = draw::Logger { rec: &rec, path };
+        send_blueprint(&rec, scene).map_err(|e| create(e.to_string()))?;
+        logger.scene(scene)?;
+        rec.flush_blocking().map_err(|e| create(e.to_string()))?;
+        drop(rec);
+        let bytes = std::fs::metadata(tmp).map_or(0, |m| m.len());
+        Ok(RecordingSummary { path: path.to_path_buf(), poses: scene.session.poses.len(), bytes })
+    }
 }
 
 /// The default layout: the 3-D scene beside the plots — FDA-vs-vision angles (degrees), marker

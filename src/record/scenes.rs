@@ -125,45 +125,47 @@ pub(crate) fn parameters_markdown(title: &str, p: &Parameters) -> String {
     s
 }
 
-/// `spmcal replay`: the mechanism from the joints (with `params`, else nominal), the markers from
-/// the camera, the MP frames from FDA and vision, and `e_j`.
-///
-/// # Errors
-/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA; with no pose that sees three markers, when the markers cannot be compared with the model.
-pub fn replay_scene<'a>(
-    session: &'a Session,
-    model: &'a RobotModel,
-    params: Option<&Parameters>,
-) -> Result<Scene<'a>, SceneError> {
-    match estimate_session(session, Method::Kabsch) {
-        Ok(estimate) => vision_scene(session, model, params, &estimate),
-        // Nothing for the per-pose estimator (one marker at a time): the mechanism, and the
-        // measured markers through the parameters' registration (or the best-fit one), with each
-        // pose's marker error.
-        Err(VisionError { reason: MarkerError::NoPoseWithThree { .. }, .. }) => {
-            let nominal = Parameters::nominal(&model.spm, None);
-            let (label, p) = match params {
-                Some(p) => ("fda_calibrated", p),
-                None => ("fda_nominal", &nominal),
-            };
-            let (errors, camera) = marker_pose_errors(session, model, p)?;
-            let spm = p.spm()?;
-            Ok(Scene {
-                session,
-                model,
-                frames: vec![fda_frames(label, &spm, session)],
-                mechanism: spm,
-                registration: Some(camera),
-                series: vec![Series {
-                    name: "markers_mm/replayed".into(),
-                    values: errors.per_pose.into_iter().collect(),
-                }],
-                iterations: Vec::new(),
-                documents: vec![("used".to_string(), parameters_markdown("Parameters used", p))],
-                fitted_markers: fitted_markers(session, p),
-            })
+impl Scene<'_> {
+    /// `spmcal replay`: the mechanism from the joints (with `params`, else nominal), the markers from
+    /// the camera, the MP frames from FDA and vision, and `e_j`.
+    ///
+    /// # Errors
+    /// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA; with no pose that sees three markers, when the markers cannot be compared with the model.
+    pub fn replay<'a>(
+        session: &'a Session,
+        model: &'a RobotModel,
+        params: Option<&Parameters>,
+    ) -> Result<Scene<'a>, SceneError> {
+        match estimate_session(session, Method::Kabsch) {
+            Ok(estimate) => vision_scene(session, model, params, &estimate),
+            // Nothing for the per-pose estimator (one marker at a time): the mechanism, and the
+            // measured markers through the parameters' registration (or the best-fit one), with each
+            // pose's marker error.
+            Err(VisionError { reason: MarkerError::NoPoseWithThree { .. }, .. }) => {
+                let nominal = Parameters::nominal(&model.spm, None);
+                let (label, p) = match params {
+                    Some(p) => ("fda_calibrated", p),
+                    None => ("fda_nominal", &nominal),
+                };
+                let (errors, camera) = marker_pose_errors(session, model, p)?;
+                let spm = p.spm()?;
+                Ok(Scene {
+                    session,
+                    model,
+                    frames: vec![fda_frames(label, &spm, session)],
+                    mechanism: spm,
+                    registration: Some(camera),
+                    series: vec![Series {
+                        name: "markers_mm/replayed".into(),
+                        values: errors.per_pose.into_iter().collect(),
+                    }],
+                    iterations: Vec::new(),
+                    documents: vec![("used".to_string(), parameters_markdown("Parameters used", p))],
+                    fitted_markers: fitted_markers(session, p),
+                })
+            }
+            Err(e) => Err(e.into()),
         }
-        Err(e) => Err(e.into()),
     }
 }
 
@@ -172,17 +174,19 @@ fn fitted_markers(session: &Session, params: &Parameters) -> Option<Vec<nalgebra
     session.markers.iter().map(|name| params.marker(name)).collect()
 }
 
-/// `spmcal estimate --rrd`: a nominal replay whose vision frames and `e_j` are `estimate`'s, the
-/// ones the command computed (with the method it was asked for).
-///
-/// # Errors
-/// A [`SceneError`] when no registration can be estimated or the reference pose has no FDA.
-pub fn estimate_scene<'a>(
-    session: &'a Session,
-    model: &'a RobotModel,
-    estimate: &SessionEstimate,
-) -> Result<Scene<'a>, SceneError> {
-    vision_scene(session, model, None, estimate)
+impl Scene<'_> {
+    /// `spmcal estimate --rrd`: a nominal replay whose vision frames and `e_j` are `estimate`'s, the
+    /// ones the command computed (with the method it was asked for).
+    ///
+    /// # Errors
+    /// A [`SceneError`] when no registration can be estimated or the reference pose has no FDA.
+    pub fn estimate<'a>(
+        session: &'a Session,
+        model: &'a RobotModel,
+        estimate: &SessionEstimate,
+    ) -> Result<Scene<'a>, SceneError> {
+        vision_scene(session, model, None, estimate)
+    }
 }
 
 /// The mechanism (with `params`, else nominal) and the vision estimate of a session.
@@ -218,64 +222,71 @@ fn vision_scene<'a>(
     })
 }
 
-/// `spmcal simulate --rrd`: the true mechanism and camera, the true MP frames, the measured markers.
-///
-/// # Errors
-/// A [`SceneError`] when the true parameters make no valid manipulator.
-pub fn simulation_scene<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
-    let truth = session.truth.as_ref();
-    let spm = match truth {
-        Some(t) => t.parameters.spm()?,
-        None => model.spm.clone(),
-    };
-    let frames =
-        truth.map(|t| PoseFrames { name: "truth".into(), rotations: t.orientations.clone() }).into_iter().collect();
-    let documents = truth
-        .map(|t| ("truth".to_string(), parameters_markdown("True parameters", &t.parameters)))
-        .into_iter()
-        .collect();
-    Ok(Scene {
-        session,
-        model,
-        mechanism: spm,
-        registration: truth.and_then(|t| t.parameters.camera),
-        frames,
-        series: Vec::new(),
-        iterations: Vec::new(),
-        documents,
-        fitted_markers: None,
-    })
+impl Scene<'_> {
+    /// `spmcal simulate --rrd`: the true mechanism and camera, the true MP frames, the measured markers.
+    ///
+    /// # Errors
+    /// A [`SceneError`] when the true parameters make no valid manipulator.
+    pub fn simulation<'a>(session: &'a Session, model: &'a RobotModel) -> Result<Scene<'a>, SceneError> {
+        let truth = session.truth.as_ref();
+        let spm = match truth {
+            Some(t) => t.parameters.spm()?,
+            None => model.spm.clone(),
+        };
+        let frames =
+            truth.map(|t| PoseFrames { name: "truth".into(), rotations: t.orientations.clone() }).into_iter().collect();
+        let documents = truth
+            .map(|t| ("truth".to_string(), parameters_markdown("True parameters", &t.parameters)))
+            .into_iter()
+            .collect();
+        Ok(Scene {
+            session,
+            model,
+            mechanism: spm,
+            registration: truth.and_then(|t| t.parameters.camera),
+            frames,
+            series: Vec::new(),
+            iterations: Vec::new(),
+            documents,
+            fitted_markers: None,
+        })
+    }
 }
 
-/// `spmcal plan --rrd`: the planned poses in capture order (the mechanism drawn at each, the MP
-/// frame where it should be), the predicted orientation error after calibration at each, and
-/// the map of that error over the workspace. `session` is [`crate::plan::Plan::session`].
-///
-/// # Errors
-/// A [`SceneError`] when `params` make no valid manipulator.
-pub fn plan_scene<'a>(
-    session: &'a Session,
-    model: &'a RobotModel,
-    plan: &crate::plan::Plan,
-    params: Option<&Parameters>,
-) -> Result<Scene<'a>, SceneError> {
-    let spm = params.map(Parameters::spm).transpose()?.unwrap_or_else(|| model.spm.clone());
-    let rotations = plan.poses.iter().map(|p| (p.step, p.rotation)).collect();
-    let at_pose = |p: &crate::plan::PlannedPose| {
-        let candidate = plan.candidates.iter().position(|c| c.rotation == p.rotation);
-        (p.step, candidate.map_or(f64::NAN, |c| plan.uncertainty_deg[c]))
-    };
-    Ok(Scene {
-        session,
-        model,
-        mechanism: spm,
-        registration: params.and_then(|p| p.camera),
-        frames: vec![PoseFrames { name: "planned".into(), rotations }],
-        series: vec![Series { name: "predicted_error_deg".into(), values: plan.poses.iter().map(at_pose).collect() }],
-        iterations: Vec::new(),
-        documents: vec![("uncertainty_map".into(), plan.uncertainty_map())],
-        fitted_markers: None,
-    })
+impl Scene<'_> {
+    /// `spmcal plan --rrd`: the planned poses in capture order (the mechanism drawn at each, the MP
+    /// frame where it should be), the predicted orientation error after calibration at each, and
+    /// the map of that error over the workspace. `session` is [`crate::plan::Plan::session`].
+    ///
+    /// # Errors
+    /// A [`SceneError`] when `params` make no valid manipulator.
+    pub fn plan<'a>(
+        session: &'a Session,
+        model: &'a RobotModel,
+        plan: &crate::plan::Plan,
+        params: Option<&Parameters>,
+    ) -> Result<Scene<'a>, SceneError> {
+        let spm = params.map(Parameters::spm).transpose()?.unwrap_or_else(|| model.spm.clone());
+        let rotations = plan.poses.iter().map(|p| (p.step, p.rotation)).collect();
+        let at_pose = |p: &crate::plan::PlannedPose| {
+            let candidate = plan.candidates.iter().position(|c| c.rotation == p.rotation);
+            (p.step, candidate.map_or(f64::NAN, |c| plan.uncertainty_deg[c]))
+        };
+        Ok(Scene {
+            session,
+            model,
+            mechanism: spm,
+            registration: params.and_then(|p| p.camera),
+            frames: vec![PoseFrames { name: "planned".into(), rotations }],
+            series: vec![Series {
+                name: "predicted_error_deg".into(),
+                values: plan.poses.iter().map(at_pose).collect(),
+            }],
+            iterations: Vec::new(),
+            documents: vec![("uncertainty_map".into(), plan.uncertainty_map())],
+            fitted_markers: None,
+        })
+    }
 }
 
 /// Per-pose FDA-vs-vision angles (degrees) of a fitted parameter vector, fitted and held-out poses.
@@ -333,89 +344,101 @@ fn marker_residuals(session: &Session, calibration: &Calibration, residuals: &[n
         .collect()
 }
 
-/// `spmcal calibrate --rrd`: nominal, calibrated and vision MP frames, the errors before and after,
-/// the fit's iterations, and the parameters before and after.
-///
-/// # Errors
-/// A [`SceneError`] when the calibrated parameters make no valid manipulator.
-pub fn calibration_scene<'a>(
-    session: &'a Session,
-    model: &'a RobotModel,
-    calibration: &Calibration,
-) -> Result<Scene<'a>, SceneError> {
-    let p = &calibration.parameterisation;
-    let x = &calibration.calibrated.x;
-    let spm = calibration.parameters.spm()?;
-    let mut frames = vec![fda_frames("fda_nominal", &model.spm, session), fda_frames("fda_calibrated", &spm, session)];
-    let mut series = Vec::new();
-    if let Fitted::Orientations { vision, .. } = &calibration.fitted {
-        frames.push(vision_frames(vision, &p.camera(x), &p.reference(x)));
-        series.push(e_series(vision));
-        series.push(residual_series("nominal", calibration, &calibration.nominal.x));
-        series.push(residual_series("calibrated", calibration, x));
-    } else {
-        let after = marker_residuals_at(calibration, x);
-        series.push(marker_series("nominal", calibration, &marker_residuals_at(calibration, &calibration.nominal.x)));
-        series.push(marker_series("calibrated", calibration, &after));
-        series.extend(marker_residuals(session, calibration, &after));
+impl Scene<'_> {
+    /// `spmcal calibrate --rrd`: nominal, calibrated and vision MP frames, the errors before and after,
+    /// the fit's iterations, and the parameters before and after.
+    ///
+    /// # Errors
+    /// A [`SceneError`] when the calibrated parameters make no valid manipulator.
+    pub fn calibration<'a>(
+        session: &'a Session,
+        model: &'a RobotModel,
+        calibration: &Calibration,
+    ) -> Result<Scene<'a>, SceneError> {
+        let p = &calibration.parameterisation;
+        let x = &calibration.calibrated.x;
+        let spm = calibration.parameters.spm()?;
+        let mut frames =
+            vec![fda_frames("fda_nominal", &model.spm, session), fda_frames("fda_calibrated", &spm, session)];
+        let mut series = Vec::new();
+        if let Fitted::Orientations { vision, .. } = &calibration.fitted {
+            frames.push(vision_frames(vision, &p.camera(x), &p.reference(x)));
+            series.push(e_series(vision));
+            series.push(residual_series("nominal", calibration, &calibration.nominal.x));
+            series.push(residual_series("calibrated", calibration, x));
+        } else {
+            let after = marker_residuals_at(calibration, x);
+            series.push(marker_series(
+                "nominal",
+                calibration,
+                &marker_residuals_at(calibration, &calibration.nominal.x),
+            ));
+            series.push(marker_series("calibrated", calibration, &after));
+            series.extend(marker_residuals(session, calibration, &after));
+        }
+        let fitted_markers = (!marker_observations_of(calibration).is_empty())
+            .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
+        let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
+        after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
+        for r in &calibration.report.parameters {
+            let se = r.std_error_deg.map_or("frozen".to_string(), |s| format!("{s:.4}"));
+            let _ = writeln!(after, "| {} | {:+.4} | {se} |", r.name, r.change_deg);
+        }
+        Ok(Scene {
+            session,
+            model,
+            frames,
+            mechanism: spm,
+            registration: calibration.parameters.camera,
+            series,
+            iterations: calibration.calibrated.log.clone(),
+            documents: vec![
+                (
+                    "before".to_string(),
+                    parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None)),
+                ),
+                ("after".to_string(), after),
+            ],
+            fitted_markers,
+        })
     }
-    let fitted_markers = (!marker_observations_of(calibration).is_empty())
-        .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
-    let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
-    after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
-    for r in &calibration.report.parameters {
-        let se = r.std_error_deg.map_or("frozen".to_string(), |s| format!("{s:.4}"));
-        let _ = writeln!(after, "| {} | {:+.4} | {se} |", r.name, r.change_deg);
-    }
-    Ok(Scene {
-        session,
-        model,
-        frames,
-        mechanism: spm,
-        registration: calibration.parameters.camera,
-        series,
-        iterations: calibration.calibrated.log.clone(),
-        documents: vec![
-            ("before".to_string(), parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None))),
-            ("after".to_string(), after),
-        ],
-        fitted_markers,
-    })
 }
 
-/// `spmcal compare --rrd`: each parameter set's MP frames and per-pose errors, with vision by the
-/// estimator the comparison used.
-///
-/// # Errors
-/// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
-pub fn comparison_scene<'a>(
-    session: &'a Session,
-    model: &'a RobotModel,
-    sets: &[(String, Parameters)],
-    results: &[SetComparison],
-    method: Method,
-) -> Result<Scene<'a>, SceneError> {
-    let last = sets.last().map(|(_, p)| p);
-    let mut scene = if results.iter().any(|r| r.level == Level::Markers) {
-        // The measured markers through the last set's registration, as `replay` shows them.
-        let mut scene = replay_scene(session, model, last)?;
-        scene.frames.clear();
-        scene.series.clear();
-        scene
-    } else {
-        let estimate = estimate_session(session, method)?;
-        let mut scene = vision_scene(session, model, last.filter(|p| p.camera.is_some()), &estimate)?;
-        scene.frames.retain(|f| f.name == "vision");
-        scene
-    };
-    for (label, params) in sets {
-        scene.frames.push(fda_frames(&format!("fda_{label}"), &params.spm()?, session));
-        scene.documents.push((label.clone(), parameters_markdown(label, params)));
+impl Scene<'_> {
+    /// `spmcal compare --rrd`: each parameter set's MP frames and per-pose errors, with vision by the
+    /// estimator the comparison used.
+    ///
+    /// # Errors
+    /// A [`SceneError`] when the vision estimate fails, a parameter set is invalid, no registration can be estimated or the reference pose has no FDA.
+    pub fn comparison<'a>(
+        session: &'a Session,
+        model: &'a RobotModel,
+        sets: &[(String, Parameters)],
+        results: &[SetComparison],
+        method: Method,
+    ) -> Result<Scene<'a>, SceneError> {
+        let last = sets.last().map(|(_, p)| p);
+        let mut scene = if results.iter().any(|r| r.level == Level::Markers) {
+            // The measured markers through the last set's registration, as `replay` shows them.
+            let mut scene = Scene::replay(session, model, last)?;
+            scene.frames.clear();
+            scene.series.clear();
+            scene
+        } else {
+            let estimate = estimate_session(session, method)?;
+            let mut scene = vision_scene(session, model, last.filter(|p| p.camera.is_some()), &estimate)?;
+            scene.frames.retain(|f| f.name == "vision");
+            scene
+        };
+        for (label, params) in sets {
+            scene.frames.push(fda_frames(&format!("fda_{label}"), &params.spm()?, session));
+            scene.documents.push((label.clone(), parameters_markdown(label, params)));
+        }
+        for r in results {
+            scene.series.push(Series { name: comparison_series(r), values: r.per_pose.iter().copied().collect() });
+        }
+        Ok(scene)
     }
-    for r in results {
-        scene.series.push(Series { name: comparison_series(r), values: r.per_pose.iter().copied().collect() });
-    }
-    Ok(scene)
 }
 
 /// The entity of a comparison's per-pose errors: `fda_vs_vision/LABEL` (degrees) or

@@ -15,7 +15,7 @@ pub fn looking_down(height: f64) -> CameraRegistration {
 }
 
 /// The two lens centres in B, half a baseline either side of the centre along camera x.
-pub fn lenses(registration: &CameraRegistration, baseline: f64) -> [Vector3<f64>; 2] {
+pub(crate) fn lenses(registration: &CameraRegistration, baseline: f64) -> [Vector3<f64>; 2] {
     let c = registration.centre();
     let x = registration.rotation.inverse() * Vector3::x();
     [c - x * (baseline / 2.0), c + x * (baseline / 2.0)]
