@@ -1,6 +1,6 @@
 //! Everything sent to Rerun. A [`Scene`] describes one run — the session, the mechanism that
 //! draws it, the camera registration, per-pose MP frames and error series, the fit's iterations and
-//! text documents — and [`write_recording`] turns it into one `.rrd` recording with the timelines
+//! text documents — and [`Scene::write`] turns it into one `.rrd` recording with the timelines
 //! `pose` (plus `time` when the session has capture times) and `iteration`.
 //!
 //! Entities: `world/base` (frame and actuated axes), `world/camera`, `world/legs/leg{i}/{proximal,
