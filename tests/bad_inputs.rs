@@ -1,7 +1,7 @@
 //! The bad-input corpus (`tests/data/bad_inputs`, made by its `make_corpus.py`): every case runs
 //! the spmcal binary as a user would and must end with its expected message — a clear error that
-//! names the file (and line where there is one), never a panic — and must leave every existing
-//! output exactly as it was.
+//! names the file (and line where there is one), never a panic — and must leave every input and
+//! every existing output exactly as it was.
 
 use std::path::{Path, PathBuf};
 
@@ -24,7 +24,16 @@ fn run_case(dir: &Path) -> Result<(), String> {
     let fill =
         |s: &str| s.replace("{case}", &dir.display().to_string()).replace("{tmp}", &tmp.path().display().to_string());
     let args: Vec<String> = case.args.iter().map(|a| fill(a)).collect();
+    // Every input — the case's own files and any existing file or folder an argument names — must
+    // be left exactly as it was, whatever the command does.
+    let scratch = tmp.path().display().to_string();
+    let named: Vec<String> = args.iter().filter(|a| !a.starts_with(&scratch)).cloned().collect();
+    let inputs = || snapshot(dir, &named);
+    let before = inputs();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal")).args(&args).output().unwrap();
+    if inputs() != before {
+        return Err("an input file was changed".into());
+    }
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     let expect = fill(&case.expect);
     let code = out.status.code();
@@ -60,6 +69,30 @@ fn run_case(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// The contents of every file in the case folder and of every existing path an argument names
+/// (folders: their files, one level deep), by path.
+fn snapshot(case: &Path, args: &[String]) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut add_folder = |dir: &Path, out: &mut std::collections::BTreeMap<PathBuf, Vec<u8>>| {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.is_file() {
+                out.insert(path.clone(), std::fs::read(&path).unwrap_or_default());
+            }
+        }
+    };
+    add_folder(case, &mut out);
+    for arg in args {
+        let path = Path::new(arg);
+        if path.is_file() {
+            out.insert(path.to_path_buf(), std::fs::read(path).unwrap_or_default());
+        } else if path.is_dir() {
+            add_folder(path, &mut out);
+        }
+    }
+    out
+}
+
 #[test]
 fn every_bad_input_gets_its_message_no_panic_and_no_changed_output() {
     let corpus = Path::new("tests/data/bad_inputs");
@@ -69,7 +102,7 @@ fn every_bad_input_gets_its_message_no_panic_and_no_changed_output() {
     let failures: Vec<String> =
         dirs.iter().filter_map(|dir| run_case(dir).err().map(|e| format!("{}: {e}", dir.display()))).collect();
     assert!(failures.is_empty(), "{} of {} cases failed:\n{}", failures.len(), dirs.len(), failures.join("\n"));
-    assert!(dirs.len() >= 60, "only {} cases", dirs.len());
+    assert!(dirs.len() >= 120, "only {} cases", dirs.len());
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! Fuzzing on the stable toolchain: proptest mutates the real input files (session, URDF,
-//! companion, parameters, configs, CSV) — bytes flipped, inserted and deleted, lines repeated and
+//! companion, parameters, configs, CSV, free-motion streams, plans) — bytes flipped, inserted and deleted, lines repeated and
 //! dropped, numbers replaced by NaN, huge or negative ones — and every loader (and the estimator
 //! and the FDA on whatever loads) must return a result or an error, never panic or hang.
 //!
@@ -121,6 +121,40 @@ fn fuzz_session(file: &str, edits: &[Mutation]) {
     }
 }
 
+/// A ten-second copy of the shipped free-motion recording (and the model) with one stream mutated:
+/// loading it, and reading its marker observations at a few latencies, must not panic.
+fn fuzz_recording(file: &str, edits: &[Mutation]) {
+    let dir = tempfile::tempdir().unwrap();
+    let source = Path::new("datasets/agile_wrist_free_motion_120s");
+    let head = |name: &str, keep: &dyn Fn(&str) -> bool| -> String {
+        let text = std::fs::read_to_string(source.join(name)).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap_or("").to_string();
+        std::iter::once(header).chain(lines.filter(|l| keep(l)).map(String::from)).collect::<Vec<_>>().join("\n") + "\n"
+    };
+    let time = |line: &str| line.split(',').next().and_then(|t| t.trim().parse::<f64>().ok()).unwrap_or(f64::MAX);
+    let files = [
+        ("encoders.csv", head("encoders.csv", &|l| time(l) <= 10.0)),
+        ("captures.csv", head("captures.csv", &|l| time(l) <= 9.5)),
+        ("session.yaml", std::fs::read_to_string(source.join("session.yaml")).unwrap().replace("../../models/", "")),
+    ];
+    for (name, text) in files {
+        let bytes = if name == file { mutate(&text, edits) } else { text.into_bytes() };
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    for name in ["agile_wrist.urdf", "agile_wrist.yaml"] {
+        std::fs::copy(Path::new("models").join(name), dir.path().join(name)).unwrap();
+    }
+    if let Ok((s, _)) = Session::load(dir.path(), None)
+        && let Ok(model) = RobotModel::load(&s.model)
+    {
+        for latency in [-0.05, 0.0, 0.04] {
+            let (at, _) = s.at_latency(latency);
+            let _ = spmcal::calib::marker_observations(&at, &model.spm);
+        }
+    }
+}
+
 /// A mutated copy of a single file, read by `read`.
 fn fuzz_file<T, E>(source: &str, name: &str, edits: &[Mutation], read: impl Fn(&Path) -> Result<T, E>) -> Option<T> {
     let dir = tempfile::tempdir().unwrap();
@@ -150,6 +184,27 @@ proptest! {
         {
             let _ = spm.forward(&nalgebra::Vector3::new(0.1, -0.2, 0.3));
         }
+    }
+
+    #[test]
+    fn mutated_calibrated_parameters_never_panic(e in edits()) {
+        // A calibrated file: markers with standard errors, a latency, the fit's header.
+        let file = "tests/data/golden/calibrate_markers_free_motion_120s.params.yaml";
+        if let Some(p) = fuzz_file(file, "p.yaml", &e, Parameters::read)
+            && let Ok(spm) = p.spm()
+        {
+            let _ = spm.forward(&nalgebra::Vector3::new(0.1, -0.2, 0.3));
+        }
+    }
+
+    #[test]
+    fn mutated_recordings_never_panic(file in prop::sample::select(vec!["encoders.csv", "captures.csv", "session.yaml"]), e in edits()) {
+        fuzz_recording(file, &e);
+    }
+
+    #[test]
+    fn mutated_plans_never_panic(e in edits()) {
+        fuzz_file("tests/data/golden/plan_multiplicative.plan.csv", "plan.csv", &e, spmcal::plan::PlannedPose::read);
     }
 
     #[test]

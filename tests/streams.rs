@@ -171,6 +171,31 @@ fn the_latency_is_estimated_with_an_honest_standard_error() {
 }
 
 #[test]
+fn a_latency_that_ends_at_its_bound_is_reported_at_its_bound_without_a_standard_error() {
+    let (session, model) = sequential_session();
+    let dir = tempfile::tempdir().unwrap();
+    write_recording(&session, dir.path(), 0.04);
+    let (recording, _) = Session::load(dir.path(), None).unwrap();
+    // The true latency is 40 ms; a bound of 5 ms holds the fit at +5 ms.
+    let config = CalibConfig { folds: 0, latency_bound_s: 0.005, ..CalibConfig::default() };
+    let calibration = calibrate(&recording, &model, &config, &mut |_| {}).unwrap();
+    let latency = calibration.report.markers.as_ref().unwrap().latency.unwrap();
+    assert!(latency.at_bound && latency.std_error_s.is_none(), "{latency:?}");
+    assert!((latency.value_s - 0.005).abs() < 1e-8, "{latency:?}");
+    assert_eq!(calibration.report.at_bound, ["camera.latency"]);
+    assert!(calibration.report.to_string().contains("AT ITS BOUND"));
+    // The parameters file says so in its header, and the JSON report in `at_bound`.
+    let header = serde_yaml::to_string(calibration.parameters.fit.as_ref().unwrap()).unwrap();
+    assert!(header.contains("at_bound:\n- camera.latency"), "{header}");
+    let json = serde_json::to_value(&calibration.report).unwrap();
+    assert_eq!(json["markers"]["latency"]["at_bound"], true);
+    // A latency well inside its bound is not at it.
+    let wide = CalibConfig { folds: 0, ..CalibConfig::default() };
+    let free = calibrate(&recording, &model, &wide, &mut |_| {}).unwrap();
+    assert!(free.report.at_bound.is_empty() && !free.report.markers.unwrap().latency.unwrap().at_bound);
+}
+
+#[test]
 fn the_latency_column_of_the_jacobian_matches_central_differences() {
     use nalgebra::DVector;
     use spmcal::calib::{MarkerModel, Model, Parameterisation, marker_observations};

@@ -79,6 +79,11 @@ pub enum Unidentifiable {
     Regularise,
 }
 
+/// The most iterations a fit may be given: a fit converges in tens; more is a typo.
+pub(crate) const MAX_ITERATIONS: u32 = 10_000;
+/// The most folds of the cross-validation (each costs a solve of the normal equations).
+pub(crate) const MAX_FOLDS: usize = 1_000;
+
 /// Calibration settings; every field has a default (a partial file works).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -232,8 +237,16 @@ impl CalibConfig {
             );
             return Err(("latency_s".into(), reason));
         }
-        if self.max_iterations == 0 {
-            return Err(("max_iterations".into(), "`max_iterations` must be at least 1".into()));
+        if self.max_iterations == 0 || self.max_iterations > MAX_ITERATIONS {
+            let reason = format!("`max_iterations` must be from 1 to {MAX_ITERATIONS} (got {})", self.max_iterations);
+            return Err(("max_iterations".into(), reason));
+        }
+        if self.folds > MAX_FOLDS {
+            let reason = format!(
+                "`folds: {}` is absurd: k-fold cross-validation uses 2 to {MAX_FOLDS} folds (0 or 1: none)",
+                self.folds
+            );
+            return Err(("folds".into(), reason));
         }
         if self.holdout_every == 1 {
             return Err(("holdout_every".into(), "`holdout_every: 1` would hold out every pose".into()));

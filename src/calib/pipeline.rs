@@ -93,6 +93,18 @@ pub enum CalibError {
         /// Why the fit failed.
         error: FitError,
     },
+    #[error(
+        "{stage} of a free-motion recording failed; is the camera's latency beyond `latency_bound_s` = {latency_bound_s} s (the joints would be read at the wrong instants)? Widen it, or set `latency_s` near the true latency: {error}"
+    )]
+    /// A fit of a free-motion recording failed (the latency is the likely cause).
+    FreeMotionFit {
+        /// The fit stage.
+        stage: &'static str,
+        /// Why it failed.
+        error: FitError,
+        /// The configured bound on the latency (s).
+        latency_bound_s: f64,
+    },
     #[error("{0}; not written (`if_not_better: refuse`)")]
     /// The calibrated model does not predict unseen poses clearly better than the nominal one.
     NotBetter(String),
@@ -241,7 +253,8 @@ pub fn calibrate(
         Some((s, warnings)) => (s, warnings.iter().map(|w| w.to_string()).collect()),
         None => (session, Vec::new()),
     };
-    match config.fit {
+    let latency_free = resampled.is_some() && range.0 < range.1;
+    let calibration = match config.fit {
         FitLevel::Markers => {
             run(levels::MarkerLevel::prepare(session, model, config)?, session, model, config, left_out, on_iteration)
         }
@@ -253,6 +266,14 @@ pub fn calibrate(
             left_out,
             on_iteration,
         ),
+    };
+    // A fit of a free-motion recording that breaks down is most often a latency outside its
+    // bound: the joints are read at the wrong instants. Say so in the user's terms first.
+    match calibration {
+        Err(CalibError::Fit { stage, error }) if latency_free => {
+            Err(CalibError::FreeMotionFit { stage, error, latency_bound_s: config.latency_bound_s })
+        }
+        other => other,
     }
 }
 
@@ -308,9 +329,21 @@ fn run<L: Level>(
             best_registration(&model, &nominal.x, &registration, config).map_err(stage("nominal registration"))?;
         (model, refit, nominal)
     };
-    let covariance = covariance(&calibrated, &free, prior.as_ref().map(|(l, _)| l));
+    // A parameter that ends at its bound is held there: the data want it further, and a standard
+    // error computed as if it were free would claim a precision the bound, not the data, gives.
+    let at_bound = at_bounds(p, &calibrated.x, &free);
+    let determined: Vec<bool> = free.iter().zip(&at_bound).map(|(f, b)| *f && !b).collect();
+    let covariance = covariance(&calibrated, &determined, prior.as_ref().map(|(l, _)| l));
+    let groups = super::validation::groups(&model);
+    if config.folds > groups {
+        let reason = format!(
+            "`folds: {}` is more than the {groups} poses (stations) there are to hold out: at most {groups}",
+            config.folds
+        );
+        return Err(CalibError::Config { key: "folds".into(), reason });
+    }
     let cross_validation =
-        cross_validate(&model, [&nominal, &calibrated], [&free, &registration], prior.as_ref(), config.folds);
+        cross_validate(&model, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     let mut warnings = Vec::new();
     if let Some(cv) = cross_validation.as_ref().filter(|cv| !cv.clearly_better) {
         let warning = not_better_warning(cv, &identifiability.unidentifiable, model.poses());
@@ -351,11 +384,12 @@ fn run<L: Level>(
         residual_sigma_deg: Vec::new(),
         flagged: flagged.into_iter().map(|(_, f)| f).collect(),
         unit: model.unit(),
+        at_bound: p.entries.iter().zip(&at_bound).filter(|(_, b)| **b).map(|(e, _)| e.name.clone()).collect(),
         camera_translation_m: None,
         camera_translation_std_error_m: None,
         markers: None,
     };
-    let results = Results { session, robot, model, nominal, calibrated, free, covariance, report };
+    let results = Results { session, robot, model, nominal, calibrated, free: determined, covariance, report };
     let mut calibration = level.finish(results)?;
     let report = &mut calibration.report;
     report.verdict = Verdict::of(report.cross_validation.as_ref(), &report.before, &report.after, config);
@@ -381,6 +415,15 @@ pub(crate) fn check_enough(free: &[bool], observations: usize, what: &'static st
         });
     }
     Ok(())
+}
+
+/// The free parameters that end at their bound (within a millionth of it).
+fn at_bounds(p: &Parameterisation, x: &DVector<f64>, free: &[bool]) -> Vec<bool> {
+    p.entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| free[i] && e.bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6)))
+        .collect()
 }
 
 /// Observations beyond `threshold` robust standard deviations, most extreme first; beyond twice

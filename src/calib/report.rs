@@ -87,7 +87,11 @@ impl Verdict {
             },
             _ => Verdict {
                 pass: false,
-                summary: "no unseen poses were predicted: nothing shows how the model predicts new data".into(),
+                summary: format!(
+                    "no unseen poses were predicted (cross-validation needs `folds` of at least 2, got {}): \
+                     nothing shows how the model predicts new data",
+                    config.folds
+                ),
             },
         }
     }
@@ -121,8 +125,10 @@ pub struct MarkerReport {
 pub struct Latency {
     /// The latency (s): estimated, or as given when frozen.
     pub value_s: f64,
-    /// Its standard error (s); `None` when frozen.
+    /// Its standard error (s); `None` when frozen or at its bound.
     pub std_error_s: Option<f64>,
+    /// It ended at its bound, `±latency_bound_s`: the data want it further.
+    pub at_bound: bool,
 }
 
 /// A capture of a free-motion recording taken while a joint turned faster than
@@ -216,6 +222,9 @@ pub struct CalibrationReport {
     pub flagged: Vec<FlaggedObservation>,
     /// Unit of the flagged observations' residuals: `mm` or `deg`.
     pub unit: &'static str,
+    /// Parameters that ended at their bound: held there, without a standard error (the data
+    /// want them further: widen the bound in the config if the device can be that far off).
+    pub at_bound: Vec<String>,
     /// `t_CB`; `None` when the poses leave it undetermined (orientation-level: from the centre of
     /// rotation).
     pub camera_translation_m: Option<[f64; 3]>,
@@ -257,6 +266,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         cross_validated_rms_deg: Option<[f64; 2]>,
         verdict: &'a str,
         #[serde(skip_serializing_if = "Vec::is_empty")]
+        at_bound: Vec<&'a str>,
+        #[serde(skip_serializing_if = "Vec::is_empty")]
         warnings: Vec<&'a str>,
     }
     let markers = report.markers.as_ref();
@@ -288,6 +299,7 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         cross_validated_rms_mm: cv("mm"),
         cross_validated_rms_deg: cv("deg"),
         verdict: report.verdict.label(),
+        at_bound: report.at_bound.iter().map(String::as_str).collect(),
         warnings: report.warnings.iter().map(String::as_str).collect(),
     };
     serde_yaml::to_value(header).expect("the header serialises")

@@ -86,6 +86,7 @@ impl fmt::Display for CalibrationReport {
         for p in &r.parameters {
             match p.std_error_deg {
                 Some(se) => writeln!(f, "  {:<26} {:+12.5} {:14.5}", p.name, p.change_deg, se)?,
+                None if p.at_bound => writeln!(f, "  {:<26} {:+12.5}       at bound", p.name, p.change_deg)?,
                 None => writeln!(f, "  {:<26} {:+12.5}         frozen", p.name, p.change_deg)?,
             }
         }
@@ -96,6 +97,13 @@ impl fmt::Display for CalibrationReport {
                 r.not_significant.len(),
                 r.parameters.iter().filter(|p| !p.frozen).count(),
                 r.not_significant.join(", ")
+            )?;
+        }
+        if !r.at_bound.is_empty() {
+            writeln!(
+                f,
+                "AT A BOUND (held there, no standard error; the data want them further — widen `bounds` if the device can be that far off): {}",
+                r.at_bound.join(", ")
             )?;
         }
         for c in r.high_correlations.iter().take(5) {
@@ -172,6 +180,11 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
     if let Some(l) = &m.latency {
         match l.std_error_s {
             Some(se) => writeln!(f, "camera latency: {:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3)?,
+            None if l.at_bound => writeln!(
+                f,
+                "camera latency: {:.3} ms, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
+                l.value_s * 1e3
+            )?,
             None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
         }
     }

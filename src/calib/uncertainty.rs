@@ -23,6 +23,8 @@ pub struct ParameterReport {
     pub std_error_deg: Option<f64>,
     /// Held at its initial value.
     pub frozen: bool,
+    /// Ended at its bound (no standard error: the data want it further).
+    pub at_bound: bool,
 }
 
 /// A strong correlation between two fitted parameters.
@@ -111,9 +113,15 @@ pub(crate) fn parameter_reports(
             name: e.name.clone(),
             change_deg: x[i].to_degrees(),
             std_error_deg: std_error(cov, free, i).map(f64::to_degrees),
-            frozen: !free[i],
+            frozen: !free[i] && !at_bound(p, x, i),
+            at_bound: at_bound(p, x, i),
         })
         .collect()
+}
+
+/// Whether parameter `i` sits at its bound (within a millionth of it).
+fn at_bound(p: &Parameterisation, x: &DVector<f64>, i: usize) -> bool {
+    p.entries[i].bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6))
 }
 
 /// The parameters whose change from nominal is under twice its standard error.

@@ -41,6 +41,12 @@ pub struct CrossValidation {
     pub clearly_better: bool,
 }
 
+/// The groups (stations, else poses) of the model's observations: the most folds there can be.
+pub(crate) fn groups<M: Model>(model: &M) -> usize {
+    let mut seen = std::collections::HashSet::new();
+    (0..model.len()).filter(|&j| seen.insert(model.group(j))).count()
+}
+
 /// The fold of each observation: groups (stations, else poses) dealt out in order of appearance.
 pub(crate) fn fold_assignment<M: Model>(model: &M, k: usize) -> Vec<usize> {
     let mut groups: std::collections::HashMap<(bool, u64), usize> = std::collections::HashMap::new();

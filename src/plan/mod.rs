@@ -66,6 +66,33 @@ impl Default for PlanSettings {
     }
 }
 
+/// The most candidates a plan draws (each holds an N × N information matrix, 9 kB at N = 33).
+const MAX_CANDIDATES: usize = 200_000;
+
+impl PlanSettings {
+    /// Every setting within its range, in the command line's terms.
+    fn check(&self) -> Result<(), PlanError> {
+        let setting = |option, reason| Err(PlanError::Setting { option, reason });
+        if self.poses == 0 {
+            return setting("--poses", "a plan needs at least one pose".into());
+        }
+        if !(1..=MAX_CANDIDATES).contains(&self.candidates) {
+            return setting("--candidates", format!("must be from 1 to {MAX_CANDIDATES} (got {})", self.candidates));
+        }
+        if self.poses > self.candidates {
+            let reason = format!(
+                "{} poses cannot be chosen from {} candidates: ask for at most {} poses or more `--candidates`",
+                self.poses, self.candidates, self.candidates
+            );
+            return setting("--poses", reason);
+        }
+        if !(self.margin_deg.is_finite() && (0.0..=20.0).contains(&self.margin_deg)) {
+            return setting("--margin-deg", format!("must be from 0 to 20 degrees (got {})", self.margin_deg));
+        }
+        Ok(())
+    }
+}
+
 /// Why no plan could be made.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -79,6 +106,14 @@ pub enum PlanError {
         found: usize,
         /// Poses asked for.
         wanted: usize,
+    },
+    #[error("{option}: {reason}")]
+    /// A setting is out of its range (checked before any work).
+    Setting {
+        /// The command-line option, e.g. `--poses`.
+        option: &'static str,
+        /// What is wrong with its value.
+        reason: String,
     },
     #[error("no candidate lets the camera see marker `{0}`: its position cannot be calibrated")]
     /// A marker no candidate shows.
@@ -244,6 +279,7 @@ pub fn plan(
     settings: &PlanSettings,
     augment: Option<&Session>,
 ) -> Result<Plan, PlanError> {
+    settings.check()?;
     let nominal = Parameters::nominal(&model.spm, None);
     let params = params.unwrap_or(&nominal);
     let spm = params.spm().map_err(crate::calib::SetError::Geometry)?;

@@ -189,11 +189,11 @@ impl Level for MarkerLevel<'_> {
         report.excluded = excluded;
         report.warnings = self.warnings.iter().cloned().chain(report.warnings).collect();
         report.markers = Some(MarkerFitReport {
-            latency: p
-                .entries
-                .iter()
-                .position(|e| e.kind == Kind::Latency)
-                .map(|i| Latency { value_s: p.latency(x), std_error_s: std_error(cov, free, i) }),
+            latency: p.entries.iter().position(|e| e.kind == Kind::Latency).map(|i| Latency {
+                value_s: p.latency(x),
+                std_error_s: std_error(cov, free, i),
+                at_bound: p.entries[i].bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6)),
+            }),
             observations: observations.len(),
             poses: r.model.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
