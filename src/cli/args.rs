@@ -8,6 +8,8 @@ use spmcal::dataset::Session;
 use spmcal::model::{Parameters, RobotModel, Spm};
 use spmcal::vision::Method;
 
+use super::files::{Files, session_model};
+
 /// Which manipulator geometry to use.
 #[derive(Args)]
 pub(crate) struct GeometryArgs {
@@ -20,11 +22,43 @@ pub(crate) struct GeometryArgs {
 }
 
 impl GeometryArgs {
-    /// The model, and the parameters file when one is given (its `model`, else `--model`).
-    pub(crate) fn model_and_params(&self) -> Result<(RobotModel, Option<Parameters>)> {
+    /// The model, and the parameters file when one is given (its `model`, else `--model`); the
+    /// model is checked against the outputs in `files` before it is read.
+    pub(crate) fn model_and_params(&self, files: &mut Files) -> Result<(RobotModel, Option<Parameters>)> {
         let params = self.params.as_deref().map(Parameters::read).transpose()?;
-        let path = params.as_ref().and_then(|p| p.model.clone()).map_or_else(|| self.model.clone(), PathBuf::from);
+        let path = self.model_path(params.as_ref());
+        files.check_model(&path)?;
         Ok((RobotModel::load(&path)?, params))
+    }
+
+    /// The model [`GeometryArgs::model_and_params`] reads: the parameters' `model`, else `--model`.
+    fn model_path(&self, params: Option<&Parameters>) -> PathBuf {
+        params.and_then(|p| p.model.clone()).map_or_else(|| self.model.clone(), PathBuf::from)
+    }
+
+    /// Register what [`GeometryArgs::model_and_params`] reads: the parameters file, and the model
+    /// it names, else `--model`.
+    pub(crate) fn register_model_and_params(&self, files: &mut Files) {
+        match &self.params {
+            Some(path) => {
+                files.input("--params", path);
+                let (path, model) = (path.clone(), self.model.clone());
+                files.model_named_by(move || {
+                    let named = Parameters::read(&path).ok()?.model;
+                    Some(named.map_or(model, PathBuf::from))
+                });
+            }
+            None => files.model(&self.model),
+        }
+    }
+
+    /// Register what [`GeometryArgs::spm`] reads: the parameters file when one is given (the model
+    /// is not read then), else the model.
+    pub(crate) fn register_spm(&self, files: &mut Files) {
+        match &self.params {
+            Some(path) => files.input("--params", path),
+            None => files.model(&self.model),
+        }
     }
 
     pub(crate) fn spm(&self) -> Result<Spm> {
@@ -50,6 +84,20 @@ pub(crate) struct SessionArgs {
 }
 
 impl SessionArgs {
+    /// Register the session folder and the files its reader looks for, and, when the command reads
+    /// it, the model: `--model`, else the one `session.yaml` names.
+    pub(crate) fn register(&self, files: &mut Files, reads_model: bool) {
+        files.session("--dataset", &self.dataset);
+        match (&self.model, reads_model) {
+            (_, false) => {}
+            (Some(model), true) => files.model(model),
+            (None, true) => {
+                let dir = self.dataset.clone();
+                files.model_named_by(move || session_model(&dir));
+            }
+        }
+    }
+
     /// Load the session, printing its warnings on standard error; the warnings also go to `--json`.
     pub(crate) fn load(&self) -> Result<(Session, Vec<String>)> {
         let (session, warnings) = Session::load(&self.dataset, self.model.as_deref())?;

@@ -10,6 +10,7 @@ use spmcal::model::RobotModel;
 
 use super::args::SessionArgs;
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, record, reserve};
 
 #[derive(Args)]
@@ -37,10 +38,18 @@ pub(crate) struct CalibrateArgs {
 }
 
 pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output("--out", &args.out);
+    files.output_opt("--rrd", args.rrd.as_deref());
+    files.output_opt("--report", args.report.as_deref());
+    args.session.register(&mut files, true);
+    files.input_opt("--config", args.config.as_deref());
+    files.check()?;
     let mut outputs = Outputs::new();
     let (params_slot, rrd) = (outputs.reserve(&args.out)?, reserve(&mut outputs, args.rrd.as_deref())?);
     let html = reserve(&mut outputs, args.report.as_deref())?;
     let (session, warnings) = args.session.load()?;
+    files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let config = match &args.config {
         Some(path) => CalibConfig::read(path)?,

@@ -11,6 +11,7 @@ use spmcal::vision::Method;
 
 use super::args::{MethodArg, SessionArgs};
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, record, reserve};
 
 #[derive(Args)]
@@ -51,9 +52,15 @@ impl From<LevelArg> for spmcal::calib::FitLevel {
 }
 
 pub(crate) fn run(args: CompareArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output_opt("--rrd", args.rrd.as_deref());
+    args.session.register(&mut files, true);
+    files.input_opt("--params", args.params.as_deref());
+    files.check()?;
     let mut outputs = Outputs::new();
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
     let (session, warnings) = args.session.load()?;
+    files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let mut sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None))];
     if let Some(path) = &args.params {

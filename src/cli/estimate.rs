@@ -11,6 +11,7 @@ use spmcal::vision::{EstimateSummary, Method, SessionEstimate, estimate_session}
 
 use super::args::{MethodArg, SessionArgs};
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, record, reserve, table_to};
 
 #[derive(Args)]
@@ -32,12 +33,19 @@ pub(crate) struct EstimateArgs {
 }
 
 pub(crate) fn run(args: EstimateArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output_opt("--out", args.out.as_deref());
+    files.output_opt("--rrd", args.rrd.as_deref());
+    // The model is read only to draw the recording.
+    args.session.register(&mut files, args.rrd.is_some());
+    files.check()?;
     let mut outputs = Outputs::new();
     let (table_slot, rrd) = (reserve(&mut outputs, args.out.as_deref())?, reserve(&mut outputs, args.rrd.as_deref())?);
     let (session, warnings) = args.session.load()?;
     let method: Method = args.method.into();
     let result = estimate_session(&session, method)?;
     if let Some(slot) = rrd {
+        files.check_model(&session.model)?;
         let model = RobotModel::load(&session.model)?;
         record(&outputs, slot, &spmcal::record::Scene::estimate(&session, &model, &result)?)?;
     }

@@ -7,6 +7,7 @@ use clap::Args;
 use spmcal::model::{Parameters, RobotModel, export};
 
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out};
 
 #[derive(Args)]
@@ -26,15 +27,23 @@ pub(crate) struct ExportArgs {
 }
 
 pub(crate) fn run(args: ExportArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.model_output("--urdf", &args.urdf);
+    files.input("--params", &args.params);
+    match &args.model {
+        Some(model) => files.model(model),
+        None => {
+            let params = args.params.clone();
+            files.model_named_by(move || Some(default_model(Parameters::read(&params).ok().as_ref())));
+        }
+    }
+    files.check()?;
     let mut outputs = Outputs::new();
     let companion = RobotModel::companion_path(&args.urdf);
     let (urdf_slot, companion_slot) = (outputs.reserve(&args.urdf)?, outputs.reserve(&companion)?);
     let params = Parameters::read(&args.params)?;
-    let model_path = args
-        .model
-        .clone()
-        .or_else(|| params.model.clone().map(PathBuf::from))
-        .unwrap_or_else(|| PathBuf::from("models/agile_wrist.urdf"));
+    let model_path = args.model.clone().unwrap_or_else(|| default_model(Some(&params)));
+    files.check_model(&model_path)?;
     let model = RobotModel::load(&model_path)?;
     let mut provenance = vec![
         format!("Calibrated model exported by spmcal {} from {}", env!("CARGO_PKG_VERSION"), args.params.display()),
@@ -57,4 +66,10 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
         return out(&(Envelope::new("export", summary).input("params", args.params.display()).to_json() + "\n"));
     }
     out(&format!("wrote {urdf} and {companion} (load it with --model {urdf})\n"))
+}
+
+/// The model whose URDF is copied when no `--model` is given: the parameters' `model`, else the
+/// nominal one.
+fn default_model(params: Option<&Parameters>) -> PathBuf {
+    params.and_then(|p| p.model.clone()).map_or_else(|| PathBuf::from("models/agile_wrist.urdf"), PathBuf::from)
 }

@@ -10,6 +10,7 @@ use spmcal::model::FdaPose;
 
 use super::args::GeometryArgs;
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, reserve, table_to};
 
 #[derive(Args)]
@@ -31,6 +32,11 @@ pub(crate) struct FdaArgs {
 }
 
 pub(crate) fn run(args: FdaArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output_opt("--out", args.out.as_deref());
+    args.geometry.register_spm(&mut files);
+    files.input("--joints", &args.joints);
+    files.check()?;
     let mut outputs = Outputs::new();
     let slot = reserve(&mut outputs, args.out.as_deref())?;
     let spm = args.geometry.spm()?;

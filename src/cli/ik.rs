@@ -9,6 +9,7 @@ use spmcal::math::so3;
 
 use super::args::GeometryArgs;
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, reserve, table_to};
 
 #[derive(Args)]
@@ -30,6 +31,11 @@ pub(crate) struct IkArgs {
 }
 
 pub(crate) fn run(args: IkArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output_opt("--out", args.out.as_deref());
+    args.geometry.register_spm(&mut files);
+    files.input_opt("--orientations", args.orientations.as_deref());
+    files.check()?;
     let mut outputs = Outputs::new();
     let slot = reserve(&mut outputs, args.out.as_deref())?;
     let spm = args.geometry.spm()?;

@@ -1,6 +1,7 @@
 //! The command line: one file per command (its arguments, the library call, the printing), the
-//! arguments several commands share ([`args`]), the plumbing they share ([`output`]) and the
-//! `--json` envelope ([`envelope`]).
+//! arguments several commands share ([`args`]), what each reads and writes, checked against each
+//! other before any work ([`files`]), the plumbing they share ([`output`]) and the `--json`
+//! envelope ([`envelope`]).
 
 pub(crate) mod args;
 pub(crate) mod calibrate;
@@ -9,6 +10,7 @@ pub(crate) mod envelope;
 pub(crate) mod estimate;
 pub(crate) mod export;
 pub(crate) mod fda;
+pub(crate) mod files;
 pub(crate) mod ik;
 pub(crate) mod output;
 pub(crate) mod plan;

@@ -10,6 +10,7 @@ use spmcal::sim::SimConfig;
 
 use super::args::GeometryArgs;
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, record, reserve};
 
 #[derive(Args)]
@@ -45,6 +46,15 @@ pub(crate) struct PlanArgs {
 }
 
 pub(crate) fn run(args: PlanArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output("--out", &args.out);
+    files.output_opt("--rrd", args.rrd.as_deref());
+    files.input_opt("--config", args.config.as_deref());
+    args.geometry.register_model_and_params(&mut files);
+    if let Some(dir) = &args.augment {
+        files.session("--augment", dir);
+    }
+    files.check()?;
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(&args.out)?;
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
@@ -56,7 +66,7 @@ pub(crate) fn run(args: PlanArgs) -> Result<()> {
         }
         None => SimConfig::default(),
     };
-    let (model, params) = args.geometry.model_and_params()?;
+    let (model, params) = args.geometry.model_and_params(&mut files)?;
     let augment = args.augment.as_deref().map(|dir| Session::load(dir, None)).transpose()?.map(|(s, _)| s);
     let settings = PlanSettings {
         poses: args.poses,

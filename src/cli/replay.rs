@@ -8,6 +8,7 @@ use spmcal::model::{Parameters, RobotModel};
 
 use super::args::SessionArgs;
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, record};
 
 #[derive(Args)]
@@ -26,9 +27,15 @@ pub(crate) struct ReplayArgs {
 }
 
 pub(crate) fn run(args: ReplayArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.output("--rrd", &args.rrd);
+    args.session.register(&mut files, true);
+    files.input_opt("--params", args.params.as_deref());
+    files.check()?;
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(&args.rrd)?;
     let (session, warnings) = args.session.load()?;
+    files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let params = args.params.as_deref().map(Parameters::read).transpose()?;
     let session = match params.as_ref().and_then(|p| p.latency_s) {

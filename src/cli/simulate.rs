@@ -9,6 +9,7 @@ use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
 use super::envelope::Envelope;
+use super::files::Files;
 use super::output::{Outputs, out, progress_bar, record, reserve};
 
 #[derive(Args)]
@@ -43,6 +44,19 @@ pub(crate) struct SimulateArgs {
 }
 
 pub(crate) fn run(args: SimulateArgs) -> Result<()> {
+    let mut files = Files::new();
+    files.session_output("--out", &args.out);
+    files.output_opt("--rrd", args.rrd.as_deref());
+    files.input("--config", &args.config);
+    files.input_opt("--plan", args.plan.as_deref());
+    match &args.model {
+        Some(model) => files.model(model),
+        None => {
+            let config = args.config.clone();
+            files.model_named_by(move || SimConfig::read(&config).ok().map(|c| c.model));
+        }
+    }
+    files.check()?;
     let mut config = SimConfig::read(&args.config)?;
     config.seed = args.seed.unwrap_or(config.seed);
     config.poses = args.poses.unwrap_or(config.poses);
@@ -56,6 +70,7 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
         config.model = model;
     }
     config.check().map_err(|(key, reason)| anyhow!("{}: `{key}`: {reason}", args.config.display()))?;
+    files.check_model(&config.model)?;
     Session::check_destination(&args.out)?;
     let mut outputs = Outputs::new();
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
