@@ -163,8 +163,10 @@ case("session_reference_not_a_pose", session(**{"session.yaml": SESSION.replace(
 
 
 def main():
-    for entry in os.listdir(ROOT):
-        path = os.path.join(ROOT, entry)
+    # Only the folders this script makes are rewritten: the hand-made cases beside them
+    # (clobber_*, agree_*, model_*, limits_*, …) are kept.
+    for name, *_ in cases:
+        path = os.path.join(ROOT, name)
         if os.path.isdir(path):
             shutil.rmtree(path)
     for name, files, args, expect, status in cases:
