@@ -7,7 +7,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use crate::io::files::{FileError, push_numbers, write_atomic};
-use crate::io::table::{Table, first_repeat};
+use crate::io::table::{Row, Table, first_repeat};
 
 /// One marker measurement.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,8 +29,9 @@ pub(crate) struct MarkerRow {
 /// A [`FileError`] naming the line and column of the first bad value, unknown marker or repeated pair.
 pub(crate) fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRow>, FileError> {
     let mut table = Table::open(path, &["pose", "marker", "x_m", "y_m", "z_m"])?;
+    let lookup = MarkerLookup::new(names);
     let out = table.read_all(|row, _| {
-        let (pose, marker) = (row.index(0)?, row.marker(1, names)?);
+        let (pose, marker) = (row.index(0)?, lookup.marker(row, 1)?);
         let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
         Ok(MarkerRow { pose, marker, position, line: row.line })
     })?;
@@ -57,4 +58,38 @@ pub(crate) fn markers_csv(rows: &[MarkerRow], names: &[String]) -> String {
 /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
 pub(crate) fn write_markers(path: &Path, rows: &[MarkerRow], names: &[String]) -> Result<(), FileError> {
     write_atomic(path, markers_csv(rows, names).as_bytes())
+}
+
+/// The session's marker names by their bytes: one hash look-up per row, whatever the number of
+/// names (a linear search per row is rows × names).
+pub(crate) struct MarkerLookup<'a> {
+    names: &'a [String],
+    index: foldhash::HashMap<&'a [u8], usize>,
+}
+
+impl<'a> MarkerLookup<'a> {
+    /// The look-up of `names` (the first of a repeated name wins; `session.yaml` refuses repeats).
+    pub(crate) fn new(names: &'a [String]) -> Self {
+        let mut index = foldhash::HashMap::default();
+        index.reserve(names.len());
+        for (k, name) in names.iter().enumerate() {
+            index.entry(name.as_bytes()).or_insert(k);
+        }
+        MarkerLookup { names, index }
+    }
+
+    /// The `k`-th field of `row` as a marker of the session (its index in the names); an unknown
+    /// name is an error naming it and the session's names (the first few when there are many).
+    pub(crate) fn marker(&self, row: &Row<'_>, k: usize) -> Result<usize, FileError> {
+        let bytes = row.field(k);
+        self.index.get(bytes).copied().ok_or_else(|| {
+            const SHOWN: usize = 12;
+            let shown = String::from_utf8_lossy(bytes);
+            let mut listed = self.names.iter().take(SHOWN).map(String::as_str).collect::<Vec<_>>().join(", ");
+            if self.names.len() > SHOWN {
+                listed += &format!(", … ({} in all)", self.names.len());
+            }
+            row.error(k, format!("unknown marker `{shown}` (session.yaml lists {listed})"))
+        })
+    }
 }

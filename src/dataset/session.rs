@@ -5,8 +5,11 @@
 //! What is an error (loading stops, naming file, line and column): malformed YAML or CSV, an
 //! unknown key in `session.yaml`, fewer than 3 or repeated marker names, no model, non-numbers
 //! and NaN/inf, a repeated pose or (pose, marker) pair, an unknown marker name, marker rows for a
-//! pose that `joints.csv` does not have, an empty session, or a reference pose that is not in
-//! `joints.csv`.
+//! pose that `joints.csv` does not have, an empty session, a reference pose that is not in
+//! `joints.csv`, an empty station or one whose captures are not one pose (`joints.csv`), a
+//! recording with captures in fewer than 3 camera frames, files of both kinds in one folder
+//! (which session is meant cannot be told), and more marker slots (listed markers × poses) than
+//! memory should hold. Every check is linear in the names and rows (hash look-ups, no searches).
 //!
 //! A pose with fewer than 3 markers seen (none at all included) is data like any other: the
 //! marker-level fit uses each observation, and only the per-pose vision estimator skips it (and
@@ -20,7 +23,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::joints::{JointReading, read_joints, write_joints};
+use super::joints::{JointReading, StationSpans, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
 use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
@@ -172,15 +175,17 @@ impl Session {
         let yaml_path = dir.join("session.yaml");
         let (file, keys) = crate::io::yaml::read::<SessionFile>(&yaml_path)?;
         let at = |key: &str, reason: String| keys.error(&yaml_path, key, reason);
-        check_marker_names(&file.markers).map_err(|reason| at("markers", reason))?;
+        check_marker_names(&file.markers).map_err(|(key, reason)| at(&key, reason))?;
         let model = match (model, &file.model) {
             (Some(m), _) => m.to_path_buf(),
             (None, Some(m)) => dir.join(m),
             (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
         };
         let joints_path = dir.join("joints.csv");
-        if !joints_path.exists() && dir.join("encoders.csv").exists() {
+        if session_kind(dir)? == Kind::Recording {
             let streams = Streams::read(dir, &file.markers, &StreamLimits::default())?;
+            let frames = streams.captures.chunk_by(|a, b| a.time_s == b.time_s).count();
+            check_slots(file.markers.len(), frames, "camera frames in captures.csv").map_err(|r| at("markers", r))?;
             let session = Session {
                 name: file.name,
                 description: file.description,
@@ -201,6 +206,7 @@ impl Session {
         if readings.is_empty() {
             return Err(FileError::new(&joints_path, "empty session: no poses"));
         }
+        check_slots(file.markers.len(), readings.len(), "poses in joints.csv").map_err(|r| at("markers", r))?;
         let rows = rows?;
         let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
         // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
@@ -305,6 +311,9 @@ impl Session {
     /// Never in practice: serialising the session's YAML cannot fail.
     pub fn write(&self, dir: &Path) -> Result<(), FileError> {
         Session::check_destination(dir)?;
+        if self.streams.is_none() {
+            check_stations(&self.poses, &dir.join("joints.csv"))?;
+        }
         std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;
         if let Some(streams) = &self.streams {
             // A free-motion recording is its streams; its poses are derived from them on loading.
@@ -320,6 +329,13 @@ impl Session {
                 reference_pose: None,
                 description: self.description.clone(),
             };
+            // A session replaced here leaves no file of the other kind (or a truth it lacks).
+            let stale = if self.truth.is_some() {
+                &["truth_orientations.csv"][..]
+            } else {
+                &["truth.yaml", "truth_orientations.csv"]
+            };
+            remove_stale(dir, STATIC_FILES.iter().chain(stale))?;
             let yaml = serde_yaml::to_string(&file).expect("session serialises");
             return write_atomic(&dir.join("session.yaml"), yaml.as_bytes());
         }
@@ -355,24 +371,132 @@ impl Session {
             reference_pose: Some(self.reference_pose),
             description: self.description.clone(),
         };
+        let stale = if self.truth.is_some() { &[][..] } else { &["truth.yaml", "truth_orientations.csv"] };
+        remove_stale(dir, RECORDING_FILES.iter().chain(stale))?;
         let yaml = serde_yaml::to_string(&file).expect("session serialises");
         write_atomic(&dir.join("session.yaml"), yaml.as_bytes())
     }
 }
 
-fn check_marker_names(names: &[String]) -> Result<(), String> {
-    if names.len() < MIN_MARKERS {
-        return Err(format!(
-            "{} markers listed; at least {MIN_MARKERS} are needed to determine an orientation",
-            names.len()
-        ));
+/// The stations of `poses` as `joints.csv` (at `path`) must hold them for the session to load
+/// again: on every pose or on none, and each station's captures one pose (see
+/// [`super::joints::MAX_STATION_SPREAD_DEG`]). A writer never writes what its reader refuses.
+fn check_stations(poses: &[SessionPose], path: &Path) -> Result<(), FileError> {
+    let with = poses.iter().filter(|p| p.station.is_some()).count();
+    if let Some(p) = poses.iter().find(|p| p.station.is_none()).filter(|_| with > 0) {
+        let reason = format!(
+            "pose {} has no station while {with} poses have one: joints.csv gives every pose its station or none; not written",
+            p.id
+        );
+        return Err(FileError::new(path, reason));
     }
-    for (i, name) in names.iter().enumerate() {
-        if name.is_empty() || names[..i].contains(name) {
-            return Err(format!("marker name `{name}` is empty or repeated"));
+    let mut spans = StationSpans::default();
+    for (k, p) in poses.iter().enumerate() {
+        let Some(station) = p.station else { continue };
+        if let Some(far) = spans.add(station, &p.joints, k) {
+            let (this, other) = (format!("pose {}", p.id), format!("pose {}", poses[far.earlier].id));
+            let reason = far.describe(station, &this, &other)
+                + "; a session that would not load is not written (simulated: lower `capture.motion_deg`)";
+            return Err(FileError::new(path, reason));
         }
     }
     Ok(())
+}
+
+/// Remove the `files` of an earlier session in `dir` that the session written there does not
+/// have (a recording written over a static session, or the reverse), so that the folder holds
+/// one session, not two that disagree.
+fn remove_stale<'a>(dir: &Path, files: impl Iterator<Item = &'a &'a str>) -> Result<(), FileError> {
+    for name in files {
+        let path = dir.join(name);
+        match std::fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(FileError::new(&path, format!("cannot remove this file of the session replaced: {e}")));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// At least [`MIN_MARKERS`] names, none empty, none repeated: one hash set, linear in the names.
+/// The error is `(key, reason)`, the key locating the offending name (`markers[k]`).
+fn check_marker_names(names: &[String]) -> Result<(), (String, String)> {
+    if names.len() < MIN_MARKERS {
+        return Err((
+            "markers".into(),
+            format!("{} markers listed; at least {MIN_MARKERS} are needed to determine an orientation", names.len()),
+        ));
+    }
+    let mut first: foldhash::HashMap<&str, usize> = foldhash::HashMap::default();
+    first.reserve(names.len());
+    for (k, name) in names.iter().enumerate() {
+        if name.is_empty() {
+            return Err((
+                format!("markers[{k}]"),
+                format!("marker name `` is empty or repeated: marker {} has no name", k + 1),
+            ));
+        }
+        if let Some(&j) = first.get(name.as_str()) {
+            let reason = format!(
+                "marker name `{name}` is empty or repeated: `{name}` is listed twice (markers {} and {})",
+                j + 1,
+                k + 1
+            );
+            return Err((format!("markers[{k}]"), reason));
+        }
+        first.insert(name, k);
+    }
+    Ok(())
+}
+
+/// What a session folder holds: a static (or sequential) session or a free-motion recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// `joints.csv` and `markers.csv`.
+    Static,
+    /// `encoders.csv` and `captures.csv`.
+    Recording,
+}
+
+const STATIC_FILES: [&str; 2] = ["joints.csv", "markers.csv"];
+const RECORDING_FILES: [&str; 2] = ["encoders.csv", "captures.csv"];
+
+/// Which kind of session `dir` holds; a folder with files of both kinds is an error naming them
+/// (which pair is meant cannot be told). A folder with neither is read as a static session (whose
+/// reader then names the missing `joints.csv`).
+fn session_kind(dir: &Path) -> Result<Kind, FileError> {
+    let present = |files: [&'static str; 2]| -> Vec<&'static str> {
+        files.into_iter().filter(|f| dir.join(f).exists()).collect()
+    };
+    let (statics, streams) = (present(STATIC_FILES), present(RECORDING_FILES));
+    match (statics.is_empty(), streams.is_empty()) {
+        (false, false) => Err(FileError::new(
+            dir,
+            format!(
+                "holds files of a static session ({}) and of a free-motion recording ({}): a session folder holds one pair, joints.csv and markers.csv or encoders.csv and captures.csv, and which one is meant here cannot be told; move the other out",
+                statics.join(", "),
+                streams.join(", ")
+            ),
+        )),
+        (true, false) => Ok(Kind::Recording),
+        _ => Ok(Kind::Static),
+    }
+}
+
+/// Most marker slots (poses × listed markers) a session may hold: every pose keeps a place for
+/// each listed marker (40 bytes), so 2^24 slots are 670 MB — far beyond any real session (an
+/// hour of 60 Hz frames with 4 markers is 864,000) and short of exhausting the machine.
+const MAX_MARKER_SLOTS: usize = 1 << 24;
+
+/// `markers` listed names for `poses` poses (`what` says which), within [`MAX_MARKER_SLOTS`].
+fn check_slots(markers: usize, poses: usize, what: &str) -> Result<(), String> {
+    match markers.checked_mul(poses) {
+        Some(slots) if slots <= MAX_MARKER_SLOTS => Ok(()),
+        _ => Err(format!(
+            "{markers} markers listed for {poses} {what} make more than {MAX_MARKER_SLOTS} marker slots (one per marker and pose), more than a session may hold in memory: list only the markers on the MP"
+        )),
+    }
 }
 
 /// Join joint readings and marker rows by pose; marker rows of an unknown pose are an error.

@@ -13,6 +13,7 @@ use nalgebra::Vector3;
 
 use std::fmt::Write as _;
 
+use super::markers::MarkerLookup;
 use crate::io::files::{FileError, number, push_numbers};
 use crate::io::table::{Table, first_repeat};
 
@@ -37,6 +38,11 @@ pub struct Capture {
     /// Line of `captures.csv`.
     pub line: usize,
 }
+
+/// Fewest camera frames (distinct time stamps of `captures.csv`) a recording must hold: three
+/// orientations of the MP are the fewest that rotate about two axes, which the camera's
+/// registration needs (a calibration needs many more, and says how many).
+pub(crate) const MIN_FRAMES: usize = 3;
 
 /// Half-width of the window over which the joint velocity is taken (s).
 pub(crate) const VELOCITY_WINDOW_S: f64 = 0.01;
@@ -103,12 +109,13 @@ pub(crate) fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<En
 }
 
 /// Read `captures.csv`: numbers, finite, known markers, time non-decreasing, one capture per
-/// (time, marker).
+/// (time, marker), captures in at least [`MIN_FRAMES`] camera frames.
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first problem.
 pub(crate) fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture>, FileError> {
     let mut table = Table::open(path, &["time_s", "marker", "x_m", "y_m", "z_m"])?;
+    let lookup = MarkerLookup::new(names);
     let out = table.read_all(|row, before: &[Capture]| {
         let time_s = row.number(0)?;
         if let Some(last) = before.last().filter(|l| time_s < l.time_s) {
@@ -116,7 +123,7 @@ pub(crate) fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture
                 row.error(0, format!("time {time_s} s goes back from the previous capture's {} s", last.time_s))
             );
         }
-        let marker = row.marker(1, names)?;
+        let marker = lookup.marker(row, 1)?;
         let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
         Ok(Capture { time_s, marker, position, line: row.line })
     })?;
@@ -125,6 +132,20 @@ pub(crate) fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture
     if let Some(((bits, marker), line)) = first_repeat(keys) {
         let time_s = f64::from_bits(bits);
         return Err(table.error_at(line, 1, format!("marker `{}` is captured twice at {time_s} s", names[marker])));
+    }
+    let frames = out.chunk_by(|a, b| a.time_s == b.time_s).count();
+    if frames < MIN_FRAMES {
+        let held = match out.len() {
+            0 => "no captures (a header only)".to_string(),
+            1 => "only 1 capture".to_string(),
+            n => format!("only {n} captures, in {frames} camera frame{}", if frames == 1 { "" } else { "s" }),
+        };
+        return Err(FileError::new(
+            path,
+            format!(
+                "holds {held}: almost nothing to calibrate from — a recording needs markers captured in at least {MIN_FRAMES} camera frames (three orientations of the MP are the fewest that fix the camera's registration), and a calibration many more (each capture gives 3 numbers, against some 30 parameters)"
+            ),
+        ));
     }
     Ok(out)
 }

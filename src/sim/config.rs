@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use nalgebra::Rotation3;
+use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
@@ -58,9 +58,36 @@ pub struct SimConfig {
     /// A free-motion recording (encoder and camera streams) instead of static poses.
     pub recording: Option<Recording>,
     /// The orientations to capture, in order, instead of drawing them (`simulate --plan`; not
-    /// read from the file).
+    /// read from the file). Each must be reachable by the model and inside `workspace`, else the
+    /// simulation is refused, naming the pose.
     #[serde(skip)]
     pub plan: Option<Vec<Rotation3<f64>>>,
+    /// Where `plan` came from, one row per orientation: the plan file and each row's line, step
+    /// and the joint readings it expects. With it, the simulation also refuses a row whose joints
+    /// contradict its orientation under the model, and its errors name the file and line
+    /// (`PlannedPose::read_into` sets both fields). Not read from the file.
+    #[serde(skip)]
+    pub plan_source: Option<PlanSource>,
+}
+
+/// The file a plan was read from and, per pose (in the order of [`SimConfig::plan`]), its row.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PlanSource {
+    /// The plan file.
+    pub path: PathBuf,
+    /// One row per planned orientation.
+    pub rows: Vec<PlanRow>,
+}
+
+/// One row of a plan file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanRow {
+    /// Its step number.
+    pub step: u64,
+    /// Its line in the file.
+    pub line: usize,
+    /// The joint readings the plan expects at its orientation (rad).
+    pub joints: Vector3<f64>,
 }
 
 /// Standard deviations of the true geometry around the nominal model.
@@ -193,6 +220,7 @@ impl Default for SimConfig {
             capture: CaptureSettings::default(),
             recording: None,
             plan: None,
+            plan_source: None,
         }
     }
 }

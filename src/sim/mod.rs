@@ -7,6 +7,8 @@ mod scene;
 mod simulator;
 
 pub use camera::{looking_down, measure};
-pub use config::{Camera, CaptureSettings, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
+pub use config::{
+    Camera, CaptureSettings, Encoders, PlanRow, PlanSource, Recording, SimConfig, Trajectory, TruthSpread, Workspace,
+};
 pub use scene::CollisionScene;
 pub use simulator::{Candidate, SimError, SimSummary, candidates, simulate};

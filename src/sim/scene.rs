@@ -2,6 +2,7 @@
 //! and occlusion of a marker's line of sight.
 
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion, Vector3};
+use parry3d_f64::bounding_volume::Aabb;
 use parry3d_f64::math::{Pose, Vector};
 use parry3d_f64::query::{Ray, intersection_test};
 use parry3d_f64::shape::SharedShape;
@@ -109,22 +110,44 @@ impl CollisionScene {
         to_pose(&(Isometry3::from_parts(Default::default(), rotations[s.body].into()) * s.at_home))
     }
 
-    /// The first pair of non-adjacent bodies whose shapes intersect, if any.
+    /// The first pair of non-adjacent bodies whose shapes intersect, if any (first in the
+    /// model's order of shapes).
+    ///
+    /// Sweep and prune: the shapes' bounding boxes sorted along x, and only the pairs whose boxes
+    /// overlap are tested exactly — a model with many shapes costs about its number of shapes
+    /// (times the few each one overlaps), not its number of pairs. A box holds its shape, so no
+    /// intersecting pair is missed: the answer is the one of testing every pair.
     pub fn collision(&self, rotations: &BodyRotations) -> Option<(Body, Body)> {
         let posed: Vec<Pose> = self.shapes.iter().map(|s| self.posed(rotations, s)).collect();
-        for (i, a) in self.shapes.iter().enumerate() {
-            for (j, b) in self.shapes.iter().enumerate().skip(i + 1) {
-                let (ba, bb) = (BODIES[a.body], BODIES[b.body]);
-                if a.body == b.body || adjacent(ba, bb) {
+        let boxes: Vec<Aabb> = self.shapes.iter().zip(&posed).map(|(s, p)| s.shape.compute_aabb(p)).collect();
+        let mut order: Vec<usize> = (0..self.shapes.len()).collect();
+        order.sort_by(|&a, &b| boxes[a].mins.x.total_cmp(&boxes[b].mins.x));
+        let mut first: Option<(usize, usize)> = None;
+        for (k, &i) in order.iter().enumerate() {
+            for &j in &order[k + 1..] {
+                if boxes[j].mins.x > boxes[i].maxs.x {
+                    break;
+                }
+                let (a, b) = (i.min(j), i.max(j));
+                let (sa, sb) = (&self.shapes[a], &self.shapes[b]);
+                let (ba, bb) = (BODIES[sa.body], BODIES[sb.body]);
+                let overlap = |lo: f64, hi: f64, lo2: f64, hi2: f64| lo <= hi2 && lo2 <= hi;
+                let (p, q) = (&boxes[a], &boxes[b]);
+                if first.is_some_and(|f| f <= (a, b))
+                    || sa.body == sb.body
+                    || adjacent(ba, bb)
+                    || !overlap(p.mins.y, p.maxs.y, q.mins.y, q.maxs.y)
+                    || !overlap(p.mins.z, p.maxs.z, q.mins.z, q.maxs.z)
+                {
                     continue;
                 }
-                let hit = intersection_test(&posed[i], a.shape.as_ref(), &posed[j], b.shape.as_ref());
+                let hit = intersection_test(&posed[a], sa.shape.as_ref(), &posed[b], sb.shape.as_ref());
                 if hit.is_ok_and(|h| h.intersecting) {
-                    return Some((ba, bb));
+                    first = Some((a, b));
                 }
             }
         }
-        None
+        first.map(|(a, b)| (BODIES[self.shapes[a].body], BODIES[self.shapes[b].body]))
     }
 
     /// The body that hides the segment from a marker centre to a lens, if any. The segment starts

@@ -2,6 +2,7 @@
 //! unreachable, near a singularity or colliding, and records what encoders and camera would see.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
 use nalgebra::{Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -10,12 +11,12 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use super::camera::{lenses, looking_down, measure};
-use super::config::{Recording, SimConfig, Trajectory};
+use super::config::{Recording, SimConfig, Trajectory, Workspace};
 use super::scene::CollisionScene;
 use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, Streams, Truth};
 use crate::math::so3;
 use crate::model::{
-    CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
+    Body, CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
     conditioning_index, perturb,
 };
 
@@ -78,6 +79,19 @@ pub enum SimError {
     #[error("the true geometry drawn is not a valid manipulator (spreads too large?): {0}")]
     /// The drawn true geometry is not a valid manipulator.
     Geometry(#[from] SpmError),
+    #[error("{}{reason}", plan_place(.path, .line, .step))]
+    /// A planned pose the simulation cannot take as asked: the model cannot reach it, it lies
+    /// outside the config's workspace, or its row's joints contradict its orientation.
+    Plan {
+        /// The plan file, when the plan was read from one.
+        path: Option<std::path::PathBuf>,
+        /// The pose's line in that file.
+        line: Option<usize>,
+        /// Its step number (from 1), when the problem is one pose's.
+        step: Option<u64>,
+        /// What is wrong.
+        reason: String,
+    },
     #[error("only {found} of {wanted} poses survived {attempts} attempts: {cause}; loosen `{key}` in the config")]
     /// Too few candidate orientations passed the checks.
     TooFewPoses {
@@ -94,11 +108,177 @@ pub enum SimError {
     },
 }
 
+/// Where a plan error lies: `plan.csv:5: step 4: `, `plan step 4: ` or nothing.
+fn plan_place(path: &Option<std::path::PathBuf>, line: &Option<usize>, step: &Option<u64>) -> String {
+    let step = step.map(|s| format!("step {s}: "));
+    match (path, line) {
+        (Some(path), Some(line)) => format!("{}:{line}: {}", path.display(), step.unwrap_or_default()),
+        (Some(path), None) => format!("{}: {}", path.display(), step.unwrap_or_default()),
+        (None, _) => step.map(|s| format!("plan {s}")).unwrap_or_default(),
+    }
+}
+
 /// Why a candidate orientation was rejected.
 enum Rejection {
-    Unreachable,
-    Singular,
-    Collision,
+    Unreachable(crate::model::IkError),
+    /// Near a parallel singularity (the conditioning index) or a serial one (the leg and its branch
+    /// margin).
+    Singular {
+        conditioning: f64,
+        leg_margin: Option<(usize, f64)>,
+    },
+    Collision(Body, Body),
+}
+
+impl Rejection {
+    /// What is wrong, in the config's terms, on the model `model`.
+    fn describe(&self, workspace: &Workspace, model: &Path) -> String {
+        match self {
+            Rejection::Unreachable(e) => format!("the model {} cannot reach this orientation: {e}", model.display()),
+            Rejection::Singular { leg_margin: Some((leg, margin)), .. } => format!(
+                "this orientation lies near a serial singularity of the model {}: leg {}'s branch margin {:.3} is within `workspace.min_branch_margin` ({}) of zero",
+                model.display(),
+                leg + 1,
+                margin.abs(),
+                workspace.min_branch_margin
+            ),
+            Rejection::Singular { conditioning, .. } => format!(
+                "this orientation lies near a parallel singularity of the model {}: its conditioning index {conditioning:.3} is below `workspace.min_conditioning` ({})",
+                model.display(),
+                workspace.min_conditioning
+            ),
+            Rejection::Collision(a, b) => {
+                format!("the model's {} and {} collide at this orientation", body_name(*a), body_name(*b))
+            }
+        }
+    }
+}
+
+/// A body in words.
+fn body_name(body: Body) -> String {
+    match body {
+        Body::Base => "base".into(),
+        Body::Proximal(i) => format!("leg {}'s proximal link", i + 1),
+        Body::Distal(i) => format!("leg {}'s distal link", i + 1),
+        Body::Platform => "moving platform".into(),
+    }
+}
+
+/// How far a plan row's joints may put the MP from its orientation under the model (rad): spmcal
+/// writes the joints as the model's IK of the orientation at full precision, and the FDA gives
+/// the orientation back to ~1e-14 rad; a millionth of a radian (0.2″) is rounding of any kind, and
+/// anything beyond it an edited row or a plan made for another model.
+pub(crate) const PLAN_AGREEMENT_RAD: f64 = 1e-6;
+
+/// Tilt of the MP's z axis from the base's and yaw about it (rad), `R = exp(tilt a) exp(yaw z)`
+/// with `a` horizontal: how the workspace's orientations are drawn.
+fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
+    let z = r * Vector3::z();
+    let tilt = z.z.clamp(-1.0, 1.0).acos();
+    let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
+    (tilt, so3::log(&(tilting.inverse() * r)).z)
+}
+
+/// The joint readings at `r` of `spm` if `r` passes the workspace's checks: reachable in the
+/// working mode, away from singularities (`workspace`'s bounds), no link collisions.
+fn workspace_check(
+    spm: &Spm,
+    scene: &CollisionScene,
+    workspace: &Workspace,
+    r: &Rotation3<f64>,
+) -> Result<Vector3<f64>, Rejection> {
+    let joints = spm.ik(r).map_err(Rejection::Unreachable)?;
+    let conditioning = conditioning_index(&spm.jacobians(&joints, r).a);
+    let margins = spm.branch_margins(&joints, r);
+    if conditioning < workspace.min_conditioning || margins.max() > -workspace.min_branch_margin {
+        let leg = margins.argmax().0;
+        let leg_margin = (margins[leg] > -workspace.min_branch_margin).then_some((leg, margins[leg]));
+        return Err(Rejection::Singular { conditioning, leg_margin });
+    }
+    if let Some((a, b)) = scene.collision(&scene.body_rotations(spm, &joints, r)) {
+        return Err(Rejection::Collision(a, b));
+    }
+    Ok(joints)
+}
+
+/// Check a plan (`config.plan`) against the model before anything is drawn: every pose reachable
+/// by the model and inside the config's workspace (tilt, yaw, singularities, collisions), and —
+/// with the plan's rows (`config.plan_source`) — each row's joints giving the row's orientation
+/// under the model's FDA (within [`PLAN_AGREEMENT_RAD`]). A free-motion recording takes no plan.
+fn check_plan(config: &SimConfig, model: &RobotModel) -> Result<(), SimError> {
+    let Some(plan) = &config.plan else { return Ok(()) };
+    let source = config.plan_source.as_ref();
+    let path = source.map(|s| s.path.clone());
+    if let Some(s) = source.filter(|s| s.rows.len() != plan.len()) {
+        let reason = format!(
+            "the plan holds {} orientations but its file has {} rows: they do not describe one plan",
+            plan.len(),
+            s.rows.len()
+        );
+        return Err(SimError::Plan { path, line: None, step: None, reason });
+    }
+    if config.recording.is_some() {
+        let reason = "the config describes a free-motion recording (`recording`), which follows the hand, not a plan: remove `recording` from the config or leave out the plan".into();
+        return Err(SimError::Plan { path, line: None, step: None, reason });
+    }
+    let scene = CollisionScene::new(model);
+    let w = &config.workspace;
+    let (max_tilt, max_yaw) = (w.max_tilt_deg.to_radians(), w.max_yaw_deg.to_radians());
+    // Bounds as drawn, with room for the rounding of a quaternion written and read back.
+    const ROUNDING: f64 = 1e-9;
+    for (k, r) in plan.iter().enumerate() {
+        let row = source.map(|s| s.rows[k]);
+        let fail = |reason: String| SimError::Plan {
+            path: path.clone(),
+            line: row.map(|r| r.line),
+            step: Some(row.map_or(k as u64 + 1, |r| r.step)),
+            reason,
+        };
+        model.spm.ik(r).map_err(|e| fail(Rejection::Unreachable(e).describe(w, &model.urdf_path)))?;
+        if let Some(row) = row {
+            let agree = model.spm.forward(&row.joints).map(|fda| so3::geodesic_angle(&fda, r));
+            let j = row.joints;
+            match agree {
+                Ok(angle) if angle <= PLAN_AGREEMENT_RAD => {}
+                Ok(angle) => {
+                    return Err(fail(format!(
+                        "its joints ({}, {}, {} rad) put the MP {angle:.3e} rad ({:.4}°) from its quaternion under the model {} (a row agrees within {PLAN_AGREEMENT_RAD:e} rad: spmcal writes plans at full precision): the row was edited, or the plan was made for another model or parameters file",
+                        j[0],
+                        j[1],
+                        j[2],
+                        angle.to_degrees(),
+                        model.urdf_path.display()
+                    )));
+                }
+                Err(e) => {
+                    return Err(fail(format!(
+                        "its joints ({}, {}, {} rad) do not give its quaternion under the model {}: forward kinematics fails ({e}); the row was edited, or the plan was made for another model or parameters file",
+                        j[0],
+                        j[1],
+                        j[2],
+                        model.urdf_path.display()
+                    )));
+                }
+            }
+        }
+        let (tilt, yaw) = tilt_and_yaw(r);
+        if tilt > max_tilt + ROUNDING {
+            return Err(fail(format!(
+                "its orientation tilts {:.3}° from home, outside the simulation's workspace (`workspace.max_tilt_deg`: {}°)",
+                tilt.to_degrees(),
+                w.max_tilt_deg
+            )));
+        }
+        if yaw.abs() > max_yaw + ROUNDING {
+            return Err(fail(format!(
+                "its orientation yaws {:.3}°, outside the simulation's workspace (`workspace.max_yaw_deg`: ±{}°)",
+                yaw.to_degrees(),
+                w.max_yaw_deg
+            )));
+        }
+        workspace_check(&model.spm, &scene, w, r).map_err(|e| fail(e.describe(w, &model.urdf_path)))?;
+    }
+    Ok(())
 }
 
 struct Simulator<'a> {
@@ -118,7 +298,10 @@ struct Simulator<'a> {
 /// a seed.
 ///
 /// # Errors
-/// A [`SimError`] when the drawn geometry is invalid or too few candidate poses pass the checks (naming the config key to loosen).
+/// A [`SimError`] when the drawn geometry is invalid or too few candidate poses pass the checks
+/// (naming the config key to loosen); with a plan, when a planned pose is out of the model's
+/// reach or the config's workspace, or its row's joints contradict its orientation (naming the
+/// plan file's line when `config.plan_source` gives it).
 ///
 /// # Panics
 /// If `config` holds a deviation that is not finite or an outlier probability outside [0, 1]
@@ -128,6 +311,7 @@ pub fn simulate(
     model: &RobotModel,
     progress: &mut dyn FnMut(usize),
 ) -> Result<(Session, SimSummary), SimError> {
+    check_plan(config, model)?;
     let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
     let t = &config.truth;
     let spread = GeometrySpread {
@@ -272,9 +456,9 @@ impl Simulator<'_> {
                     }
                     progress(stations);
                 }
-                Err(Rejection::Unreachable) => self.summary.rejected_unreachable += 1,
-                Err(Rejection::Singular) => self.summary.rejected_singular += 1,
-                Err(Rejection::Collision) => self.summary.rejected_collision += 1,
+                Err(Rejection::Unreachable(_)) => self.summary.rejected_unreachable += 1,
+                Err(Rejection::Singular { .. }) => self.summary.rejected_singular += 1,
+                Err(Rejection::Collision(..)) => self.summary.rejected_collision += 1,
             }
         }
         // A planned pose the true mechanism cannot take is counted, not replaced.
@@ -380,8 +564,7 @@ impl Simulator<'_> {
                 // Collisions and singularities change slowly: checked every 10 ms; IK everywhere.
                 let check = i % ((r.encoder_rate_hz / 100.0).ceil() as usize).max(1) == 0;
                 let rot = at(scale, t);
-                let result =
-                    if check { self.accept(&rot) } else { self.spm.ik(&rot).map_err(|_| Rejection::Unreachable) };
+                let result = if check { self.accept(&rot) } else { self.spm.ik(&rot).map_err(Rejection::Unreachable) };
                 match result {
                     Ok(j) => joints.push(j),
                     Err(_) => {
@@ -474,17 +657,7 @@ impl Simulator<'_> {
 
     /// The true joint readings of a pose the workspace settings accept.
     fn accept(&self, r: &Rotation3<f64>) -> Result<Vector3<f64>, Rejection> {
-        let joints = self.spm.ik(r).map_err(|_| Rejection::Unreachable)?;
-        let w = &self.config.workspace;
-        let conditioning = conditioning_index(&self.spm.jacobians(&joints, r).a);
-        let margins = self.spm.branch_margins(&joints, r);
-        if conditioning < w.min_conditioning || margins.max() > -w.min_branch_margin {
-            return Err(Rejection::Singular);
-        }
-        if self.scene.collision(&self.scene.body_rotations(&self.spm, &joints, r)).is_some() {
-            return Err(Rejection::Collision);
-        }
-        Ok(joints)
+        workspace_check(&self.spm, &self.scene, &self.config.workspace, r)
     }
 
     fn all_markers(&self) -> Vec<usize> {
@@ -534,8 +707,10 @@ impl Simulator<'_> {
             let outwards = if tilt > 1e-9 { so3::exp(&(so3::log(r) * ((tilt + margin) / tilt))) } else { *r };
             for near in [outwards, r * so3::exp(&(Vector3::z() * margin)), r * so3::exp(&(Vector3::z() * -margin))] {
                 let j = self.accept(&near).ok()?;
-                let seen = self.visible(&near, &j);
-                visible.retain(|k| seen.contains(k));
+                // A mask, not a search per marker: linear in the markers.
+                let mut seen = vec![false; self.markers.len()];
+                self.visible(&near, &j).into_iter().for_each(|k| seen[k] = true);
+                visible.retain(|&k| seen[k]);
             }
         }
         Some(Candidate { rotation: *r, joints, visible })
