@@ -21,6 +21,11 @@ pub(crate) const MAX_BYTES: usize = 1 << 20;
 pub(crate) const MAX_DEPTH: usize = 16;
 /// Most aliases accepted: a few are legitimate; many are an expansion bomb.
 pub(crate) const MAX_ALIASES: usize = 64;
+/// Most bytes of key paths indexed (each key and sequence item by its full path, e.g.
+/// `markers[9999].position_m[2]`): a few times the file for any real file (a parameters file of 1 MiB
+/// indexes under 2 MiB), while a long key above many items would make every item's path long
+/// (a 500 kB key over 50,000 items: 25 GB).
+pub(crate) const MAX_PATH_BYTES: usize = 16 * MAX_BYTES;
 
 /// The line of every key of a YAML document, by path.
 #[derive(Debug, Clone, Default)]
@@ -33,14 +38,37 @@ impl KeyLines {
         self.0.get(path).copied()
     }
 
-    /// An error about the value at `path`, located at its line when the file has that key.
+    /// Line of the value at `path`, or of its nearest enclosing key or item that the file has
+    /// (`legs[2].v0[1]` → `legs[2].v0` → `legs[2]` → `legs`): a value serde filled in by default
+    /// is still located at the entry it belongs to.
+    pub(crate) fn nearest_line(&self, path: &str) -> Option<usize> {
+        let mut at = path;
+        loop {
+            if let Some(line) = self.line(at) {
+                return Some(line);
+            }
+            at = parent(at)?;
+        }
+    }
+
+    /// An error about the value at `path` (a nested key such as `legs[2].v0` or
+    /// `markers[1].position_m[0]`), located at its own line — or, when the file does not have that
+    /// key, at its nearest enclosing one.
     pub(crate) fn error(&self, file: &Path, path: &str, reason: impl Into<String>) -> FileError {
         let err = FileError::new(file, reason).in_column(path);
-        match self.line(path) {
+        match self.nearest_line(path) {
             Some(line) => err.at_line(line),
             None => err,
         }
     }
+}
+
+/// The path that encloses `path`: without its last `[k]` or `.key`; `None` at the top.
+fn parent(path: &str) -> Option<&str> {
+    if let Some(open) = path.strip_suffix(']').and_then(|p| p.rfind('[')) {
+        return Some(&path[..open]);
+    }
+    path.rfind('.').map(|dot| &path[..dot])
 }
 
 enum Container {
@@ -80,6 +108,8 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
         ));
     }
     let mut lines = HashMap::new();
+    // Bytes of paths made so far: each is made once, so the work is linear in this bound.
+    let mut path_bytes = 0usize;
     let mut stack: Vec<Container> = Vec::new();
     let mut aliases = 0;
     let mut documents = 0;
@@ -94,6 +124,16 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
         })?;
         let line = span.start.line();
         let at = |reason: String| FileError::new(path, reason).at_line(line);
+        let mut made = |p: &str| {
+            path_bytes += p.len();
+            match path_bytes > MAX_PATH_BYTES {
+                true => Err(at(format!(
+                    "the paths of its keys add up to more than {MAX_PATH_BYTES} bytes: keys too long, or too many \
+                     under a long one, for a settings file"
+                ))),
+                false => Ok(()),
+            }
+        };
         match event {
             Event::DocumentStart(_) => {
                 documents += 1;
@@ -106,6 +146,7 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
                     Some(c) => c.child_path().ok_or_else(|| at("a mapping or sequence used as a key".into()))?,
                     None => String::new(),
                 };
+                made(&prefix)?;
                 if stack.len() >= MAX_DEPTH {
                     return Err(at(format!("nested more than {MAX_DEPTH} levels deep")));
                 }
@@ -138,6 +179,7 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
                             _ => return Err(at("an alias used as a key".into())),
                         };
                         let full = join(prefix, &name);
+                        made(&full)?;
                         if !seen.insert(name.clone()) {
                             let first = lines.get(&full).map_or(String::new(), |l| format!(" (first at line {l})"));
                             return Err(at(format!("duplicate key `{full}`{first}")));
@@ -146,7 +188,9 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
                         *key = Some(name);
                     }
                     Some(container) => {
-                        if let (Container::Sequence { .. }, Some(p)) = (&*container, container.child_path()) {
+                        if let Container::Sequence { prefix, index } = &*container {
+                            let p = format!("{prefix}[{index}]");
+                            made(&p)?;
                             lines.entry(p).or_insert(line);
                         }
                         container.advance();
@@ -205,6 +249,26 @@ mod tests {
     }
 
     #[test]
+    fn nested_keys_items_and_flow_collections_have_their_own_lines() {
+        let k = lines(
+            "legs:\n  - { a: x, b: y }\n  - a: x\n    v0:\n      - 1.0\n      - .nan\nm:\n  p: [1, 2, 3]\n  q: [4,\n      5]\n",
+        );
+        assert_eq!(k.line("legs[0]"), Some(2));
+        assert_eq!(k.line("legs[0].b"), Some(2));
+        assert_eq!(k.line("legs[1].v0"), Some(4));
+        assert_eq!(k.line("legs[1].v0[1]"), Some(6));
+        assert_eq!(k.line("m.p[2]"), Some(8));
+        assert_eq!(k.line("m.q[1]"), Some(10));
+        // A key the file lacks is located at the entry that would hold it.
+        assert_eq!(k.line("legs[1].delta_deg"), None);
+        assert_eq!(k.nearest_line("legs[1].delta_deg"), Some(3));
+        assert_eq!(k.nearest_line("legs[1].v0[7]"), Some(4));
+        assert_eq!(k.nearest_line("other.x"), None);
+        let e = k.error(Path::new("t.yaml"), "legs[1].v0[1]", "not finite");
+        assert_eq!((e.line, e.column.as_deref()), (Some(6), Some("legs[1].v0[1]")));
+    }
+
+    #[test]
     fn duplicate_keys_are_refused_at_their_line() {
         let e = scan(Path::new("t.yaml"), "a: 1\nb:\n  c: 2\n  c: 3\n").unwrap_err();
         assert_eq!(e.line, Some(4));
@@ -230,5 +294,8 @@ mod tests {
         assert!(scan(Path::new("t.yaml"), &bomb).unwrap_err().reason.contains("aliases"));
         let huge = format!("# {}\n", "x".repeat(MAX_BYTES));
         assert!(scan(Path::new("t.yaml"), &huge).unwrap_err().reason.contains("too large"));
+        // A long (explicit) key above many items: every item's path would repeat it.
+        let long_key = format!("? {}\n: [{}]\n", "k".repeat(300_000), ["1"; 300_000].join(","));
+        assert!(scan(Path::new("t.yaml"), &long_key).unwrap_err().reason.contains("paths of its keys"));
     }
 }

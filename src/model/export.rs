@@ -8,6 +8,8 @@
 //! `θ_home` (not 0 in general), so the URDF's joint value of `theta_i` is the reading plus the
 //! companion's `encoder_offsets_deg[i] = −θ_home,i`.
 
+use std::collections::HashMap;
+
 use nalgebra::{Rotation3, Vector3};
 
 use super::params::Parameters;
@@ -20,19 +22,29 @@ pub struct ExportedModel {
     pub urdf: String,
     /// The companion's text (`NAME.yaml` beside `NAME.urdf`).
     pub companion: String,
+    /// What the caller should tell the user (the parameters' `model:` header names another URDF,
+    /// whose legs and markers agree); each is also a comment in both files.
+    pub warnings: Vec<String>,
 }
 
 /// The calibrated model of `params` (geometry, markers) as a URDF and companion, from `model`'s
 /// URDF (its links, shapes and joint names kept); `provenance` lines go into both files as
-/// comments. The result is checked by loading it back.
+/// comments. The parameters must belong to the model (their legs in the model's order, their fitted
+/// markers the model's: see [`Parameters::check_model`], which also names the parameters file);
+/// the result is checked by loading it back.
 ///
 /// # Errors
-/// A [`ModelError`] when the model's files cannot be read, the parameters make no manipulator or
-/// do not reach home, or the exported model does not load.
+/// A [`ModelError`] when the parameters do not belong to the model, the model's files cannot be
+/// read, the parameters make no manipulator or do not reach home, or the exported model does not
+/// load.
 pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) -> Result<ExportedModel, ModelError> {
+    let warnings = super::agreement::check(model, params, None)?;
     // One line each, and nothing that would end an XML comment.
-    let provenance: Vec<String> =
-        provenance.iter().map(|l| l.replace(['\n', '\r'], " ").replace("--", "- -")).collect();
+    let provenance: Vec<String> = provenance
+        .iter()
+        .chain(&warnings.iter().map(|w| format!("note: {w}")).collect::<Vec<_>>())
+        .map(|l| l.replace(['\n', '\r'], " ").replace("--", "- -"))
+        .collect();
     let provenance = provenance.as_slice();
     let path = &model.urdf_path;
     let unreadable = |reason: String| ModelError::Unreadable { path: path.clone(), reason };
@@ -41,13 +53,13 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
     let export = |reason: String| ModelError::Export { path: path.clone(), reason };
     let spm = params.spm().map_err(|e| export(format!("the parameters make no valid manipulator: {e}")))?;
     let home = spm.ik(&Rotation3::identity()).map_err(|e| export(format!("the parameters do not reach home: {e}")))?;
-    let mut axes: Vec<(String, Vector3<f64>)> = Vec::new();
+    let mut axes: HashMap<&str, Vector3<f64>> = HashMap::new();
     for (i, (leg, names)) in params.legs.iter().zip(&companion.legs).enumerate() {
         let phi = home[i] + leg.delta;
         let w = leg.u * leg.alpha1.cos() + (leg.z * phi.cos() + leg.u.cross(&leg.z) * phi.sin()) * leg.alpha1.sin();
-        axes.push((names.actuated.clone(), leg.u));
-        axes.push((names.intermediate.clone(), w));
-        axes.push((names.platform.clone(), leg.v0));
+        axes.insert(&names.actuated, leg.u);
+        axes.insert(&names.intermediate, w);
+        axes.insert(&names.platform, leg.v0);
     }
     // Each leg joint's axis in its own frame: the frame at the zero configuration is its parent
     // link's, then its origin.
@@ -57,7 +69,7 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
             .joints
             .iter()
             .map(|joint| {
-                let (_, axis) = axes.iter().find(|(name, _)| *name == joint.name)?;
+                let axis = axes.get(joint.name.as_str())?;
                 let frame = frames[joint.parent.link.as_str()] * super::urdf::origin_isometry(&joint.origin);
                 Some(frame.rotation.inverse() * axis.normalize())
             })
@@ -68,8 +80,9 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
             joint.axis.xyz = urdf_rs::Vec3([a.x, a.y, a.z]);
         }
     }
-    for (name, position) in companion.markers_m.iter_mut() {
-        if let Some(fitted) = params.marker(name) {
+    let fitted = params.marker_positions(companion.markers_m.keys().map(String::as_str));
+    for (position, fitted) in companion.markers_m.values_mut().zip(fitted) {
+        if let Some(fitted) = fitted {
             *position = fitted.into();
         }
     }
@@ -80,7 +93,7 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
         Some(rest) => format!("<?xml version=\"1.0\"?>\n<!--\n{comments}-->{rest}"),
         None => format!("<!--\n{comments}-->\n{body}"),
     };
-    let exported = ExportedModel { urdf, companion: companion_text(&companion, provenance) };
+    let exported = ExportedModel { urdf, companion: companion_text(&companion, provenance), warnings };
     // Loaded back, it must be a valid model (axes through O, loops closed at home).
     let back = urdf_rs::read_from_string(&exported.urdf).map_err(|e| export(format!("the exported URDF: {e}")))?;
     let reread: Companion =

@@ -1,10 +1,13 @@
 //! SPM geometry and parameters, URDF loading, inverse kinematics, forward displacement
 //! analysis (tracking, continuation, all assembly modes, the per-pose FDA report) and Jacobians.
 
+#[cfg(feature = "full")]
+mod agreement;
 mod assembly;
 #[cfg(feature = "full")]
 mod export;
 mod geometry;
+mod limits;
 #[cfg(feature = "full")]
 mod modes;
 mod params;

@@ -20,13 +20,15 @@
 //! fit: {}                    # optional: statistics of the fit that produced the file
 //! ```
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::geometry::LegGeometry;
-use super::spm::Spm;
+use super::geometry::{GeometryError, LegGeometry};
+use super::limits::{MAX_LATENCY_S, MAX_POSITION_M, Ranges};
+use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
 #[cfg(feature = "full")]
 use crate::io::files::write_atomic;
@@ -137,6 +139,57 @@ struct CameraRecord {
     t_cb_m: [f64; 3],
 }
 
+impl LegRecord {
+    /// The geometry, in radians; unchecked.
+    fn geometry(&self) -> LegGeometry {
+        LegGeometry {
+            u: Vector3::from(self.u),
+            z: Vector3::from(self.z),
+            alpha1: self.alpha1_deg.to_radians(),
+            alpha2: self.alpha2_deg.to_radians(),
+            v0: Vector3::from(self.v0),
+            delta: self.delta_deg.to_radians(),
+        }
+    }
+}
+
+impl CameraRecord {
+    /// The registration, every number checked at its key's line.
+    fn registration(&self, check: &Ranges) -> Result<CameraRegistration, FileError> {
+        let key = "camera.r_cb_wxyz";
+        check.finite(key, "`r_cb_wxyz` is not a unit quaternion", &self.r_cb_wxyz)?;
+        let norm = self.r_cb_wxyz.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let rotation = so3::from_wxyz(self.r_cb_wxyz)
+            .ok_or_else(|| check.error(key, format!("`r_cb_wxyz` is not a unit quaternion (its norm is {norm})")))?;
+        check.position("camera.t_cb_m", "the camera's `t_cb_m`", &self.t_cb_m)?;
+        Ok(CameraRegistration { rotation, translation: Vector3::from(self.t_cb_m) })
+    }
+}
+
+/// The key of the value a leg's geometry error is about: `legs[i].alpha1_deg`, `legs[i].u`, or
+/// the first non-finite component `legs[i].v0[2]`.
+fn leg_key(e: &GeometryError, leg: &LegGeometry) -> String {
+    let i = e.leg();
+    let axis = |what: &str| match what {
+        "u" => Some(leg.u),
+        "z" => Some(leg.z),
+        "v0" => Some(leg.v0),
+        _ => None,
+    };
+    match e {
+        GeometryError::NotFinite { what, .. } => match axis(what) {
+            Some(v) => match v.iter().position(|c| !c.is_finite()) {
+                Some(k) => format!("legs[{i}].{what}[{k}]"),
+                None => format!("legs[{i}].{what}"),
+            },
+            None => format!("legs[{i}].{what}_deg"),
+        },
+        GeometryError::NotUnit { what, .. } => format!("legs[{i}].{what}"),
+        GeometryError::ZeroDirectionNotOrthogonal { .. } => format!("legs[{i}].z"),
+        GeometryError::LinkAngleOutOfRange { what, .. } => format!("legs[{i}].{what}_deg"),
+    }
+}
+
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ParametersRecord {
@@ -169,9 +222,17 @@ impl Parameters {
         }
     }
 
-    /// The fitted position in P of the marker `name`, when the file has it.
+    /// The fitted position in P of the marker `name`, when the file has it. One look-up scans the
+    /// markers: for many names use [`Parameters::marker_positions`].
     pub fn marker(&self, name: &str) -> Option<Vector3<f64>> {
         self.markers.iter().find(|m| m.name == name).map(|m| m.position)
+    }
+
+    /// The fitted positions in P of the markers `names`, in their order (`None` for one the file
+    /// does not have), in time linear in the two counts.
+    pub fn marker_positions<'a>(&self, names: impl IntoIterator<Item = &'a str>) -> Vec<Option<Vector3<f64>>> {
+        let by_name: HashMap<&str, Vector3<f64>> = self.markers.iter().map(|m| (m.name.as_str(), m.position)).collect();
+        names.into_iter().map(|name| by_name.get(name).copied()).collect()
     }
 
     /// The manipulator these parameters describe (validated).
@@ -182,58 +243,70 @@ impl Parameters {
         Spm::new(self.legs)
     }
 
-    /// Read and validate a parameters file.
+    /// Read and validate a parameters file. Every number is checked against its range (see
+    /// `limits.rs`) and an error is reported at the line and key of the value itself
+    /// (`legs[1].alpha2_deg`, `markers[3].position_m[2]`), not at its leg or marker.
     ///
     /// # Errors
     /// A [`FileError`] naming the line and key of the first problem.
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let (record, keys) = crate::io::yaml::read::<ParametersRecord>(path)?;
+        let check = Ranges { path, keys: &keys };
         if record.format != PARAMETERS_FORMAT {
             let reason = format!("format is `{}`, expected `{PARAMETERS_FORMAT}`", record.format);
-            return Err(keys.error(path, "format", reason));
+            return Err(check.error("format", reason));
         }
-        let legs: [LegRecord; 3] = record.legs.try_into().map_err(|v: Vec<LegRecord>| {
-            keys.error(path, "legs", format!("`legs` has {} entries, expected 3", v.len()))
-        })?;
-        let legs = legs.map(|l| LegGeometry {
-            u: Vector3::from(l.u),
-            z: Vector3::from(l.z),
-            alpha1: l.alpha1_deg.to_radians(),
-            alpha2: l.alpha2_deg.to_radians(),
-            v0: Vector3::from(l.v0),
-            delta: l.delta_deg.to_radians(),
-        });
+        let legs: [LegRecord; 3] = record
+            .legs
+            .try_into()
+            .map_err(|v: Vec<LegRecord>| check.error("legs", format!("`legs` has {} entries, expected 3", v.len())))?;
+        for (i, record) in legs.iter().enumerate() {
+            let leg = record.geometry();
+            leg.validated(i).map_err(|e| check.error(&leg_key(&e, &leg), e.to_string()))?;
+            let delta = format!("legs[{i}].delta_deg");
+            check.offset_deg(&delta, &format!("leg {}: delta_deg", i + 1), record.delta_deg)?;
+        }
+        let legs = legs.map(|l| l.geometry());
         Spm::new(legs).map_err(|e| {
-            // Locate the leg the error is about (its 0-based index is the file's `legs[k]`).
+            // Locate what the error is about (a leg's 0-based index is the file's `legs[k]`).
             let key = match &e {
-                super::SpmError::Geometry(g) => format!("legs[{}]", g.leg()),
+                SpmError::Geometry(g) => leg_key(g, &legs[g.leg()]),
+                SpmError::ParallelPlatformAxes(_, j) => format!("legs[{j}].v0"),
+                SpmError::NoHomeClosure(
+                    IkError::OutsideWorkspace { leg, .. } | IkError::SerialSingularity { leg, .. },
+                ) => format!("legs[{leg}]"),
                 _ => "legs".to_string(),
             };
-            keys.error(path, &key, e.to_string())
+            check.error(&key, e.to_string())
         })?;
         let camera = match record.camera {
             None => None,
-            Some(c) => {
-                let rotation = so3::from_wxyz(c.r_cb_wxyz)
-                    .ok_or_else(|| keys.error(path, "camera.r_cb_wxyz", "`r_cb_wxyz` is not a unit quaternion"))?;
-                if !c.t_cb_m.iter().all(|x| x.is_finite()) {
-                    return Err(keys.error(path, "camera.t_cb_m", "`t_cb_m` is not finite"));
-                }
-                Some(CameraRegistration { rotation, translation: Vector3::from(c.t_cb_m) })
-            }
+            Some(c) => Some(c.registration(&check)?),
         };
         let mut markers = Vec::with_capacity(record.markers.len());
+        // Each name with its entry: a repeated name is found in one pass, whatever the count.
+        let mut seen: HashMap<String, usize> = HashMap::with_capacity(record.markers.len());
         for (k, m) in record.markers.into_iter().enumerate() {
-            let finite = m.position_m.iter().chain(m.std_error_m.iter().flatten()).all(|x| x.is_finite());
-            if !finite {
-                return Err(keys.error(path, &format!("markers[{k}]"), "marker position or its error is not finite"));
+            let key = format!("markers[{k}]");
+            if m.name.trim().is_empty() {
+                return Err(check.error(&format!("{key}.name"), "a marker name is empty"));
             }
-            if m.name.is_empty() || markers.iter().any(|o: &MarkerPosition| o.name == m.name) {
-                return Err(keys.error(
-                    path,
-                    &format!("markers[{k}]"),
-                    format!("marker name `{}` is empty or repeated", m.name),
-                ));
+            if let Some(first) = seen.insert(m.name.clone(), k) {
+                let at = keys.line(&format!("markers[{first}]")).map_or(String::new(), |l| format!(", line {l}"));
+                let reason = format!("marker `{}` is listed twice (first as `markers[{first}]`{at})", m.name);
+                return Err(check.error(&format!("{key}.name"), reason));
+            }
+            check.position(&format!("{key}.position_m"), &format!("marker `{}`'s position", m.name), &m.position_m)?;
+            if let Some(e) = &m.std_error_m {
+                let se = format!("{key}.std_error_m");
+                check.finite(&se, &format!("marker `{}`'s standard error is not finite", m.name), e)?;
+                if let Some(axis) = e.iter().position(|x| !(0.0..=MAX_POSITION_M).contains(x)) {
+                    let reason = format!(
+                        "marker `{}`'s standard error {} m must be from 0 to {MAX_POSITION_M} m",
+                        m.name, e[axis]
+                    );
+                    return Err(check.error(&format!("{se}[{axis}]"), reason));
+                }
             }
             markers.push(MarkerPosition {
                 name: m.name,
@@ -241,8 +314,18 @@ impl Parameters {
                 std_error: m.std_error_m.map(Vector3::from),
             });
         }
-        if record.latency_s.is_some_and(|l| !l.is_finite()) {
-            return Err(keys.error(path, "latency_s", "`latency_s` is not finite"));
+        if let Some(latency) = record.latency_s
+            && !(latency.is_finite() && latency.abs() <= MAX_LATENCY_S)
+        {
+            let reason = if latency.is_finite() {
+                format!(
+                    "`latency_s` = {latency} s is outside ±{MAX_LATENCY_S} s, the bound within which a recording's \
+                     camera latency is searched: at this latency frames of a recording would be left out"
+                )
+            } else {
+                format!("`latency_s` is {latency}: a latency must be a finite time within ±{MAX_LATENCY_S} s")
+            };
+            return Err(check.error("latency_s", reason));
         }
         Ok(Parameters {
             source: record.source,

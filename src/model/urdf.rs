@@ -8,13 +8,14 @@
 //! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, and `δ` the
 //! companion's `encoder_offsets_deg` (0 when absent: joint value = encoder reading + offset).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
 use super::geometry::LegGeometry;
+use super::limits::Ranges;
 use super::spm::{Spm, SpmError};
 use super::urdf_check::Fault;
 use crate::io::files::FileError;
@@ -248,8 +249,49 @@ impl RobotModel {
             }
         })?;
         let companion_file = companion_path(urdf);
-        let (companion, _) = read_companion(&companion_file)?;
+        let (companion, keys) = read_companion(&companion_file)?;
+        check_names(urdf, &robot, &companion, &Ranges { path: &companion_file, keys: &keys })
+            .map_err(companion_error)?;
         Loader { path: urdf, robot: &robot }.build(companion)
+    }
+}
+
+/// Every joint and link the companion names is in the URDF: else an error at the companion's
+/// line that names it.
+fn check_names(urdf: &Path, robot: &urdf_rs::Robot, companion: &Companion, check: &Ranges) -> Result<(), FileError> {
+    let joints: HashSet<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
+    let links: HashSet<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+    let file = urdf.display();
+    if !links.contains(companion.platform_link.as_str()) {
+        let reason = format!("link `{}` (the MP) is missing from {file}", companion.platform_link);
+        return Err(check.error("platform_link", reason));
+    }
+    for (k, leg) in companion.legs.iter().enumerate() {
+        for (field, name) in leg.joints() {
+            if !joints.contains(name) {
+                return Err(
+                    check.error(&format!("legs[{k}].{field}"), format!("joint `{name}` is missing from {file}"))
+                );
+            }
+        }
+        if let Some(link) = leg.closes_on.as_deref()
+            && !links.contains(link)
+        {
+            let reason = format!("link `{link}` (leg {}'s closure on the MP) is missing from {file}", k + 1);
+            return Err(check.error(&format!("legs[{k}].closes_on"), reason));
+        }
+    }
+    Ok(())
+}
+
+impl CompanionLeg {
+    /// The leg's three joints by their companion keys, from the base out.
+    fn joints(&self) -> [(&'static str, &str); 3] {
+        [
+            ("actuated", self.actuated.as_str()),
+            ("intermediate", self.intermediate.as_str()),
+            ("platform", self.platform.as_str()),
+        ]
     }
 }
 
@@ -265,32 +307,52 @@ pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), Model
         },
         _ => companion_error(e),
     })?;
+    let check = Ranges { path, keys: &keys };
     if companion.legs.len() != 3 {
         let reason = format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len());
-        return Err(companion_error(keys.error(path, "legs", reason)));
+        return Err(companion_error(check.error("legs", reason)));
     }
-    if companion.encoder_offsets_deg.is_some_and(|o| !o.iter().all(|d| d.is_finite() && d.abs() <= 360.0)) {
-        let reason = "every encoder offset must be a finite angle within ±360°".to_string();
-        return Err(companion_error(keys.error(path, "encoder_offsets_deg", reason)));
-    }
-    let points: Vec<Vector3<f64>> = companion.markers_m.values().map(|p| Vector3::from(*p)).collect();
-    for (name, p) in &companion.markers_m {
-        if !p.iter().all(|c| c.is_finite()) {
-            let reason = format!("marker `{name}` has a non-finite position");
-            return Err(companion_error(keys.error(path, &format!("markers_m.{name}"), reason)));
+    // A joint belongs to one leg, once: found in one pass.
+    let mut used: HashMap<&str, String> = HashMap::new();
+    for (k, leg) in companion.legs.iter().enumerate() {
+        for (field, name) in leg.joints() {
+            let key = format!("legs[{k}].{field}");
+            if name.trim().is_empty() {
+                return Err(companion_error(check.error(&key, "a joint name is empty")));
+            }
+            if let Some(first) = used.insert(name, key.clone()) {
+                let reason =
+                    format!("joint `{name}` is named twice (also as `{first}`); each joint is in one leg, once");
+                return Err(companion_error(check.error(&key, reason)));
+            }
         }
     }
+    if let Some(offsets) = companion.encoder_offsets_deg {
+        for (i, offset) in offsets.iter().enumerate() {
+            let what = format!("the encoder offset of leg {}", i + 1);
+            check.offset_deg(&format!("encoder_offsets_deg[{i}]"), &what, *offset).map_err(companion_error)?;
+        }
+    }
+    for (name, p) in &companion.markers_m {
+        let key = format!("markers_m.{name}");
+        if name.trim().is_empty() {
+            return Err(companion_error(check.error(&key, "a marker name is empty")));
+        }
+        check.position(&key, &format!("marker `{name}`'s position"), p).map_err(companion_error)?;
+    }
+    let points: Vec<Vector3<f64>> = companion.markers_m.values().map(|p| Vector3::from(*p)).collect();
     // The model's own markers must fix an orientation, whatever the camera's noise: judged
     // against the noise the vision estimator assumes.
     if let Err(d) = constellation::check(&points, constellation::MARKER_NOISE_M) {
         let names: Vec<&String> = companion.markers_m.keys().collect();
-        let reason = match &d {
-            constellation::Degeneracy::Coincident { first, second, .. } => {
-                format!("markers `{}` and `{}`: {d}", names[first - 1], names[second - 1])
-            }
-            _ => format!("the markers cannot fix an orientation: {d}"),
+        let (key, reason) = match &d {
+            constellation::Degeneracy::Coincident { first, second, .. } => (
+                format!("markers_m.{}", names[second - 1]),
+                format!("markers `{}` and `{}`: {d}", names[first - 1], names[second - 1]),
+            ),
+            _ => ("markers_m".to_string(), format!("the markers cannot fix an orientation: {d}")),
         };
-        return Err(companion_error(keys.error(path, "markers_m", reason)));
+        return Err(companion_error(check.error(&key, reason)));
     }
     Ok((companion, keys))
 }
@@ -311,42 +373,52 @@ impl<'a> Loader<'a> {
 
     /// Pose in B of every link at the zero configuration, from the tree's root.
     pub(super) fn link_frames(&self) -> Result<HashMap<&'a str, Isometry3<f64>>, ModelError> {
-        let children: std::collections::HashSet<&str> =
-            self.robot.joints.iter().map(|j| j.child.link.as_str()).collect();
+        let children: HashSet<&str> = self.robot.joints.iter().map(|j| j.child.link.as_str()).collect();
         let roots: Vec<&str> =
             self.robot.links.iter().map(|l| l.name.as_str()).filter(|n| !children.contains(n)).collect();
         let [root] = roots[..] else {
             return Err(ModelError::Unreadable {
                 path: self.path.to_path_buf(),
-                reason: format!("expected one root link (the base), found {roots:?}"),
+                reason: format!(
+                    "expected one root link (the base), found {}: {:?}{}",
+                    roots.len(),
+                    &roots[..roots.len().min(5)],
+                    if roots.len() > 5 { " …" } else { "" }
+                ),
             });
         };
+        // Breadth first from the root, each joint once: linear in the size of the tree.
+        let mut by_parent: HashMap<&str, Vec<&'a urdf_rs::Joint>> = HashMap::new();
+        for j in &self.robot.joints {
+            by_parent.entry(j.parent.link.as_str()).or_default().push(j);
+        }
         let mut frames = HashMap::from([(root, Isometry3::identity())]);
-        // The tree is small: settle joints whose parent is placed until none is left.
-        let mut pending: Vec<&urdf_rs::Joint> = self.robot.joints.iter().collect();
-        while !pending.is_empty() {
-            let before = pending.len();
-            pending.retain(|j| match frames.get(j.parent.link.as_str()) {
-                Some(parent) => {
-                    let frame = parent * origin_isometry(&j.origin);
-                    frames.insert(j.child.link.as_str(), frame);
-                    false
+        let mut queue = VecDeque::from([root]);
+        while let Some(link) = queue.pop_front() {
+            let parent = frames[link];
+            for j in by_parent.get(link).map_or(&[][..], Vec::as_slice) {
+                let child = j.child.link.as_str();
+                if !frames.contains_key(child) {
+                    frames.insert(child, parent * origin_isometry(&j.origin));
+                    queue.push_back(child);
                 }
-                None => true,
-            });
-            if pending.len() == before {
-                return Err(self.joint_error(
-                    &pending[0].name,
-                    format!("has parent link `{}`, which is not in the tree", pending[0].parent.link),
-                ));
             }
+        }
+        if let Some(j) = self.robot.joints.iter().find(|j| !frames.contains_key(j.parent.link.as_str())) {
+            return Err(
+                self.joint_error(&j.name, format!("has parent link `{}`, which is not in the tree", j.parent.link))
+            );
         }
         Ok(frames)
     }
 
-    fn placed(&self, frames: &HashMap<&str, Isometry3<f64>>, name: &str) -> Result<PlacedJoint<'a>, ModelError> {
-        let joint =
-            self.robot.joints.iter().find(|j| j.name == name).ok_or_else(|| self.joint_error(name, "is missing"))?;
+    fn placed(
+        &self,
+        frames: &HashMap<&str, Isometry3<f64>>,
+        joints: &HashMap<&str, &'a urdf_rs::Joint>,
+        name: &str,
+    ) -> Result<PlacedJoint<'a>, ModelError> {
+        let joint = *joints.get(name).ok_or_else(|| self.joint_error(name, "is missing"))?;
         if !matches!(joint.joint_type, urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous) {
             return Err(self.joint_error(name, format!("is {:?}; the legs' joints must be revolute", joint.joint_type)));
         }
@@ -386,10 +458,11 @@ impl<'a> Loader<'a> {
         }
         let mut legs = [LegGeometry::nominal(0, 1.0, 1.0, 1.0, 1.0); 3];
         let mut leg_links: Vec<[String; 2]> = Vec::new();
+        let joints: HashMap<&str, &urdf_rs::Joint> = self.robot.joints.iter().map(|j| (j.name.as_str(), j)).collect();
         for (i, leg) in companion.legs.iter().enumerate() {
-            let actuated = self.placed(&frames, &leg.actuated)?;
-            let intermediate = self.placed(&frames, &leg.intermediate)?;
-            let wrist = self.placed(&frames, &leg.platform)?;
+            let actuated = self.placed(&frames, &joints, &leg.actuated)?;
+            let intermediate = self.placed(&frames, &joints, &leg.intermediate)?;
+            let wrist = self.placed(&frames, &joints, &leg.platform)?;
             self.check_chain(i, [&actuated, &intermediate, &wrist], leg, &companion.platform_link)?;
             self.check_closure(i, &frames, leg, &platform)?;
             let u = actuated.axis().normalize();

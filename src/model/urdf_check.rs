@@ -121,19 +121,36 @@ pub(crate) fn check(robot: &Robot) -> Result<(), Fault> {
         robot.joints.iter().map(|j| (j.child.link.as_str(), j.parent.link.as_str())).collect();
     let roots: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).filter(|l| !parents.contains_key(l)).collect();
     if roots.len() != 1 {
-        return Err(Fault::Robot(format!("has {} root links {roots:?}; a URDF tree has exactly one", roots.len())));
+        let more = if roots.len() > 5 { " …" } else { "" };
+        let shown = &roots[..roots.len().min(5)];
+        return Err(Fault::Robot(format!(
+            "has {} root links {shown:?}{more}; a URDF tree has exactly one",
+            roots.len()
+        )));
     }
-    // With one root and one parent per link, a link that cannot reach the root lies on a cycle.
-    for link in &robot.links {
+    // With one root and one parent per link, a link that cannot reach the root lies on a cycle (or
+    // hangs from one). Each link's walk towards the root stops at a link met on an earlier walk,
+    // which reaches the root (that walk ended without a cycle), so every link is walked over once:
+    // linear in the size of the tree, however deep. A link met again on the current walk closes a
+    // cycle.
+    let mut walk_of: HashMap<&str, usize> = HashMap::with_capacity(robot.links.len());
+    for (walk, link) in robot.links.iter().enumerate() {
         let mut at = link.name.as_str();
-        for _ in 0..=robot.links.len() {
+        loop {
+            if let Some(&seen) = walk_of.get(at) {
+                if seen == walk {
+                    return Err(Fault::Link(
+                        link.name.clone(),
+                        "is on a cycle of joints: a URDF must be a tree".into(),
+                    ));
+                }
+                break;
+            }
+            walk_of.insert(at, walk);
             match parents.get(at) {
                 Some(p) => at = p,
                 None => break,
             }
-        }
-        if parents.contains_key(at) {
-            return Err(Fault::Link(link.name.clone(), "is on a cycle of joints: a URDF must be a tree".into()));
         }
     }
     Ok(())
