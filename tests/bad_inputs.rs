@@ -73,7 +73,7 @@ fn run_case(dir: &Path) -> Result<(), String> {
 /// (folders: their files, one level deep), by path.
 fn snapshot(case: &Path, args: &[String]) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
     let mut out = std::collections::BTreeMap::new();
-    let mut add_folder = |dir: &Path, out: &mut std::collections::BTreeMap<PathBuf, Vec<u8>>| {
+    let add_folder = |dir: &Path, out: &mut std::collections::BTreeMap<PathBuf, Vec<u8>>| {
         for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
             let path = entry.path();
             if path.is_file() {

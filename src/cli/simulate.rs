@@ -62,9 +62,7 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
     config.poses = args.poses.unwrap_or(config.poses);
     config.name = args.name.unwrap_or(config.name);
     if let Some(path) = &args.plan {
-        let plan = spmcal::plan::PlannedPose::read(path)?;
-        config.poses = plan.len();
-        config.plan = Some(plan.iter().map(|p| p.rotation).collect());
+        spmcal::plan::PlannedPose::read_into(path, &mut config)?;
     }
     if let Some(model) = args.model {
         config.model = model;

@@ -172,15 +172,6 @@ impl Row<'_> {
             self.error(k, format!("`{shown}` is not a pose number (a non-negative integer)"))
         })
     }
-
-    /// The `k`-th field as a marker of the session (its index in `names`, from `session.yaml`).
-    pub(crate) fn marker(&self, k: usize, names: &[String]) -> Result<usize, FileError> {
-        let bytes = self.field(k);
-        names.iter().position(|n| n.as_bytes() == bytes).ok_or_else(|| {
-            let shown = String::from_utf8_lossy(bytes);
-            self.error(k, format!("unknown marker `{shown}` (session.yaml lists {})", names.join(", ")))
-        })
-    }
 }
 
 #[cfg(test)]
@@ -207,13 +198,11 @@ mod tests {
         text.extend_from_slice(b"5,m1,\xff\n");
         std::fs::write(&path, text).unwrap();
         let mut table = Table::open_with_optional(&path, &["pose", "marker", "x_m"], &["station"]).unwrap();
-        let names = vec!["m1".to_string()];
         let row = table.next_row().unwrap().unwrap();
-        assert_eq!((row.line, row.index(0).unwrap(), row.marker(1, &names).unwrap()), (2, 3, 0));
+        assert_eq!((row.line, row.index(0).unwrap(), row.field(1)), (2, 3, &b"m1"[..]));
         assert_eq!((row.number(2).unwrap(), row.optional_number(3).unwrap(), row.has_column(3)), (0.25, None, false));
         let row = table.next_row().unwrap().unwrap();
-        let err = row.marker(1, &names).unwrap_err().to_string();
-        assert!(err.ends_with("t.csv:3: column `marker`: unknown marker `m\u{fffd}` (session.yaml lists m1)"), "{err}");
+        assert_eq!(row.field(1), b"m\xff");
         assert_eq!(row.number(2).unwrap(), 1e-3);
         let row = table.next_row().unwrap().unwrap();
         let err = row.number(2).unwrap_err().to_string();
