@@ -226,8 +226,11 @@ impl CalibConfig {
                 return Err((key.into(), format!("`{key}` must be a positive number (got {value})")));
             }
         }
-        if !(self.latency_bound_s.is_finite() && self.latency_bound_s > 0.0 && self.latency_bound_s <= 1.0) {
-            let reason = format!("`latency_bound_s` must be in (0, 1] s (got {})", self.latency_bound_s);
+        // A parameters file holds a latency within ±0.2 s (what a recording is read with): a fit
+        // may not write one it cannot read back.
+        let most = crate::model::limits::MAX_LATENCY_S;
+        if !(self.latency_bound_s.is_finite() && self.latency_bound_s > 0.0 && self.latency_bound_s <= most) {
+            let reason = format!("`latency_bound_s` must be in (0, {most}] s (got {})", self.latency_bound_s);
             return Err(("latency_bound_s".into(), reason));
         }
         if !(self.latency_s.is_finite() && self.latency_s.abs() <= self.latency_bound_s) {

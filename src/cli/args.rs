@@ -28,7 +28,14 @@ impl GeometryArgs {
         let params = self.params.as_deref().map(Parameters::read).transpose()?;
         let path = self.model_path(params.as_ref());
         files.check_model(&path)?;
-        Ok((RobotModel::load(&path)?, params))
+        let model = RobotModel::load(&path)?;
+        // The parameters must belong to the model (legs in order, the same markers).
+        if let (Some(file), Some(p)) = (&self.params, &params) {
+            for w in p.check_model(file, &model)? {
+                eprintln!("warning: {w}");
+            }
+        }
+        Ok((model, params))
     }
 
     /// The model [`GeometryArgs::model_and_params`] reads: the parameters' `model`, else `--model`.
@@ -99,6 +106,31 @@ impl SessionArgs {
     }
 
     /// Load the session, printing its warnings on standard error; the warnings also go to `--json`.
+    /// The session at a parameters file's camera latency (a free-motion recording), and a warning
+    /// when frames fall outside the encoder stream there (printed, and added to `warnings`).
+    pub(crate) fn at_latency(
+        session: Session,
+        params: &std::path::Path,
+        latency_s: Option<f64>,
+        warnings: &mut Vec<String>,
+    ) -> Session {
+        let Some(latency_s) = latency_s.filter(|_| session.streams.is_some()) else { return session };
+        let (moved, dropped) = session.at_latency(latency_s);
+        if let Some(first) = dropped.first() {
+            let warning = format!(
+                "{}: at its latency_s = {latency_s} s, {} of {} camera frames fall outside the encoder stream and were left out (first: {}:{})",
+                params.display(),
+                dropped.len(),
+                moved.poses.len() + dropped.len(),
+                first.path.display(),
+                first.line
+            );
+            eprintln!("warning: {warning}");
+            warnings.push(warning);
+        }
+        moved
+    }
+
     pub(crate) fn load(&self) -> Result<(Session, Vec<String>)> {
         let (session, warnings) = Session::load(&self.dataset, self.model.as_deref())?;
         let warnings: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();

@@ -59,20 +59,19 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     files.check()?;
     let mut outputs = Outputs::new();
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
-    let (session, warnings) = args.session.load()?;
+    let (session, mut warnings) = args.session.load()?;
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let mut sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None))];
+    let mut session = session;
     if let Some(path) = &args.params {
         let params = Parameters::read(path)?;
+        warnings.extend(params.check_model(path, &model)?);
+        // A free-motion recording is drawn at the parameters' latency.
+        session = SessionArgs::at_latency(session, path, params.latency_s, &mut warnings);
         let label = format!("{:?}", params.source).to_lowercase();
         sets.push((label, params));
     }
-    // A free-motion recording is drawn at the parameters' latency (each set is compared at its own).
-    let session = match sets.last().and_then(|(_, p)| p.latency_s) {
-        Some(latency_s) => session.at_latency(latency_s).0,
-        None => session,
-    };
     let method: Method = args.method.into();
     let result = spmcal::compare::compare(&session, &model, &sets, method, args.level.map(Into::into))?;
     if let Some(slot) = rrd {

@@ -55,6 +55,9 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
             provenance.push(format!("fit {}: {value}", key.as_str().unwrap_or("?")));
         }
     }
+    // The parameters file must belong to this model (legs in the same order, the same markers):
+    // refused naming both files, or a warning when only the file's `model:` header differs.
+    let warnings = params.check_model(&args.params, &model)?;
     let exported = export(&model, &params, &provenance)?;
     outputs.write(urdf_slot, exported.urdf.as_bytes())?;
     outputs.write(companion_slot, exported.companion.as_bytes())?;
@@ -63,7 +66,12 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
     if args.json {
         let summary =
             serde_json::json!({ "urdf": urdf, "companion": companion, "model": model_path.display().to_string() });
-        return out(&(Envelope::new("export", summary).input("params", args.params.display()).to_json() + "\n"));
+        let mut envelope = Envelope::new("export", summary).input("params", args.params.display());
+        envelope.warnings = warnings;
+        return out(&(envelope.to_json() + "\n"));
+    }
+    for w in &warnings {
+        eprintln!("warning: {w}");
     }
     out(&format!("wrote {urdf} and {companion} (load it with --model {urdf})\n"))
 }

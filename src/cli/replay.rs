@@ -34,14 +34,15 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     files.check()?;
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(&args.rrd)?;
-    let (session, warnings) = args.session.load()?;
+    let (session, mut warnings) = args.session.load()?;
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let params = args.params.as_deref().map(Parameters::read).transpose()?;
-    let session = match params.as_ref().and_then(|p| p.latency_s) {
-        Some(latency_s) => session.at_latency(latency_s).0,
-        None => session,
-    };
+    let mut session = session;
+    if let (Some(path), Some(p)) = (&args.params, &params) {
+        warnings.extend(p.check_model(path, &model)?);
+        session = SessionArgs::at_latency(session, path, p.latency_s, &mut warnings);
+    }
     let summary = record(&outputs, slot, &spmcal::record::Scene::replay(&session, &model, params.as_ref())?)?;
     outputs.commit()?;
     if args.json {

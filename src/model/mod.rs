@@ -7,7 +7,7 @@ mod assembly;
 #[cfg(feature = "full")]
 mod export;
 mod geometry;
-mod limits;
+pub(crate) mod limits;
 #[cfg(feature = "full")]
 mod modes;
 mod params;
