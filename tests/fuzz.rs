@@ -164,8 +164,13 @@ fn fuzz_file<T, E>(source: &str, name: &str, edits: &[Mutation], read: impl Fn(&
     read(&path).ok()
 }
 
+/// Cases per file kind: 48 in the suite, `PROPTEST_CASES` for a longer run.
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(48)
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
 
     #[test]
     fn mutated_sessions_never_panic(file in prop::sample::select(vec!["session.yaml", "joints.csv", "markers.csv"]), e in edits()) {
