@@ -8,6 +8,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
 
+/// The most poses a simulated session may have: a session is held in memory (about 200 bytes a
+/// pose), and 1,000,000 is far beyond any capture a person would make.
+pub(crate) const MAX_POSES: usize = 1_000_000;
 /// How the orientations are chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -333,8 +336,9 @@ impl SimConfig {
                 return Err((key.into(), format!("`{key}` must be positive (got {value})")));
             }
         }
-        if self.poses == 0 {
-            return Err(("poses".into(), "`poses` must be at least 1".into()));
+        if self.poses == 0 || self.poses > MAX_POSES {
+            let reason = format!("`poses` (or `--poses`) must be from 1 to {MAX_POSES} (got {})", self.poses);
+            return Err(("poses".into(), reason));
         }
         if let Some(r) = &self.recording {
             for (key, value) in [
