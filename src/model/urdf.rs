@@ -163,6 +163,18 @@ pub enum ModelError {
         /// Allowed distance (mm).
         tolerance_mm: f64,
     },
+    #[error(
+        "{path}: at the zero configuration (all joints 0, the home pose) leg {leg_number} sits on the branch (u × w)·v > 0, the other one than spmcal's working mode ((u × w)·v < 0): spmcal would solve this model on another assembly mode (for a coaxial SPM, turned 180° about the common axis). Until the working mode is read from the model, reverse the platform joint axes in the URDF (v0 → −v0, which changes nothing physical)",
+        leg_number = .leg + 1
+    )]
+    /// The zero configuration lies on the other branch than the working mode: refused rather
+    /// than solved on another assembly mode.
+    OtherBranchAtHome {
+        /// The file.
+        path: PathBuf,
+        /// Leg index (0-based).
+        leg: usize,
+    },
     #[error("{path}: the loop closure of leg {leg_number} has no solution at home: {reason}", leg_number = .leg + 1)]
     /// A leg does not close on the MP at home.
     Closure {
@@ -480,6 +492,13 @@ impl<'a> Loader<'a> {
             leg_links.push([actuated.joint.child.link.clone(), intermediate.joint.child.link.clone()]);
         }
         let spm = Spm::new(legs).map_err(|source| ModelError::Geometry { path: self.path.to_path_buf(), source })?;
+        // The zero configuration is the home pose: the working mode's readings at R = I must be
+        // the zero configuration's (φ = 0). A leg whose zero configuration is on the other
+        // branch would otherwise be read silently on another assembly mode.
+        let home = spm.home_joints();
+        if let Some(leg) = (0..3).find(|&i| super::spm::wrap_angle(home[i] + legs[i].delta).abs() > 1e-6) {
+            return Err(ModelError::OtherBranchAtHome { path: self.path.to_path_buf(), leg });
+        }
         let markers =
             companion.markers_m.into_iter().map(|(name, p)| Marker { name, position: Vector3::from(p) }).collect();
         let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;
