@@ -218,7 +218,7 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
     let observations: Vec<_> =
         observations.into_iter().filter(|o| o.time_s.is_some_and(|t| t > first + 0.02 && t < last - 0.02)).collect();
     let m = MarkerModel::new(&p, &observations).with_streams(recording.streams.as_ref().unwrap());
-    let x = DVector::from_fn(p.len(), |i, _| 1e-3 * ((i * 5 + 1) as f64).sin());
+    let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-3 * ((i * 5 + 1) as f64).sin());
     let at = m.evaluate(&x, None, true).unwrap();
     let i = p.len() - 1;
     assert_eq!(p.entries[i].name, "camera.latency");

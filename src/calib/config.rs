@@ -233,9 +233,9 @@ impl CalibConfig {
             let reason = format!("`latency_bound_s` must be in (0, {most}] s (got {})", self.latency_bound_s);
             return Err(("latency_bound_s".into(), reason));
         }
-        if !(self.latency_s.is_finite() && self.latency_s.abs() <= self.latency_bound_s) {
+        if !(self.latency_s.is_finite() && self.latency_s.abs() < self.latency_bound_s) {
             let reason = format!(
-                "`latency_s` must be within ±`latency_bound_s` = {} s (got {})",
+                "`latency_s` must lie inside ±`latency_bound_s` = {} s (got {})",
                 self.latency_bound_s, self.latency_s
             );
             return Err(("latency_s".into(), reason));

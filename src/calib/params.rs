@@ -142,8 +142,11 @@ pub struct Parameterisation {
     pub translation0: Vector3<f64>,
     /// Marker positions in P at `x = 0` (marker level; empty otherwise).
     pub markers0: Vec<Vector3<f64>>,
-    /// Camera latency at `x = 0` (s; free-motion recordings).
+    /// Camera latency at `x = 0` (s; free-motion recordings): always 0, the latency entry is the
+    /// latency itself, so that its bound is `±latency_bound_s` whatever the start.
     pub latency0: f64,
+    /// Where the fit starts the latency (s): the config's `latency_s`.
+    pub latency_start: f64,
     /// One entry per parameter.
     pub entries: Vec<Entry>,
 }
@@ -206,6 +209,7 @@ impl Parameterisation {
             translation0: Vector3::zeros(),
             markers0: Vec::new(),
             latency0: 0.0,
+            latency_start: 0.0,
             entries,
         }
     }
@@ -238,12 +242,21 @@ impl Parameterisation {
         p
     }
 
-    /// The same parameterisation with the camera latency as a parameter, from `latency0`,
+    /// The same parameterisation with the camera latency as a parameter, started at `start` and
     /// bounded by `bound` either side of zero (s).
-    pub fn with_latency(mut self, latency0: f64, bound: f64) -> Self {
-        self.latency0 = latency0;
+    pub fn with_latency(mut self, start: f64, bound: f64) -> Self {
+        self.latency_start = start;
         self.entries.push(Entry { kind: Kind::Latency, name: "camera.latency".into(), bound: Some(bound) });
         self
+    }
+
+    /// The start of the fit: every parameter at its initial value, the latency at its start.
+    pub fn start(&self) -> DVector<f64> {
+        let mut x = DVector::zeros(self.len());
+        if let Some(i) = self.entries.iter().position(|e| e.kind == Kind::Latency) {
+            x[i] = self.latency_start;
+        }
+        x
     }
 
     /// The camera latency at `x` (s).

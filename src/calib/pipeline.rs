@@ -292,7 +292,7 @@ fn run<L: Level>(
     check_enough(&free, model.len(), if model.unit() == "mm" { "marker observations" } else { "poses" })?;
     let registration = registration_mask(p, &free);
     let stage = |stage| move |error| CalibError::Fit { stage, error };
-    let x0 = DVector::zeros(p.len());
+    let x0 = p.start();
     let nominal = best_registration(&model, &x0, &registration, config).map_err(stage("nominal registration"))?;
     // Identifiability at the start of the full fit; a session that barely moves is refused with
     // what it cannot tell apart.

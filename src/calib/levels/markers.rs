@@ -72,6 +72,8 @@ impl<'s> MarkerLevel<'s> {
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
         let streams = session.streams.as_ref();
         let p = match streams {
+            // The fit starts at `latency_s` and keeps the latency within ±`latency_bound_s`: the
+            // frames were chosen for that range, and a parameters file holds no more.
             Some(_) => p.with_latency(config.latency_s, config.latency_bound_s),
             None => p,
         };
@@ -249,7 +251,7 @@ fn at_fitted_latency(
 fn joint_speeds(observations: &[MarkerObservation], streams: &Streams, p: &Parameterisation) -> Vec<f64> {
     observations
         .iter()
-        .map(|o| o.time_s.and_then(|t| streams.velocity_at(t - p.latency0)).map_or(0.0, |v| v.amax().to_degrees()))
+        .map(|o| o.time_s.and_then(|t| streams.velocity_at(t - p.latency_start)).map_or(0.0, |v| v.amax().to_degrees()))
         .collect()
 }
 
