@@ -57,9 +57,21 @@ struct Output {
     /// How a message names it: `--out x.csv`, `x.yaml (the companion of --urdf x.urdf)`.
     name: String,
     path: PathBuf,
-    /// A folder the command writes files into (`simulate --out`).
-    folder: bool,
+    /// A file, a folder the command writes files into (`simulate --out`), or one of the files it
+    /// writes there.
+    role: Role,
     at: Place,
+}
+
+/// What an output is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Role {
+    /// A file given on its own.
+    File,
+    /// A session folder: it holds the session alone.
+    Folder,
+    /// A file the command writes into its session folder.
+    InFolder,
 }
 
 /// Where a path leads.
@@ -235,7 +247,7 @@ impl Files {
 
     /// A file the command writes, given by `option`.
     pub(crate) fn output(&mut self, option: &str, path: &Path) {
-        self.push_output(format!("{option} {}", path.display()), path, false);
+        self.push_output(format!("{option} {}", path.display()), path, Role::File);
     }
 
     /// An optional output.
@@ -250,25 +262,27 @@ impl Files {
         self.output(option, urdf);
         let companion = RobotModel::companion_path(urdf);
         let name = format!("{} (the companion of {option} {})", companion.display(), urdf.display());
-        self.push_output(name, &companion, false);
+        self.push_output(name, &companion, Role::File);
     }
 
     /// A session folder the command writes (given by `option`) and the files it writes there.
     pub(crate) fn session_output(&mut self, option: &str, dir: &Path) {
-        self.push_output(format!("{option} {}", dir.display()), dir, true);
+        self.push_output(format!("{option} {}", dir.display()), dir, Role::Folder);
         for name in SESSION_FILES {
             let path = dir.join(name);
-            self.push_output(format!("{} (written into {option} {})", path.display(), dir.display()), &path, false);
+            let name = format!("{} (written into {option} {})", path.display(), dir.display());
+            self.push_output(name, &path, Role::InFolder);
         }
     }
 
-    fn push_output(&mut self, name: String, path: &Path, folder: bool) {
-        self.outputs.push(Output { name, path: path.to_path_buf(), folder, at: Place::of(path) });
+    fn push_output(&mut self, name: String, path: &Path, role: Role) {
+        self.outputs.push(Output { name, path: path.to_path_buf(), role, at: Place::of(path) });
     }
 
     /// Refuse an output that is an input (the same path, a symbolic or a hard link) or an output
     /// folder that holds an input; then find the models other inputs name and refuse an output
-    /// that is one of them; then one file given as two outputs.
+    /// that is one of them; then one file given as two outputs, and an output written into a
+    /// session folder that is not the session's (a session folder holds the session alone).
     ///
     /// # Errors
     /// The first such output, named with its option and the input's role and path.
@@ -286,6 +300,16 @@ impl Files {
         for (k, output) in self.outputs.iter().enumerate() {
             if self.outputs[..k].iter().any(|earlier| earlier.at.reaches(&output.at).is_some()) {
                 return Err(FileError::new(&output.path, "is given as two different outputs").into());
+            }
+        }
+        for folder in self.outputs.iter().filter(|o| o.role == Role::Folder) {
+            if let Some(other) = self.outputs.iter().find(|o| o.role == Role::File && folder.at.holds(&o.at).is_some())
+            {
+                bail!(
+                    "{} is inside {}: a session folder holds only the session; write it beside it",
+                    other.name,
+                    folder.name
+                );
             }
         }
         Ok(())
@@ -314,7 +338,7 @@ fn check_pair(output: &Output, input: &Input) -> Result<()> {
         let named = if reach == Reach::Same && output.path == input.path { &input.short } else { &input.label };
         bail!("{} is an input of this command ({named}{}): refusing to overwrite it", output.name, reach.how());
     }
-    if output.folder
+    if output.role == Role::Folder
         && let Some(reach) = output.at.holds(&input.at)
     {
         bail!(

@@ -57,26 +57,6 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
         }
     }
     files.check()?;
-    // A session folder holds the session alone (anything else makes it "not a session"): a
-    // recording inside it would be written, then refuse the session.
-    if let Some(rrd) = &args.rrd {
-        // A folder that does not exist yet: its parent resolved, its name joined back.
-        let folder = |p: &std::path::Path| {
-            std::fs::canonicalize(p).unwrap_or_else(|_| {
-                let parent = p.parent().filter(|q| !q.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-                std::fs::canonicalize(parent)
-                    .map_or_else(|_| p.to_path_buf(), |q| q.join(p.file_name().unwrap_or_default()))
-            })
-        };
-        let parent = rrd.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-        if folder(parent) == folder(&args.out) {
-            anyhow::bail!(
-                "--rrd {} is inside --out {}: a session folder holds only the session; write the recording beside it",
-                rrd.display(),
-                args.out.display()
-            );
-        }
-    }
     let mut config = SimConfig::read(&args.config)?;
     config.seed = args.seed.unwrap_or(config.seed);
     config.poses = args.poses.unwrap_or(config.poses);
