@@ -250,6 +250,12 @@ impl Parameterisation {
         self
     }
 
+    /// Whether parameter `i` sits at its bound at `x` (within a millionth of it): the data want it
+    /// further, so it has no standard error.
+    pub(crate) fn at_bound(&self, x: &DVector<f64>, i: usize) -> bool {
+        self.entries[i].bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6))
+    }
+
     /// The start of the fit: every parameter at its initial value, the latency at its start.
     pub fn start(&self) -> DVector<f64> {
         let mut x = DVector::zeros(self.len());

@@ -417,13 +417,9 @@ pub(crate) fn check_enough(free: &[bool], observations: usize, what: &'static st
     Ok(())
 }
 
-/// The free parameters that end at their bound (within a millionth of it).
+/// The free parameters that end at their bound.
 fn at_bounds(p: &Parameterisation, x: &DVector<f64>, free: &[bool]) -> Vec<bool> {
-    p.entries
-        .iter()
-        .enumerate()
-        .map(|(i, e)| free[i] && e.bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6)))
-        .collect()
+    (0..p.len()).map(|i| free[i] && p.at_bound(x, i)).collect()
 }
 
 /// Observations beyond `threshold` robust standard deviations, most extreme first; beyond twice

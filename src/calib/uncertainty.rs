@@ -113,15 +113,10 @@ pub(crate) fn parameter_reports(
             name: e.name.clone(),
             change_deg: x[i].to_degrees(),
             std_error_deg: std_error(cov, free, i).map(f64::to_degrees),
-            frozen: !free[i] && !at_bound(p, x, i),
-            at_bound: at_bound(p, x, i),
+            frozen: !free[i] && !p.at_bound(x, i),
+            at_bound: p.at_bound(x, i),
         })
         .collect()
-}
-
-/// Whether parameter `i` sits at its bound (within a millionth of it).
-fn at_bound(p: &Parameterisation, x: &DVector<f64>, i: usize) -> bool {
-    p.entries[i].bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6))
 }
 
 /// The parameters whose change from nominal is under twice its standard error.

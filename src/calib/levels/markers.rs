@@ -194,7 +194,7 @@ impl Level for MarkerLevel<'_> {
             latency: p.entries.iter().position(|e| e.kind == Kind::Latency).map(|i| Latency {
                 value_s: p.latency(x),
                 std_error_s: std_error(cov, free, i),
-                at_bound: p.entries[i].bound.is_some_and(|b| x[i].abs() >= b * (1.0 - 1e-6)),
+                at_bound: p.at_bound(x, i),
             }),
             observations: observations.len(),
             poses: r.model.poses(),
