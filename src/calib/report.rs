@@ -234,6 +234,14 @@ pub struct CalibrationReport {
     pub markers: Option<MarkerFitReport>,
 }
 
+impl CalibrationReport {
+    /// The file the marker observations came from, for messages: a free-motion recording's
+    /// `captures.csv` (it has a latency), else `markers.csv`.
+    pub(crate) fn observations_file(&self) -> &'static str {
+        if self.markers.as_ref().is_some_and(|m| m.latency.is_some()) { "captures.csv" } else { "markers.csv" }
+    }
+}
+
 /// The `fit:` header of the parameters file.
 ///
 /// # Panics

@@ -226,7 +226,7 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
 fn flagged(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
     let excluded = r.flagged.iter().filter(|o| o.excluded).count();
     writeln!(f, "flagged observations: {} ({excluded} excluded as gross errors)", r.flagged.len())?;
-    let source = if r.markers.as_ref().is_some_and(|m| m.latency.is_some()) { "captures.csv" } else { "markers.csv" };
+    let source = r.observations_file();
     for o in r.flagged.iter().take(LISTED) {
         let place = match &o.marker {
             Some(marker) => format!("pose {} marker {marker} ({source} line {})", o.pose, o.line),

@@ -90,11 +90,6 @@ impl<'s> MarkerLevel<'s> {
             warnings,
         })
     }
-
-    /// The file the observations were read from, for messages.
-    fn source(&self) -> &'static str {
-        if self.streams.is_some() { "captures.csv" } else { "markers.csv" }
-    }
 }
 
 impl Level for MarkerLevel<'_> {
@@ -182,14 +177,6 @@ impl Level for MarkerLevel<'_> {
         report.camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
             Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
         });
-        let gross = report.flagged.iter().filter(|f| f.excluded).map(|f| {
-            let marker = f.marker.as_deref().unwrap_or("");
-            format!("pose {} marker {marker} ({} line {}): gross error", f.pose, self.source(), f.line)
-        });
-        let mut excluded: Vec<String> = self.excluded.iter().cloned().chain(gross).collect();
-        excluded.append(&mut report.excluded);
-        report.excluded = excluded;
-        report.warnings = self.warnings.iter().cloned().chain(report.warnings).collect();
         report.markers = Some(MarkerFitReport {
             latency: p.entries.iter().position(|e| e.kind == Kind::Latency).map(|i| Latency {
                 value_s: p.latency(x),
@@ -216,6 +203,15 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         });
+        let source = report.observations_file();
+        let gross = report.flagged.iter().filter(|f| f.excluded).map(|f| {
+            let marker = f.marker.as_deref().unwrap_or("");
+            format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)
+        });
+        let mut excluded: Vec<String> = self.excluded.iter().cloned().chain(gross).collect();
+        excluded.append(&mut report.excluded);
+        report.excluded = excluded;
+        report.warnings = self.warnings.iter().cloned().chain(report.warnings).collect();
         Ok(Calibration {
             parameters,
             report,
