@@ -55,15 +55,16 @@ fn legs_in_another_order_are_refused_naming_both_files_and_the_legs() {
     params.legs.swap(1, 2);
     let file = written(dir.path(), &params);
     let text = params.check_model(&file, &model).unwrap_err().to_string();
-    let line = |key: &str| {
+    // The line of the second leg record (`legs[1]`).
+    let second_leg = {
         let text = std::fs::read_to_string(&file).unwrap();
-        1 + text.lines().position(|l| l.starts_with(key)).unwrap()
+        1 + text.lines().enumerate().filter(|(_, l)| l.starts_with("- u:")).nth(1).unwrap().0
     };
     assert!(
         text.starts_with("models/agile_wrist.yaml:13: column `legs[1]`: leg 2 of models/agile_wrist.urdf"),
         "{text}"
     );
-    assert!(text.contains(&format!("{} (line {}, `legs[1]`)", file.display(), line("- u:") + 15)), "{text}");
+    assert!(text.contains(&format!("{} (line {}, `legs[1]`)", file.display(), second_leg)), "{text}");
     assert!(text.contains("model's leg 3") && text.contains("another order"), "{text}");
     let text = export(&model, &params, &[]).unwrap_err().to_string();
     assert!(text.contains("leg 2 of the parameters") && text.contains("another order"), "{text}");

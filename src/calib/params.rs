@@ -5,8 +5,11 @@
 //! mechanism: 6 directions that any parameterisation must fix. spmcal fixes them by defining B and
 //! P through the first two legs: `u_1` and `v0_1` are held at their nominal values, and `u_2`,
 //! `v0_2` may only turn within the plane they span with `u_1`, `v0_1` (one tilt each). `u_3` and
-//! `v0_3` tilt freely (two each). The identifiability analysis confirms that no null direction is
-//! left (tests/calibration.rs).
+//! `v0_3` tilt freely (two each). When `u_1` and `u_2` (nearly) coincide — a coaxial SPM such as
+//! Orbita3d — their plane is undefined and cannot fix B's turn about `u_1`; that turn then moves
+//! with the encoder offsets (it turns every zero direction), so leg 1's offset `δ_1` is held at
+//! its initial value instead and `u_2` tilts freely. The identifiability analysis confirms that no
+//! null direction is left, for either geometry (tests/calibration.rs, tests/general_spm.rs).
 //!
 //! Every parameter is measured from its initial value, so that bounds are boxes. Angles (radians):
 //! per leg the axis tilts (tangent coordinates of the rotation vector that carries the nominal
@@ -151,6 +154,11 @@ pub struct Parameterisation {
     pub entries: Vec<Entry>,
 }
 
+/// Below this sine of the angle between `u_1` and `u_2` (5.7°) their plane fixes B's turn about
+/// `u_1` poorly (a turn ε moves `u_2` by only ε·sine), and exactly not at all for a coaxial SPM:
+/// leg 1's encoder offset, which that turn moves one for one, fixes it instead.
+const COAXIAL_SINE: f64 = 0.1;
+
 /// Two unit vectors orthogonal to `a` and to each other.
 fn tangent_basis(a: &Vector3<f64>, hint: &Vector3<f64>) -> [Vector3<f64>; 2] {
     let e1 = (hint - a * a.dot(hint)).normalize();
@@ -167,7 +175,9 @@ impl Parameterisation {
     ) -> Self {
         let g = &initial;
         let in_plane = |a: &Vector3<f64>, b: &Vector3<f64>| vec![a.cross(b).normalize()];
-        let actuated_dirs = [Vec::new(), in_plane(&g[0].u, &g[1].u), tangent_basis(&g[2].u, &g[2].z).to_vec()];
+        let coaxial = g[0].u.cross(&g[1].u).norm() < COAXIAL_SINE;
+        let second = if coaxial { tangent_basis(&g[1].u, &g[1].z).to_vec() } else { in_plane(&g[0].u, &g[1].u) };
+        let actuated_dirs = [Vec::new(), second, tangent_basis(&g[2].u, &g[2].z).to_vec()];
         let platform_dirs = [Vec::new(), in_plane(&g[0].v0, &g[1].v0), tangent_basis(&g[2].v0, &g[0].v0).to_vec()];
         let (tilt, angle, offset) = (
             bounds.axis_tilt_deg.to_radians(),
@@ -189,7 +199,9 @@ impl Parameterisation {
             }
             push(Kind::Alpha1 { leg }, format!("leg{n}.alpha1"), Some(angle));
             push(Kind::Alpha2 { leg }, format!("leg{n}.alpha2"), Some(angle));
-            push(Kind::Offset { leg }, format!("leg{n}.delta"), Some(offset));
+            if !(coaxial && leg == 0) {
+                push(Kind::Offset { leg }, format!("leg{n}.delta"), Some(offset));
+            }
             for (k, name) in tilt_names("v0", platform_dirs[leg].len()).into_iter().enumerate() {
                 push(Kind::PlatformTilt { leg, k }, name, Some(tilt));
             }
@@ -290,6 +302,22 @@ impl Parameterisation {
         self.entries.is_empty()
     }
 
+    /// Whether leg 1's encoder offset, not the plane of `u_1` and `u_2`, fixes B's turn about
+    /// `u_1` (a coaxial SPM: `u_2` then tilts freely).
+    fn offset_fixes_base_turn(&self) -> bool {
+        self.actuated_dirs[1].len() == 2
+    }
+
+    /// The second direction that, with `u_1`, defines B in this gauge: `u_2`, or for a coaxial
+    /// SPM leg 1's zero direction (where `w_1` points at reading 0).
+    fn base_pair(&self, legs: &[LegGeometry; 3]) -> (Vector3<f64>, Vector3<f64>) {
+        let g = &legs[0];
+        match self.offset_fixes_base_turn() {
+            true => (g.u, g.z * g.delta.cos() + g.u.cross(&g.z) * g.delta.sin()),
+            false => (g.u, legs[1].u),
+        }
+    }
+
     /// Rotation vector of the tilt of an axis from its parameters.
     fn tilt_vector(
         &self,
@@ -330,6 +358,7 @@ impl Parameterisation {
                 alpha2: g.alpha2 + self.value(x, Kind::Alpha2 { leg }),
                 v0: so3::exp(&phi_v) * g.v0,
                 delta: g.delta + self.value(x, Kind::Offset { leg }),
+                home_branch: g.home_branch,
             }
         })
     }
@@ -401,7 +430,8 @@ fn tilt_between(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
 }
 
 /// A true parameter set moved into the gauge of `p`: the base frame rotated by `G` so that `u_1`
-/// and the plane of `u_1, u_2` are nominal, the platform frame by `H` likewise for `v0_1, v0_2`.
+/// and the plane of `u_1, u_2` (for a coaxial SPM: leg 1's zero direction) are nominal, the
+/// platform frame by `H` likewise for `v0_1, v0_2`.
 #[derive(Debug, Clone)]
 pub struct TruthInGauge {
     /// The true parameters in the fit's coordinates (camera rotation included).
@@ -421,7 +451,8 @@ impl TruthInGauge {
         reference_pose: &Rotation3<f64>,
     ) -> Self {
         let n = &p.initial;
-        let base = so3::carry(&legs[0].u, &legs[1].u, &n[0].u, &n[1].u);
+        let ((a, b), (c, d)) = (p.base_pair(legs), p.base_pair(n));
+        let base = so3::carry(&a, &b, &c, &d);
         let platform = so3::carry(&legs[0].v0, &legs[1].v0, &n[0].v0, &n[1].v0);
         let moved = legs.map(|g| LegGeometry { u: base * g.u, z: base * g.z, v0: platform * g.v0, ..g });
         let camera = camera * base.inverse();

@@ -13,6 +13,9 @@
 //! degrees apart (90° for the Agile Wrist, 120° between Orbita3d's platform axes), so legs in
 //! another order are far beyond the tolerance and nearer to another leg.
 //!
+//! Each leg's home branch (the sign of `(u×w)·v` at home, which fixes the working mode) must be
+//! the model's: the same axes on the other branch are another mechanism's working mode.
+//!
 //! **Markers.** When the parameters have fitted markers, their names and the model's are the same
 //! set: a fitted marker the model lacks would be dropped, a model marker without a fitted position
 //! would keep a nominal one beside fitted ones.
@@ -161,6 +164,15 @@ pub(crate) fn check(model: &RobotModel, params: &Parameters, file: Option<&Path>
                 return Err(refuse(&format!("legs[{i}]"), reason));
             }
         }
+        if theirs_leg.home_branch != ours.home_branch {
+            let reason = format!(
+                "{leg} is on the {} branch at home, {} says {}: the two describe different working modes                  (a parameters file without `home_branch` reads as negative)",
+                ours.home_branch,
+                params_file.at(&format!("legs[{i}].home_branch")),
+                theirs_leg.home_branch,
+            );
+            return Err(refuse(&format!("legs[{i}]"), reason));
+        }
     }
     Ok(header.map(|h| format!("{h}; its legs and markers agree with {urdf}, which is used")).into_iter().collect())
 }
@@ -218,6 +230,7 @@ mod tests {
                 alpha2: std::f64::consts::FRAC_PI_2,
                 v0,
                 delta: 0.0,
+                home_branch: crate::model::HomeBranch::Negative,
             }
         });
         let spm = Spm::new(legs).unwrap();

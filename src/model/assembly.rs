@@ -16,6 +16,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
+use super::geometry::HomeBranch;
 use super::spm::{Branch, Spm, conditioning_index};
 use crate::math::so3;
 
@@ -38,9 +39,10 @@ impl AssemblyMode {
         self.branches.iter().all(|b| *b == Branch::Working)
     }
 
-    /// Branch signs as text, e.g. `"--+"` (the sign of `(u×w)·v` of each leg).
-    pub fn branch_label(&self) -> String {
-        self.branches.iter().map(|b| b.sign_char()).collect()
+    /// Branch signs as text, e.g. `"--+"`: the sign of `(u×w)·v` of each leg, for legs whose
+    /// home branches are `home` ([`Spm::home_branches`]).
+    pub fn branch_label(&self, home: &[HomeBranch; 3]) -> String {
+        self.branches.iter().zip(home).map(|(b, h)| b.sign_char(*h)).collect()
     }
 }
 

@@ -3,7 +3,9 @@
 //!
 //! Leg i (conventions of DESIGN.md): actuated axis `u`, joint zero direction `z ⟂ u`,
 //! intermediate axis `w(θ) = cos α1 u + sin α1 (cos φ z + sin φ (u × z))` with `φ = θ + δ`,
-//! platform axis `v = R v0`, and the loop closure `w(θ) · R v0 = cos α2`.
+//! platform axis `v = R v0`, and the loop closure `w(θ) · R v0 = cos α2`. Each leg closes the
+//! loop on two branches, told apart by the sign of `(u × w) · v`; the working mode is the one
+//! that contains home (`R = I`), so each leg carries the sign it has there.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -23,6 +25,39 @@ pub struct LegGeometry {
     pub v0: Vector3<f64>,
     /// Encoder zero offset: `φ = θ + δ`, radians.
     pub delta: f64,
+    /// The leg's branch at home, which the working mode keeps.
+    #[serde(default)]
+    pub home_branch: HomeBranch,
+}
+
+/// The sign of `(u × w) · v` of a leg at home (`R = I`): which of its two inverse-kinematics
+/// branches the working mode uses. Neither is special: the Agile Wrist's legs are negative,
+/// Orbita3d's (as its makers define it) positive. A model's loader reads it from the model's
+/// zero configuration; parameters files written before it existed read as negative.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HomeBranch {
+    /// `(u × w) · v < 0` at home (the Agile Wrist's legs).
+    #[default]
+    Negative,
+    /// `(u × w) · v > 0` at home (Orbita3d's legs).
+    Positive,
+}
+
+impl HomeBranch {
+    /// The branch on which `(u × w) · v` has the sign of `value` (zero counts as positive; a
+    /// model refuses a home that close to a serial singularity anyway).
+    pub fn of(value: f64) -> Self {
+        if value < 0.0 { HomeBranch::Negative } else { HomeBranch::Positive }
+    }
+
+    /// `−1.0` or `+1.0`.
+    pub fn sign(self) -> f64 {
+        match self {
+            HomeBranch::Negative => -1.0,
+            HomeBranch::Positive => 1.0,
+        }
+    }
 }
 
 /// Why a geometry cannot be used.
@@ -95,6 +130,7 @@ impl LegGeometry {
             alpha2,
             v0: Vector3::new(-se * platform_cone.sin(), ce * platform_cone.sin(), platform_cone.cos()),
             delta: 0.0,
+            home_branch: HomeBranch::Negative,
         }
     }
 
@@ -134,6 +170,16 @@ impl LegGeometry {
     }
 }
 
+impl std::fmt::Display for HomeBranch {
+    /// As the parameters file writes it: `negative` or `positive`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            HomeBranch::Negative => "negative",
+            HomeBranch::Positive => "positive",
+        })
+    }
+}
+
 /// A leg prepared for fast evaluation (all trigonometry of the constants done once).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Leg {
@@ -147,6 +193,8 @@ pub(crate) struct Leg {
     pub sin_a2: f64,
     pub v0: Vector3<f64>,
     pub delta: f64,
+    /// `−1` or `+1`: the sign of `(u × w) · v` in the working mode.
+    pub sign: f64,
 }
 
 impl Leg {
@@ -161,6 +209,7 @@ impl Leg {
             sin_a2: g.alpha2.sin(),
             v0: g.v0,
             delta: g.delta,
+            sign: g.home_branch.sign(),
         }
     }
 

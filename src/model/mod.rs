@@ -22,7 +22,7 @@ mod urdf_check;
 pub use assembly::AssemblyMode;
 #[cfg(feature = "full")]
 pub use export::{ExportedModel, export};
-pub use geometry::{GeometryError, LegGeometry};
+pub use geometry::{GeometryError, HomeBranch, LegGeometry};
 #[cfg(feature = "full")]
 pub use modes::{FdaPose, ModeReport};
 pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters};

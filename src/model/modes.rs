@@ -71,7 +71,7 @@ fn modes_working_first(spm: &Spm, joints: &Vector3<f64>) -> Vec<ModeReport> {
         .map(|(k, m)| ModeReport {
             mode: k,
             q_wxyz: so3::to_wxyz(&m.rotation),
-            branches: m.branch_label(),
+            branches: m.branch_label(&spm.home_branches()),
             conditioning: m.conditioning,
             working: is_working(&m.rotation),
         })

@@ -14,6 +14,7 @@
 //!     alpha2_deg: 90.0
 //!     v0: [0.0, 0.816496580927726, 0.577350269189626]
 //!     delta_deg: 0.0
+//!     home_branch: negative  # sign of (u×w)·v at home; optional, negative when absent
 //! camera:                    # optional: x_C = R_CB x_B + t_CB
 //!   r_cb_wxyz: [1.0, 0.0, 0.0, 0.0]
 //!   t_cb_m: [0.0, 0.0, 0.8]
@@ -26,7 +27,7 @@ use std::path::Path;
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::geometry::{GeometryError, LegGeometry};
+use super::geometry::{GeometryError, HomeBranch, LegGeometry};
 use super::limits::{MAX_LATENCY_S, MAX_POSITION_M, Ranges};
 use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
@@ -130,6 +131,9 @@ struct LegRecord {
     alpha2_deg: f64,
     v0: [f64; 3],
     delta_deg: f64,
+    /// Absent in files written before the signs were kept: those were all negative.
+    #[serde(default)]
+    home_branch: HomeBranch,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -149,6 +153,7 @@ impl LegRecord {
             alpha2: self.alpha2_deg.to_radians(),
             v0: Vector3::from(self.v0),
             delta: self.delta_deg.to_radians(),
+            home_branch: self.home_branch,
         }
     }
 }
@@ -357,6 +362,7 @@ impl Parameters {
                     alpha2_deg: g.alpha2.to_degrees(),
                     v0: g.v0.into(),
                     delta_deg: g.delta.to_degrees(),
+                    home_branch: g.home_branch,
                 })
                 .collect(),
             camera: self
@@ -378,7 +384,8 @@ impl Parameters {
         format!(
             "# spmcal parameters of a spherical parallel manipulator (conventions: shared/DESIGN.md).\n\
              # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
-             # axis v0 in P, encoder offset delta (phi = theta + delta). Camera: x_C = R_CB x_B + t_CB.\n\
+             # axis v0 in P, encoder offset delta (phi = theta + delta), home_branch (the sign of\n\
+             # (u x w).v at home, which the working mode keeps). Camera: x_C = R_CB x_B + t_CB.\n\
              # Markers (when fitted): positions in P, metres.\n{body}"
         )
     }

@@ -47,6 +47,7 @@ pub fn perturb<R: Rng + ?Sized>(nominal: &[LegGeometry; 3], spread: &GeometrySpr
             alpha2: g.alpha2 + angle.sample(rng),
             v0: tilt(&g.v0, spread.axis_tilt, rng),
             delta: g.delta + offset.sample(rng),
+            home_branch: g.home_branch,
         }
     })
 }

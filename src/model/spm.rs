@@ -4,25 +4,25 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::geometry::{GeometryError, Leg, LegGeometry};
+use super::geometry::{GeometryError, HomeBranch, Leg, LegGeometry};
 use crate::math::so3;
 
-/// Which of the two inverse-kinematics solutions of a leg.
+/// Which of the two inverse-kinematics solutions of a leg, relative to its home branch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Branch {
-    /// `(u × w) · v < 0`, as at the nominal home pose: the working mode.
+    /// The branch the leg has at home (`(u × w) · v` of its [`HomeBranch`] sign): the working mode.
     Working,
-    /// `(u × w) · v > 0`: the leg folded the other way.
+    /// The leg folded the other way.
     Other,
 }
 
 impl Branch {
-    /// One-character label: `-` for the working branch, `+` for the other (the sign of `(u×w)·v`).
-    pub fn sign_char(self) -> char {
-        match self {
-            Branch::Working => '-',
-            Branch::Other => '+',
+    /// The sign of `(u × w) · v` on this branch of a leg whose home branch is `home`: `-` or `+`.
+    pub fn sign_char(self, home: HomeBranch) -> char {
+        match (self == Branch::Working) == (home == HomeBranch::Negative) {
+            true => '-',
+            false => '+',
         }
     }
 }
@@ -177,9 +177,28 @@ pub enum SpmError {
     #[error("the loop closure has no solution at home (R = I): {0}")]
     /// The mechanism cannot be assembled at home.
     NoHomeClosure(IkError),
-    #[error("the home pose (R = I) is at or near a singularity: {0}")]
-    /// The home pose is singular.
-    SingularHome(FdaError),
+    #[error(
+        "the home pose (R = I) is near a parallel singularity: the conditioning index of the closure Jacobian is {conditioning:.3e}, below {minimum}; the platform could move with the actuators locked"
+    )]
+    /// The home pose is near a parallel singularity.
+    HomeNearParallelSingularity {
+        /// Conditioning index of `A` at home.
+        conditioning: f64,
+        /// The smallest accepted ([`FdaSettings::min_conditioning`]).
+        minimum: f64,
+    },
+    #[error(
+        "leg {leg_number} is near a serial singularity at home (R = I): |(u×w)·v| / sin α1 = {margin:.3e}, below {minimum}; its platform axis is nearly in the plane of its actuated and intermediate axes, so which branch is home is ambiguous"
+    , leg_number = .leg + 1)]
+    /// A leg is near a serial singularity at home: its home branch is ambiguous.
+    HomeNearSerialSingularity {
+        /// Leg index (0-based).
+        leg: usize,
+        /// `|(u×w)·v| / sin α1` at home.
+        margin: f64,
+        /// The smallest accepted ([`FdaSettings::min_branch_margin`]).
+        minimum: f64,
+    },
     #[error("platform axes v0 of legs {} and {} are parallel", .0 + 1, .1 + 1)]
     /// Two platform axes are parallel (leg indices, 0-based).
     ParallelPlatformAxes(usize, usize),
@@ -208,8 +227,24 @@ impl Spm {
         };
         let home = Rotation3::identity();
         spm.home_joints = spm.ik(&home).map_err(SpmError::NoHomeClosure)?;
-        spm.check_pose(&spm.home_joints, &home).map_err(SpmError::SingularHome)?;
+        spm.check_home()?;
         Ok(spm)
+    }
+
+    /// A home near a singularity cannot define the working mode: refuse it, naming the cause.
+    fn check_home(&self) -> Result<(), SpmError> {
+        let home = Rotation3::identity();
+        let minimum = self.settings.min_branch_margin;
+        let margins = self.branch_margins(&self.home_joints, &home);
+        if let Some(leg) = (0..3).find(|&i| margins[i].abs() < minimum) {
+            return Err(SpmError::HomeNearSerialSingularity { leg, margin: margins[leg].abs(), minimum });
+        }
+        let conditioning = conditioning_index(&self.jacobians(&self.home_joints, &home).a);
+        let minimum = self.settings.min_conditioning;
+        if conditioning < minimum {
+            return Err(SpmError::HomeNearParallelSingularity { conditioning, minimum });
+        }
+        Ok(())
     }
 
     /// The nominal Agile Wrist of DESIGN.md: α1 = α2 = 90°, b = p = arctan √2.
@@ -268,7 +303,8 @@ impl Spm {
     /// The closure `w(φ)·v = cos α2` reads `A cos φ + B sin φ = C` with
     /// `A = sin α1 z·v`, `B = sin α1 (u×z)·v`, `C = cos α2 − cos α1 u·v`; writing
     /// `A = ρ cos ψ`, `B = ρ sin ψ` gives `φ = ψ ± acos(C/ρ)`. Since
-    /// `(u×w)·v = ρ sin(ψ − φ)`, the working branch (negative sign) is `φ = ψ + acos(C/ρ)`.
+    /// `(u×w)·v = ρ sin(ψ − φ)`, the branch where it has sign `s` is `φ = ψ − s acos(C/ρ)`:
+    /// the working branch takes the leg's home sign, the other its opposite.
     ///
     /// # Errors
     /// An [`IkError`] as for [`Spm::ik`], for leg `i`.
@@ -294,10 +330,11 @@ impl Spm {
         }
         let gamma = ratio.clamp(-1.0, 1.0).acos();
         let psi = b.atan2(a);
-        let phi = match branch {
-            Branch::Working => psi + gamma,
-            Branch::Other => psi - gamma,
+        let sign = match branch {
+            Branch::Working => leg.sign,
+            Branch::Other => -leg.sign,
         };
+        let phi = psi - sign * gamma;
         Ok(wrap_angle(phi - leg.delta))
     }
 
@@ -312,14 +349,19 @@ impl Spm {
         Jacobians { a, b }
     }
 
-    /// Branch margins `(u_i×w_i)·v_i / sin α1_i` in `[−1, 1]`: negative in the working branch,
-    /// zero at a serial singularity of the leg.
+    /// Branch margins `−s_i (u_i×w_i)·v_i / sin α1_i` in `[−1, 1]`, with `s_i` the leg's home
+    /// sign: negative in the working branch, zero at a serial singularity of the leg.
     pub fn branch_margins(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Vector3<f64> {
         let w = self.intermediate_axes(joints);
         Vector3::from_fn(|i, _| {
             let leg = &self.legs[i];
-            leg.u.cross(&w[i]).dot(&(r * leg.v0)) / leg.sin_a1
+            -leg.sign * leg.u.cross(&w[i]).dot(&(r * leg.v0)) / leg.sin_a1
         })
+    }
+
+    /// The legs' branches at home (the signs of `(u×w)·v` the working mode keeps).
+    pub fn home_branches(&self) -> [HomeBranch; 3] {
+        self.geometry.map(|g| g.home_branch)
     }
 
     /// Branch of each leg at a pose.

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
-use super::geometry::LegGeometry;
+use super::geometry::{HomeBranch, LegGeometry};
 use super::limits::Ranges;
 use super::spm::{Spm, SpmError};
 use super::urdf_check::Fault;
@@ -162,18 +162,6 @@ pub enum ModelError {
         distance_mm: f64,
         /// Allowed distance (mm).
         tolerance_mm: f64,
-    },
-    #[error(
-        "{path}: at the zero configuration (all joints 0, the home pose) leg {leg_number} sits on the branch (u × w)·v > 0, the other one than spmcal's working mode ((u × w)·v < 0): spmcal would solve this model on another assembly mode (for a coaxial SPM, turned 180° about the common axis). Until the working mode is read from the model, reverse the platform joint axes in the URDF (v0 → −v0, which changes nothing physical)",
-        leg_number = .leg + 1
-    )]
-    /// The zero configuration lies on the other branch than the working mode: refused rather
-    /// than solved on another assembly mode.
-    OtherBranchAtHome {
-        /// The file.
-        path: PathBuf,
-        /// Leg index (0-based).
-        leg: usize,
     },
     #[error("{path}: the loop closure of leg {leg_number} has no solution at home: {reason}", leg_number = .leg + 1)]
     /// A leg does not close on the MP at home.
@@ -488,17 +476,12 @@ impl<'a> Loader<'a> {
                 alpha2: w0.dot(&(platform.rotation * v0)).clamp(-1.0, 1.0).acos(),
                 v0,
                 delta: companion.encoder_offsets_deg.map_or(0.0, |o| o[i].to_radians()),
+                // The zero configuration is home, so the working mode keeps the branch it shows.
+                home_branch: HomeBranch::of(u.cross(&w0).dot(&v0)),
             };
             leg_links.push([actuated.joint.child.link.clone(), intermediate.joint.child.link.clone()]);
         }
         let spm = Spm::new(legs).map_err(|source| ModelError::Geometry { path: self.path.to_path_buf(), source })?;
-        // The zero configuration is the home pose: the working mode's readings at R = I must be
-        // the zero configuration's (φ = 0). A leg whose zero configuration is on the other
-        // branch would otherwise be read silently on another assembly mode.
-        let home = spm.home_joints();
-        if let Some(leg) = (0..3).find(|&i| super::spm::wrap_angle(home[i] + legs[i].delta).abs() > 1e-6) {
-            return Err(ModelError::OtherBranchAtHome { path: self.path.to_path_buf(), leg });
-        }
         let markers =
             companion.markers_m.into_iter().map(|(name, p)| Marker { name, position: Vector3::from(p) }).collect();
         let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;
