@@ -34,7 +34,7 @@ fn poses_with_few_markers_are_data_and_the_per_pose_estimator_says_what_it_skips
     assert_eq!(session.poses[2].time_s, Some(1.0));
     assert_eq!(session.poses[2].seen(), 2);
     // The per-pose estimator, which needs three, lists them.
-    let estimate = spmcal::vision::estimate_session(&session, spmcal::vision::Method::Kabsch).unwrap();
+    let estimate = spmcal::vision::SessionEstimate::of(&session, spmcal::vision::Method::Kabsch).unwrap();
     let skipped: Vec<u64> = estimate.skipped.iter().map(|s| s.pose).collect();
     assert_eq!(skipped, [1, 2]);
 }
@@ -42,7 +42,7 @@ fn poses_with_few_markers_are_data_and_the_per_pose_estimator_says_what_it_skips
 #[test]
 fn a_reference_pose_with_two_markers_loads_and_only_the_per_pose_estimator_refuses_it() {
     let (session, _) = Session::load(Path::new("tests/data/reference_with_two_markers"), None).unwrap();
-    let err = spmcal::vision::estimate_session(&session, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
+    let err = spmcal::vision::SessionEstimate::of(&session, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
     assert!(err.contains("pose 0") && err.contains("2 markers"), "{err}");
 }
 

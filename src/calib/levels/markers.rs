@@ -19,7 +19,7 @@ use crate::calib::uncertainty::{orientation_uncertainty, parameter_reports, std_
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
-use crate::vision::{Method, estimate_session};
+use crate::vision::{Method, SessionEstimate};
 
 /// A session's marker observations, ready to fit.
 pub(crate) struct MarkerLevel<'s> {
@@ -156,7 +156,7 @@ impl Level for MarkerLevel<'_> {
         };
         // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
         // model with its best-fit registration, the calibrated one with its own.
-        let vision = estimate_session(r.session, Method::Kabsch).ok();
+        let vision = SessionEstimate::of(r.session, Method::Kabsch).ok();
         let per_pose = |params: &Parameters| {
             let fit = vision.as_ref().and_then(|v| pose_errors(r.session, v, params).ok());
             let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();
