@@ -150,7 +150,7 @@ fn fuzz_recording(file: &str, edits: &[Mutation]) {
     {
         for latency in [-0.05, 0.0, 0.04] {
             let (at, _) = s.at_latency(latency);
-            let _ = spmcal::calib::marker_observations(&at, &model.spm);
+            let _ = spmcal::calib::MarkerObservation::of_session(&at, &model.spm);
         }
     }
 }

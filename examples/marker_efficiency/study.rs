@@ -7,7 +7,7 @@
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use spmcal::calib::{
-    CalibConfig, Calibration, FitLevel, MarkerModel, Parameterisation, TruthInGauge, calibrate, marker_observations,
+    CalibConfig, Calibration, FitLevel, MarkerModel, MarkerObservation, Parameterisation, TruthInGauge, calibrate,
 };
 use spmcal::dataset::Session;
 use spmcal::math::so3;
@@ -93,7 +93,7 @@ pub fn cramer_rao(session: &Session, model: &RobotModel, config: &SimConfig, tes
     let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
     let gauge = TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &true_markers);
     let spm_true = truth.parameters.spm().expect("a valid truth");
-    let (observations, _) = marker_observations(session, &spm_true);
+    let (observations, _) = MarkerObservation::of_session(session, &spm_true);
     let noise = spmcal::plan::stereo_noise(&config.camera);
     let fisher = MarkerModel::new(&p, &observations)
         .information_per_pose(&gauge.x, &noise)

@@ -27,7 +27,7 @@ pub(crate) use information::{Information, orientation_errors};
 pub use information::{information, stereo_noise};
 pub(crate) use route::tour;
 
-use crate::calib::{CalibConfig, MarkerModel, Parameterisation, marker_observations, marker_pose_errors};
+use crate::calib::{CalibConfig, MarkerModel, MarkerObservation, Parameterisation, marker_pose_errors};
 use crate::dataset::Session;
 use crate::model::{Parameters, RobotModel};
 use crate::sim::{Candidate, SimConfig, candidates, looking_down};
@@ -372,7 +372,7 @@ fn session_information(
     spm: &crate::model::Spm,
     noise: &crate::calib::StereoNoise,
 ) -> Result<DMatrix<f64>, PlanError> {
-    let (observations, _) = marker_observations(session, spm);
+    let (observations, _) = MarkerObservation::of_session(session, spm);
     let per_pose = MarkerModel::new(p, &observations)
         .information_per_pose(&nalgebra::DVector::zeros(p.len()), noise)
         .map_err(crate::calib::SetError::Eval)?;

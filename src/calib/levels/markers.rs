@@ -9,7 +9,7 @@ use crate::calib::agreement::{
     MarkerErrors, SetError, largest_rotation, model_markers, pose_errors, pose_orientations,
 };
 use crate::calib::config::{CalibConfig, Group};
-use crate::calib::marker_model::{MarkerModel, MarkerObservation, marker_observations};
+use crate::calib::marker_model::{MarkerModel, MarkerObservation};
 use crate::calib::model::Model;
 use crate::calib::params::{Kind, Parameterisation};
 use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Origin, Results, Solution};
@@ -40,7 +40,7 @@ impl<'s> MarkerLevel<'s> {
     /// The observations of `session` on `robot`'s nominal model, registered.
     pub(crate) fn prepare(session: &'s Session, robot: &RobotModel, config: &CalibConfig) -> Result<Self, CalibError> {
         let spm = &robot.spm;
-        let (observations, failed) = marker_observations(session, spm);
+        let (observations, failed) = MarkerObservation::of_session(session, spm);
         let excluded = failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")).collect();
         let markers0 = model_markers(&session.markers, robot).map_err(|e| match e {
             SetError::UnknownMarker(name) => CalibError::UnknownMarker(name),
