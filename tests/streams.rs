@@ -275,5 +275,5 @@ fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recordi
 
     // `replay` without a parameters file registers the nominal model to the markers itself.
     let scene = spmcal::record::Scene::replay(&recording, &model, None).unwrap();
-    assert!(scene.registration.is_some() && scene.series.iter().any(|s| s.name == "markers_mm/replayed"));
+    assert!(scene.registration.is_some() && scene.series_names().any(|name| name == "markers_mm/replayed"));
 }
