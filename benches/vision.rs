@@ -14,7 +14,7 @@ use nalgebra::{Matrix3, Vector3};
 use spmcal::math::polar::Polar;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 use spmcal::vision::{Method, Reference};
 
 fn markers() -> Vec<Vector3<f64>> {
@@ -58,7 +58,7 @@ fn estimate_command(c: &mut Criterion) {
     let model = RobotModel::load(&sim.model).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("session");
-    simulate(&sim, &model, &mut |_| {}).unwrap().0.write(&session).unwrap();
+    sim.simulate(&model, &mut |_| {}).unwrap().0.write(&session).unwrap();
     let out = dir.path().join("orientations.csv");
     let binary = std::env::var("SPMCAL_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_spmcal").to_string());
     let mut group = c.benchmark_group("estimate_command");

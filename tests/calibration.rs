@@ -14,7 +14,7 @@ use spmcal::calib::{
 use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 fn load(dir: &str) -> (Session, RobotModel) {
     let (session, _) = Session::load(Path::new(dir), None).unwrap();
@@ -32,7 +32,7 @@ fn simulated(poses: usize, seed: u64) -> (Session, RobotModel) {
     config.poses = poses;
     config.seed = seed;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     (session, model)
 }
 
@@ -159,7 +159,7 @@ fn outliers_are_flagged_and_down_weighted() {
     config.camera.outlier_probability = 0.03;
     config.camera.outlier_sigma_m = 0.01;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, summary) = config.simulate(&model, &mut |_| {}).unwrap();
     assert!(summary.outliers > 0);
     let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
     let flagged = &calibration.report.flagged;
@@ -297,7 +297,7 @@ fn small_sessions_always_end_at_a_minimum() {
         }
         // Sequential capture (a pose per marker) only the marker-level fit can use.
         config.capture.sequential = seed % 3 == 0;
-        let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+        let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
         let fit = if config.capture.sequential { FitLevel::Markers } else { FitLevel::Orientations };
         let settings = CalibConfig { fit, folds: 0, ..CalibConfig::default() };
         let calibration =

@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use spmcal::calib::CalibConfig;
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel) {
     let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
@@ -17,7 +17,7 @@ fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel)
     config.seed = seed;
     config.capture.sequential = sequential;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     (session, model)
 }
 
@@ -86,7 +86,7 @@ fn standard_errors_are_honest_and_misplaced_markers_are_recovered() {
     for seed in 0..10u64 {
         let mut c = config(200);
         c.seed = 30_000 + seed;
-        let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+        let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
         let settings = CalibConfig { folds: 0, ..CalibConfig::default() };
         let calibration = spmcal::calib::calibrate(&session, &model, &settings, &mut |_| {}).unwrap();
         let truth = session.truth.as_ref().unwrap();
@@ -187,7 +187,7 @@ fn a_calibration_not_clearly_better_than_nominal_says_so_or_is_refused() {
     c.truth.marker_position_m = 0.0;
     c.seed = 14;
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
-    let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+    let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
     let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
     let report = &calibration.report;
     let cv = report.cross_validation.as_ref().unwrap();

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 #[test]
 fn every_bad_session_is_rejected_with_its_message() {
@@ -60,7 +60,7 @@ fn write_then_read_gives_the_same_session() {
     config.capture.sequential = true;
     config.camera.outlier_probability = 0.1;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("session");
     session.write(&out).unwrap();

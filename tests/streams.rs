@@ -8,7 +8,7 @@ use std::path::Path;
 use spmcal::calib::{CalibConfig, calibrate};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 /// Write `session` as a free-motion recording: a 1 kHz encoder stream through the captures' own
 /// readings (linear between them, so interpolating gives them back exactly) and the captures
@@ -62,7 +62,7 @@ fn free_motion(seconds: f64, period_s: f64) -> (Session, RobotModel) {
     let r = config.recording.as_mut().unwrap();
     (r.duration_s, r.period_s) = (seconds, period_s);
     let model = RobotModel::load(&config.model).unwrap();
-    (simulate(&config, &model, &mut |_| {}).unwrap().0, model)
+    (config.simulate(&model, &mut |_| {}).unwrap().0, model)
 }
 
 fn sequential_session() -> (Session, RobotModel) {
@@ -73,7 +73,7 @@ fn sequential_session() -> (Session, RobotModel) {
     // A hand moving the joystick: 1° per axis between captures, ~25°/s.
     config.capture.motion_deg = 1.0;
     let model = RobotModel::load(&config.model).unwrap();
-    (simulate(&config, &model, &mut |_| {}).unwrap().0, model)
+    (config.simulate(&model, &mut |_| {}).unwrap().0, model)
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, SimError, simulate};
+use spmcal::sim::{SimConfig, SimError};
 use spmcal::vision::{Method, SessionEstimate};
 
 /// One noise level of the study.
@@ -33,7 +33,7 @@ pub fn accuracy_study(config: &SimConfig, model: &RobotModel, scales: &[f64]) ->
         let mut c = config.clone();
         c.camera.lateral_sigma_m *= scale;
         c.camera.depth_sigma_m *= scale;
-        let (session, _) = simulate(&c, model, &mut |_| {})?;
+        let (session, _) = c.simulate(model, &mut |_| {})?;
         let truth = session.truth.as_ref().expect("simulated sessions carry truth");
         let camera = truth.parameters.camera.expect("simulated truth has a camera");
         let r0 = truth.orientations[&session.reference_pose];

@@ -17,7 +17,7 @@ use super::pipeline::{Calibration, Fitted, calibrate};
 use crate::dataset::Session;
 use crate::math::so3;
 use crate::model::{CameraRegistration, LegGeometry, RobotModel};
-use crate::sim::{SimConfig, simulate};
+use crate::sim::SimConfig;
 
 /// On held-out poses, the calibrated model's FDA agrees with vision within 10% of what the true
 /// parameters achieve with their own best-fit registration (fitted on the same poses, the same
@@ -141,7 +141,7 @@ fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel)
     config.seed = seed;
     config.capture.sequential = sequential;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     (session, model)
 }
 
@@ -284,7 +284,7 @@ fn free_motion(seconds: f64, period_s: f64) -> (Session, RobotModel) {
     let r = config.recording.as_mut().unwrap();
     (r.duration_s, r.period_s) = (seconds, period_s);
     let model = RobotModel::load(&config.model).unwrap();
-    (simulate(&config, &model, &mut |_| {}).unwrap().0, model)
+    (config.simulate(&model, &mut |_| {}).unwrap().0, model)
 }
 
 #[test]
