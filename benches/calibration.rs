@@ -12,7 +12,7 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use spmcal::calib::{CalibConfig, FitLevel, calibrate};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 fn calibration(c: &mut Criterion) {
     let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
@@ -22,7 +22,7 @@ fn calibration(c: &mut Criterion) {
         sessions.push(Session::load(Path::new(dir), None).unwrap().0);
     }
     sim.poses = 4000;
-    sessions.push(simulate(&sim, &model, &mut |_| {}).unwrap().0);
+    sessions.push(sim.simulate(&model, &mut |_| {}).unwrap().0);
     let mut group = c.benchmark_group("calibrate_markers");
     group.sample_size(10);
     for session in &sessions {
@@ -33,7 +33,7 @@ fn calibration(c: &mut Criterion) {
     group.finish();
     // 100,000 observations (27,000 poses × ~3.8 markers seen): target ≤ 3 s.
     sim.poses = 27_000;
-    let big = simulate(&sim, &model, &mut |_| {}).unwrap().0;
+    let big = sim.simulate(&model, &mut |_| {}).unwrap().0;
     let mut group = c.benchmark_group("calibrate_markers_100k");
     group.sample_size(10).measurement_time(std::time::Duration::from_secs(40));
     group.bench_function("27000", |b| {
@@ -72,7 +72,7 @@ fn command(c: &mut Criterion) {
     sim.recording.as_mut().unwrap().duration_s = 600.0;
     let model = RobotModel::load(&sim.model).unwrap();
     let recording = dir.path().join("ten_minutes");
-    simulate(&sim, &model, &mut |_| {}).unwrap().0.write(&recording).unwrap();
+    sim.simulate(&model, &mut |_| {}).unwrap().0.write(&recording).unwrap();
     let mut group = c.benchmark_group("calibrate_command_free_motion");
     group.sample_size(10).measurement_time(std::time::Duration::from_secs(30));
     group.bench_function("600s", |b| {

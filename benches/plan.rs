@@ -7,7 +7,7 @@ use std::process::Command;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use spmcal::model::RobotModel;
-use spmcal::plan::{PlanSettings, plan};
+use spmcal::plan::{Plan, PlanSettings};
 use spmcal::sim::SimConfig;
 
 fn planning(c: &mut Criterion) {
@@ -16,7 +16,9 @@ fn planning(c: &mut Criterion) {
     let settings = PlanSettings { poses: 40, candidates: 2000, ..PlanSettings::default() };
     let mut group = c.benchmark_group("plan");
     group.sample_size(10);
-    group.bench_function("40_of_2000", |b| b.iter(|| plan(black_box(&model), None, &config, &settings, None).unwrap()));
+    group.bench_function("40_of_2000", |b| {
+        b.iter(|| Plan::design(black_box(&model), None, &config, &settings, None).unwrap())
+    });
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("plan.csv");
     group.bench_function("command_40_of_2000", |b| {

@@ -11,10 +11,10 @@ use std::process::Command;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Matrix3, Vector3};
-use spmcal::math::polar::{polar, polar_svd};
+use spmcal::math::polar::Polar;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 use spmcal::vision::{Method, Reference};
 
 fn markers() -> Vec<Vector3<f64>> {
@@ -30,8 +30,8 @@ fn vision(c: &mut Criterion) {
     // A putative rotation with e ≈ 0.004, the simulated camera's typical value.
     let q = so3::exp(&Vector3::new(0.3, -0.2, 0.25));
     let noisy = q.matrix() + Matrix3::from_fn(|i, j| 0.004 * ((i * 3 + j) as f64).sin());
-    c.bench_function("polar_higham", |b| b.iter(|| polar(black_box(&noisy)).unwrap()));
-    c.bench_function("polar_svd", |b| b.iter(|| polar_svd(black_box(&noisy)).unwrap()));
+    c.bench_function("polar_higham", |b| b.iter(|| Polar::of(black_box(&noisy)).unwrap()));
+    c.bench_function("polar_svd", |b| b.iter(|| Polar::by_svd(black_box(&noisy)).unwrap()));
 
     let reference = markers();
     let c0 = reference.iter().sum::<Vector3<f64>>() / 4.0;
@@ -58,7 +58,7 @@ fn estimate_command(c: &mut Criterion) {
     let model = RobotModel::load(&sim.model).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("session");
-    simulate(&sim, &model, &mut |_| {}).unwrap().0.write(&session).unwrap();
+    sim.simulate(&model, &mut |_| {}).unwrap().0.write(&session).unwrap();
     let out = dir.path().join("orientations.csv");
     let binary = std::env::var("SPMCAL_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_spmcal").to_string());
     let mut group = c.benchmark_group("estimate_command");

@@ -13,7 +13,7 @@ use crate::calib::{FitLevel, SetError, marker_pose_errors, pose_errors};
 use crate::dataset::Session;
 use crate::math::stats::Stats;
 use crate::model::{Parameters, RobotModel};
-use crate::vision::{MarkerError, Method, VisionError, estimate_session};
+use crate::vision::{MarkerError, Method, SessionEstimate, VisionError};
 
 /// The unit of the per-pose errors at `level`.
 fn unit(level: FitLevel) -> &'static str {
@@ -74,8 +74,8 @@ pub fn compare(
 ) -> Result<Vec<SetComparison>, CompareError> {
     let vision = match level {
         Some(FitLevel::Markers) => None,
-        Some(FitLevel::Orientations) => Some(estimate_session(session, method)?),
-        None => match estimate_session(session, method) {
+        Some(FitLevel::Orientations) => Some(SessionEstimate::of(session, method)?),
+        None => match SessionEstimate::of(session, method) {
             Ok(v) => Some(v),
             Err(VisionError { reason: MarkerError::NoPoseWithThree { .. }, .. }) => None,
             Err(e) => return Err(e.into()),

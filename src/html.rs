@@ -12,7 +12,7 @@ use crate::calib::{Calibration, FitLevel, Fitted, per_pose_rms_mm};
 use crate::math::so3;
 
 /// The sections of the report, in order: `(id, title)`.
-pub const SECTIONS: [(&str, &str); 7] = [
+const SECTIONS: [(&str, &str); 7] = [
     ("verdict", "Verdict"),
     ("per-pose", "Model against camera, pose by pose"),
     ("residuals", "Residuals by marker and camera axis"),
@@ -22,58 +22,61 @@ pub const SECTIONS: [(&str, &str); 7] = [
     ("tables", "Tables"),
 ];
 
-/// The whole report as one HTML document (well-formed XML: XHTML with inline SVG).
-pub fn calibration_html(calibration: &Calibration, text_report: &str) -> String {
-    let report = &calibration.report;
-    let verdict = &report.verdict;
-    let (pass, sentence) = (verdict.pass, format!("{}.", capitalised(&verdict.summary)));
-    let mut html = String::new();
-    let _ = write!(
-        html,
-        "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\"><head><meta charset=\"utf-8\"/>\
-         <title>spmcal calibration of {session}</title><style>{STYLE}</style></head><body>\
-         <h1>Calibration of {session}</h1><p class=\"meta\">{fit} fit, loss {loss:?}, {poses} poses; spmcal {version}</p>",
-        session = escape(&report.session),
-        fit = match report.fit {
-            FitLevel::Markers => "marker-level",
-            FitLevel::Orientations => "orientation-level",
-        },
-        loss = report.loss,
-        poses = report.poses,
-        version = env!("CARGO_PKG_VERSION"),
-    );
-    let mark = if pass { ("pass", "PASS") } else { ("warn", "WARN") };
-    let _ = write!(
-        html,
-        "<section id=\"verdict\"><h2>Verdict</h2><p class=\"{}\"><b>{}</b> — {}</p></section>",
-        mark.0,
-        mark.1,
-        escape(&sentence)
-    );
-    let plots = [
-        ("per-pose", per_pose(calibration)),
-        ("residuals", residuals(calibration)),
-        ("parameters", parameters(calibration)),
-        ("identifiability", identifiability(calibration)),
-        ("coverage", coverage(calibration)),
-    ];
-    for ((id, svg), (_, title)) in plots.iter().zip(&SECTIONS[1..6]) {
-        let _ = write!(html, "<section id=\"{id}\"><h2>{title}</h2>{svg}");
-        if *id == "identifiability" {
-            html += "<ul>";
-            for d in &report.identifiability.weakest {
-                let _ = write!(html, "<li>weak: {}</li>", escape(&d.describe()));
+impl Calibration {
+    /// The whole report as one HTML document (well-formed XML: XHTML with inline SVG), with
+    /// `text_report` (the text report) as its tables.
+    pub fn html(&self, text_report: &str) -> String {
+        let report = &self.report;
+        let verdict = &report.verdict;
+        let (pass, sentence) = (verdict.pass, format!("{}.", capitalised(&verdict.summary)));
+        let mut html = String::new();
+        let _ = write!(
+            html,
+            "<!DOCTYPE html>\n<html xmlns=\"http://www.w3.org/1999/xhtml\" lang=\"en\"><head><meta charset=\"utf-8\"/>\
+             <title>spmcal calibration of {session}</title><style>{STYLE}</style></head><body>\
+             <h1>Calibration of {session}</h1><p class=\"meta\">{fit} fit, loss {loss:?}, {poses} poses; spmcal {version}</p>",
+            session = escape(&report.session),
+            fit = match report.fit {
+                FitLevel::Markers => "marker-level",
+                FitLevel::Orientations => "orientation-level",
+            },
+            loss = report.loss,
+            poses = report.poses,
+            version = env!("CARGO_PKG_VERSION"),
+        );
+        let mark = if pass { ("pass", "PASS") } else { ("warn", "WARN") };
+        let _ = write!(
+            html,
+            "<section id=\"verdict\"><h2>Verdict</h2><p class=\"{}\"><b>{}</b> — {}</p></section>",
+            mark.0,
+            mark.1,
+            escape(&sentence)
+        );
+        let plots = [
+            ("per-pose", per_pose(self)),
+            ("residuals", residuals(self)),
+            ("parameters", parameters(self)),
+            ("identifiability", identifiability(self)),
+            ("coverage", coverage(self)),
+        ];
+        for ((id, svg), (_, title)) in plots.iter().zip(&SECTIONS[1..6]) {
+            let _ = write!(html, "<section id=\"{id}\"><h2>{title}</h2>{svg}");
+            if *id == "identifiability" {
+                html += "<ul>";
+                for d in &report.identifiability.weakest {
+                    let _ = write!(html, "<li>weak: {}</li>", escape(&d.describe()));
+                }
+                html += "</ul>";
             }
-            html += "</ul>";
+            html += "</section>";
         }
-        html += "</section>";
+        let _ = writeln!(
+            html,
+            "<section id=\"tables\"><h2>Tables</h2><pre>{}</pre></section></body></html>",
+            escape(text_report)
+        );
+        html
     }
-    let _ = writeln!(
-        html,
-        "<section id=\"tables\"><h2>Tables</h2><pre>{}</pre></section></body></html>",
-        escape(text_report)
-    );
-    html
 }
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}\

@@ -98,8 +98,9 @@ pub mod calib;
 pub mod compare;
 #[cfg(feature = "full")]
 pub mod dataset;
+// The HTML report is one method, `Calibration::html`: nothing else of the module is public.
 #[cfg(feature = "full")]
-pub mod html;
+mod html;
 #[cfg(feature = "full")]
 pub mod plan;
 #[cfg(feature = "full")]

@@ -11,7 +11,7 @@ use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::plan::PlannedPose;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 fn model_path() -> PathBuf {
     std::fs::canonicalize("models/agile_wrist.urdf").unwrap()
@@ -41,7 +41,7 @@ fn recording(dir: &Path) {
     let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
     config.recording.as_mut().unwrap().duration_s = 3.0;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     session.write(dir).unwrap();
 }
 
@@ -139,14 +139,14 @@ fn a_session_whose_stations_would_not_load_is_not_written() {
     let mut config = sim_config();
     (config.poses, config.capture.sequential, config.capture.motion_deg) = (10, true, 3.0);
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let err = session.write(&tmp.path().join("drift")).unwrap_err().to_string();
     assert!(err.contains("joints.csv: station ") && err.contains("lower `capture.motion_deg`"), "{err}");
     assert!(!tmp.path().join("drift").exists());
     // A station on some poses only would be lost on writing: refused too.
     config.capture.motion_deg = 0.05;
-    let (mut session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (mut session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     session.write(&tmp.path().join("held")).unwrap();
     session.poses[3].station = None;
     let err = session.write(&tmp.path().join("partial")).unwrap_err().to_string();
@@ -313,7 +313,7 @@ fn simulate_plan(text: &str, config: &SimConfig) -> Result<Session, String> {
     PlannedPose::read_into(&path, &mut config).map_err(|e| e.to_string())?;
     assert_eq!(config.poses, text.lines().count() - 1);
     let model = RobotModel::load(&config.model).unwrap();
-    simulate(&config, &model, &mut |_| {}).map(|(s, _)| s).map_err(|e| e.to_string())
+    config.simulate(&model, &mut |_| {}).map(|(s, _)| s).map_err(|e| e.to_string())
 }
 
 #[test]
@@ -374,6 +374,6 @@ fn a_plan_given_as_orientations_alone_is_checked_against_the_workspace_by_step()
     let model = RobotModel::load(&config.model).unwrap();
     let tilt = so3::exp(&(Vector3::x() * 40f64.to_radians()));
     config.plan = Some(vec![Rotation3::identity(), tilt, Rotation3::identity()]);
-    let err = simulate(&config, &model, &mut |_| {}).unwrap_err().to_string();
+    let err = config.simulate(&model, &mut |_| {}).unwrap_err().to_string();
     assert!(err.starts_with("plan step 2: its orientation tilts 40.000°"), "{err}");
 }

@@ -1,28 +1,26 @@
-//! Calibration against simulated ground truth: analytic Jacobians, the gauge, accuracy against the
-//! true orientations (the noise floor is a unit test inside the crate, `calib::tests`), honest
-//! uncertainties, robustness, and the settings.
+//! Calibration against simulated ground truth: accuracy against the true orientations, honest
+//! uncertainties, robustness, and the settings. The model's analytic Jacobians, the gauge and the
+//! noise floor are unit tests inside the crate (`calib::tests`): the residual model
+//! (`calib::Model`) is the crate's own.
 
 use std::path::Path;
 
 use nalgebra::DVector;
 
 use spmcal::calib::{
-    CalibConfig, Calibration, Convergence, Evaluation, FitLevel, Fitted, Group, Identifiability, Model, Observation,
-    OrientationModel, Parameterisation, TruthInGauge, Unidentifiable, calibrate,
+    CalibConfig, Calibration, Convergence, FitLevel, Fitted, Group, Observation, TruthInGauge, Unidentifiable,
+    calibrate,
 };
 use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 fn load(dir: &str) -> (Session, RobotModel) {
     let (session, _) = Session::load(Path::new(dir), None).unwrap();
     let model = RobotModel::load(&session.model).unwrap();
     (session, model)
 }
-
-#[path = "common/gauge.rs"]
-mod gauge;
 
 /// This file tests the orientation-level fit (`fit: orientations`); tests/markers.rs the marker-level one.
 fn orientation_config() -> CalibConfig {
@@ -34,7 +32,7 @@ fn simulated(poses: usize, seed: u64) -> (Session, RobotModel) {
     config.poses = poses;
     config.seed = seed;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     (session, model)
 }
 
@@ -67,79 +65,12 @@ fn error_against_truth(session: &Session, calibration: &Calibration, x: &DVector
     (sum / poses.len() as f64).sqrt().to_degrees()
 }
 
-/// The orientation-level residuals of `observations` at `x`.
-fn evaluate(
-    p: &Parameterisation,
-    x: &DVector<f64>,
-    observations: &[Observation],
-    warm: Option<&[nalgebra::Rotation3<f64>]>,
-    jacobian: bool,
-) -> Result<Evaluation, spmcal::calib::EvalError> {
-    OrientationModel::new(p, observations).evaluate(x, warm, jacobian)
-}
-
 /// The poses an orientation-level calibration fitted, and those it held out.
 fn poses(calibration: &Calibration) -> (&[Observation], &[Observation]) {
     match &calibration.fitted {
         Fitted::Orientations { fitted, held_out, .. } => (fitted, held_out),
         _ => panic!("an orientation-level calibration"),
     }
-}
-
-#[test]
-fn analytic_jacobian_matches_finite_differences() {
-    let (session, model) = load("datasets/agile_wrist_sim_20");
-    let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
-    let p = &calibration.parameterisation;
-    // Away from the optimum, with every parameter non-zero, so that no term hides.
-    let x = calibration.calibrated.x.map(|v| v * 1.5 + 0.003);
-    let obs = poses(&calibration).0;
-    let at = evaluate(p, &x, obs, None, true).unwrap();
-    let jac = at.jacobian.unwrap();
-    let h = 1e-6;
-    for i in 0..p.len() {
-        let (mut plus, mut minus) = (x.clone(), x.clone());
-        plus[i] += h;
-        minus[i] -= h;
-        let rp = evaluate(p, &plus, obs, Some(&at.orientations), false).unwrap().residuals;
-        let rm = evaluate(p, &minus, obs, Some(&at.orientations), false).unwrap().residuals;
-        for j in 0..obs.len() {
-            let numeric = (rp[j] - rm[j]) / (2.0 * h);
-            let analytic = jac.fixed_view::<3, 1>(3 * j, i);
-            // Central differences: O(h²) ≈ 1e-12 truncation, ~1e-10 rounding (1e-16 / h).
-            assert!(
-                (numeric - analytic).amax() < 1e-8,
-                "{} pose {}: {numeric:?} vs {analytic:?}",
-                p.entries[i].name,
-                obs[j].pose
-            );
-        }
-    }
-}
-
-#[test]
-fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
-    let (session, model) = load("datasets/agile_wrist_sim_400");
-    let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
-    let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (21, 21), "{id:?}");
-    assert!(calibration.report.regularised.is_empty());
-    // Add the six gauge directions as extra columns: tilts of u_1 (2), of u_2 out of its plane (1),
-    // of v0_1 (2), of v0_2 out of its plane (1). They must be null: numerically differentiate the
-    // residuals along each and check the augmented Jacobian has exactly six zero singular values.
-    let p = &calibration.parameterisation;
-    let x = &calibration.calibrated.x;
-    let obs = poses(&calibration).0;
-    let base = evaluate(p, x, obs, None, true).unwrap();
-    let augmented = gauge::augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
-        let q = Parameterisation::new(legs, p.camera(x), p.reference(x), &orientation_config().bounds);
-        evaluate(&q, &DVector::zeros(q.len()), obs, Some(&base.orientations), false).unwrap().residuals
-    });
-    let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
-    let all: Vec<usize> = (0..augmented.ncols()).collect();
-    let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 21, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
-    assert_eq!(analysis.unidentifiable.len(), 6);
 }
 
 #[test]
@@ -228,7 +159,7 @@ fn outliers_are_flagged_and_down_weighted() {
     config.camera.outlier_probability = 0.03;
     config.camera.outlier_sigma_m = 0.01;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, summary) = config.simulate(&model, &mut |_| {}).unwrap();
     assert!(summary.outliers > 0);
     let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
     let flagged = &calibration.report.flagged;
@@ -366,7 +297,7 @@ fn small_sessions_always_end_at_a_minimum() {
         }
         // Sequential capture (a pose per marker) only the marker-level fit can use.
         config.capture.sequential = seed % 3 == 0;
-        let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+        let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
         let fit = if config.capture.sequential { FitLevel::Markers } else { FitLevel::Orientations };
         let settings = CalibConfig { fit, folds: 0, ..CalibConfig::default() };
         let calibration =

@@ -14,7 +14,7 @@ use spmcal::calib::CalibConfig;
 use spmcal::dataset::{JointReading, OrientationRecord, Session};
 use spmcal::model::{Parameters, RobotModel};
 use spmcal::sim::SimConfig;
-use spmcal::vision::{Method, estimate_session};
+use spmcal::vision::{Method, SessionEstimate};
 
 /// One edit of a text.
 #[derive(Debug, Clone)]
@@ -111,7 +111,7 @@ fn fuzz_session(file: &str, edits: &[Mutation]) {
     }
     if let Ok((s, _)) = Session::load(&session, None) {
         for method in [Method::Paper, Method::Kabsch] {
-            let _ = estimate_session(&s, method);
+            let _ = SessionEstimate::of(&s, method);
         }
         if let Ok(model) = RobotModel::load(&s.model) {
             for p in &s.poses {
@@ -150,7 +150,7 @@ fn fuzz_recording(file: &str, edits: &[Mutation]) {
     {
         for latency in [-0.05, 0.0, 0.04] {
             let (at, _) = s.at_latency(latency);
-            let _ = spmcal::calib::marker_observations(&at, &model.spm);
+            let _ = spmcal::calib::MarkerObservation::of_session(&at, &model.spm);
         }
     }
 }
@@ -279,7 +279,7 @@ fn a_huge_marker_coordinate_does_not_hang_the_estimator() {
     session.poses[3].markers[0] = Some(nalgebra::Vector3::new(1e300, 0.0, 0.7));
     session.poses[5].markers[1] = Some(nalgebra::Vector3::new(0.1, -1e300, 0.7));
     for method in [Method::Paper, Method::Kabsch] {
-        let estimate = estimate_session(&session, method).unwrap();
+        let estimate = SessionEstimate::of(&session, method).unwrap();
         assert!(
             estimate.skipped.iter().any(|s| s.pose == 3)
                 || estimate.poses.iter().all(|(_, e)| e.rotation.matrix().iter().all(|x| x.is_finite()))

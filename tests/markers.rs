@@ -1,14 +1,15 @@
-//! The marker-level model: its analytic Jacobian against finite differences, the directions the
-//! marker data leaves free (only the two rotation gauges), and the fit recovering a simulated
-//! truth, misplaced markers included, within its standard errors.
+//! The marker-level fit recovering a simulated truth, misplaced markers included, within its
+//! standard errors, at the Cramér–Rao bound. The model's analytic Jacobian, the directions the
+//! marker data leave free and the one-step cross-validation are unit tests inside the crate
+//! (`calib::tests`): the residual model (`calib::Model`) is the crate's own.
 
 use std::path::Path;
 
-use nalgebra::{DMatrix, DVector, Vector3};
-use spmcal::calib::{CalibConfig, Fitted, MarkerModel, Model, Parameterisation, marker_observations};
+use nalgebra::Vector3;
+use spmcal::calib::CalibConfig;
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel) {
     let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
@@ -16,80 +17,9 @@ fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel)
     config.seed = seed;
     config.capture.sequential = sequential;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     (session, model)
 }
-
-/// The true registration and the model's markers: a parameterisation near the truth.
-fn parameterisation(session: &Session, model: &RobotModel) -> Parameterisation {
-    let truth = session.truth.as_ref().unwrap();
-    let markers: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
-    Parameterisation::for_markers(
-        *model.spm.geometry(),
-        &truth.parameters.camera.unwrap(),
-        &markers,
-        &session.markers,
-        &CalibConfig::default().bounds,
-    )
-}
-
-#[test]
-fn the_analytic_jacobian_matches_central_differences() {
-    for sequential in [false, true] {
-        let (session, model) = simulated(15, 3, sequential);
-        let p = parameterisation(&session, &model);
-        let (observations, failed) = marker_observations(&session, &model.spm);
-        assert!(failed.is_empty());
-        let m = MarkerModel::new(&p, &observations);
-        // Away from zero, so that every term (left Jacobians, moved axes) is exercised.
-        let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
-        let at = m.evaluate(&x, None, true).unwrap();
-        let jac = at.jacobian.as_ref().unwrap();
-        let h = 1e-6;
-        for i in 0..p.len() {
-            let mut plus = x.clone();
-            plus[i] += h;
-            let mut minus = x.clone();
-            minus[i] -= h;
-            let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
-            let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
-            for j in 0..observations.len() {
-                let numeric = (rp[j] - rm[j]) / (2.0 * h);
-                let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
-                // Central differences are exact to O(h²) ≈ 1e-12 relative, plus rounding
-                // (1e-16 / 1e-6 on residuals of ~1 m): 1e-8 absolute is far above both.
-                assert!(
-                    (numeric - analytic).amax() < 1e-8,
-                    "sequential {sequential}, {}: numeric {numeric:?}, analytic {analytic:?}",
-                    p.entries[i].name
-                );
-            }
-        }
-    }
-}
-
-/// Singular values of `J`, smallest first.
-fn spectrum(jac: &DMatrix<f64>) -> Vec<f64> {
-    let mut s: Vec<f64> = jac.clone().svd(false, false).singular_values.iter().copied().collect();
-    s.sort_by(f64::total_cmp);
-    s
-}
-
-#[test]
-fn marker_data_identify_every_parameter_of_the_gauge_fixed_parameterisation() {
-    let (session, model) = simulated(60, 5, false);
-    let p = parameterisation(&session, &model);
-    let (observations, _) = marker_observations(&session, &model.spm);
-    let m = MarkerModel::new(&p, &observations);
-    let jac = m.evaluate(&DVector::zeros(p.len()), None, true).unwrap().jacobian.unwrap();
-    // Scale columns (angles vs metres) before judging the spectrum.
-    let scaled = DMatrix::from_fn(jac.nrows(), jac.ncols(), |r, c| jac[(r, c)] / jac.column(c).norm());
-    let s = spectrum(&scaled);
-    assert!(s[0] > 1e-4 * s[s.len() - 1], "a free direction: smallest {:e}, largest {:e}", s[0], s[s.len() - 1]);
-}
-
-#[path = "common/gauge.rs"]
-mod gauge;
 
 /// The efficiency study of the README (`examples/marker_efficiency`), here on one noise level.
 #[path = "../examples/marker_efficiency/study.rs"]
@@ -156,7 +86,7 @@ fn standard_errors_are_honest_and_misplaced_markers_are_recovered() {
     for seed in 0..10u64 {
         let mut c = config(200);
         c.seed = 30_000 + seed;
-        let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+        let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
         let settings = CalibConfig { folds: 0, ..CalibConfig::default() };
         let calibration = spmcal::calib::calibrate(&session, &model, &settings, &mut |_| {}).unwrap();
         let truth = session.truth.as_ref().unwrap();
@@ -247,71 +177,6 @@ fn gross_marker_errors_are_excluded_with_their_line() {
 }
 
 #[test]
-fn cross_validation_by_one_newton_step_matches_refitting_each_fold() {
-    let (session, model) = simulated(120, 12, false);
-    let config = CalibConfig::default();
-    let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |_| {}).unwrap();
-    let cv = calibration.report.cross_validation.clone().unwrap();
-    assert_eq!(cv.unpredicted, 0);
-    let Fitted::Markers(observations) = &calibration.fitted else { panic!("a marker-level calibration") };
-    // Folds: poses dealt out in order of appearance (no stations here).
-    let mut poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
-    poses.dedup();
-    let fold_of = |pose: u64| poses.iter().position(|p| *p == pose).unwrap() % config.folds;
-    let (mut nominal_sq, mut calibrated_sq) = (0.0, 0.0);
-    for f in 0..config.folds {
-        // The whole calibration again, on the session without the fold's poses; the fold's
-        // observations predicted by its nominal and calibrated models.
-        let mut train = session.clone();
-        train.poses.retain(|p| !poses.contains(&p.id) || fold_of(p.id) != f);
-        train.reference_pose = train.poses[0].id;
-        let refit = spmcal::calib::calibrate(&train, &model, &config, &mut |_| {}).unwrap();
-        let test: Vec<_> = observations.iter().filter(|o| fold_of(o.pose) == f).copied().collect();
-        let test_model = MarkerModel::new(&refit.parameterisation, &test);
-        for (x, sum) in [(&refit.nominal.x, &mut nominal_sq), (&refit.calibrated.x, &mut calibrated_sq)] {
-            let eval = test_model.evaluate(x, None, false).unwrap();
-            *sum += eval.residuals.iter().map(|r| r.norm_squared() * 1e6).sum::<f64>();
-        }
-    }
-    let n = observations.len() as f64;
-    let (nominal, calibrated) = ((nominal_sq / n).sqrt(), (calibrated_sq / n).sqrt());
-    eprintln!("refit {nominal:.5} / {calibrated:.5} mm, one step {:.5} / {:.5} mm", cv.nominal_rms, cv.calibrated_rms);
-    // The one-step estimate is second-order exact; the refits re-estimate the noise model per
-    // fold, which the one step keeps: agreement to 1% of the held-out error.
-    assert!((cv.calibrated_rms / calibrated - 1.0).abs() < 0.01, "{} vs {calibrated}", cv.calibrated_rms);
-    assert!((cv.nominal_rms / nominal - 1.0).abs() < 0.01, "{} vs {nominal}", cv.nominal_rms);
-}
-
-#[test]
-fn marker_data_leave_free_only_the_two_rotation_gauges() {
-    // Add the six directions the parameterisation fixes — tilts of u_1 (2), of u_2 out of its
-    // plane (1), of v0_1 (2), of v0_2 out of its plane (1) — as extra Jacobian columns. They lie
-    // in the span of the others (a rotation of B carried by R_CB, of P carried by the markers and
-    // the v0's): the augmented rank stays that of the gauge-fixed set, and exactly six directions
-    // are null. Everything else — t_CB and every marker included — is identified.
-    let (session, model) = simulated(200, 13, false);
-    let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
-    let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (33, 33), "{id:?}");
-    let p = &calibration.parameterisation;
-    let x = &calibration.calibrated.x;
-    let Fitted::Markers(obs) = &calibration.fitted else { panic!("a marker-level calibration") };
-    let base = MarkerModel::new(p, obs).evaluate(x, None, true).unwrap();
-    let camera = spmcal::model::CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
-    let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
-    let augmented = gauge::augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
-        let q =
-            Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &CalibConfig::default().bounds);
-        MarkerModel::new(&q, obs).evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false).unwrap().residuals
-    });
-    let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
-    let all: Vec<usize> = (0..augmented.ncols()).collect();
-    let analysis = spmcal::calib::Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 33, "the six gauge directions must add nothing: {:?}", analysis.weakest);
-    assert_eq!(analysis.unidentifiable.len(), 6);
-}
-
-#[test]
 fn a_calibration_not_clearly_better_than_nominal_says_so_or_is_refused() {
     // The true geometry is the nominal one and the markers sit where the model says: there is
     // nothing to calibrate, so the calibrated model cannot predict unseen poses clearly better.
@@ -322,7 +187,7 @@ fn a_calibration_not_clearly_better_than_nominal_says_so_or_is_refused() {
     c.truth.marker_position_m = 0.0;
     c.seed = 14;
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
-    let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+    let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
     let calibration = spmcal::calib::calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
     let report = &calibration.report;
     let cv = report.cross_validation.as_ref().unwrap();

@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use spmcal::model::RobotModel;
-use spmcal::plan::{PlanSettings, PlannedPose, plan};
+use spmcal::plan::{Plan, PlanSettings, PlannedPose};
 use spmcal::sim::SimConfig;
 
 #[path = "../examples/plan_study/study.rs"]
@@ -23,7 +23,7 @@ fn setup() -> (SimConfig, RobotModel) {
 fn a_plan_predicts_what_calibrating_on_it_achieves_and_beats_twice_as_many_random_poses() {
     let (config, model) = setup();
     let settings = PlanSettings { poses: 40, ..PlanSettings::default() };
-    let planned = plan(&model, None, &config, &settings, None).unwrap();
+    let planned = Plan::design(&model, None, &config, &settings, None).unwrap();
     let s = &planned.summary;
     assert_eq!(planned.poses.len(), 40);
     // Rounding to 40 distinct poses keeps most of the continuous optimum's value.
@@ -49,7 +49,7 @@ fn a_plan_predicts_what_calibrating_on_it_achieves_and_beats_twice_as_many_rando
 fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
     let (mut config, model) = setup();
     let settings = PlanSettings { poses: 12, candidates: 400, ..PlanSettings::default() };
-    let planned = plan(&model, None, &config, &settings, None).unwrap();
+    let planned = Plan::design(&model, None, &config, &settings, None).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("plan.csv");
     std::fs::write(&path, PlannedPose::csv(&planned.poses)).unwrap();
@@ -65,7 +65,7 @@ fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
         assert!((model.spm.ik(&p.rotation).unwrap() - p.joints).amax() < 1e-12);
     }
     config.plan = Some(back.iter().map(|p| p.rotation).collect());
-    let (session, _) = spmcal::sim::simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let truth = &session.truth.as_ref().unwrap().orientations;
     let visited: Vec<_> = session.poses.iter().map(|p| truth[&p.id]).collect();
     assert_eq!(visited, back.iter().map(|p| p.rotation).collect::<Vec<_>>());
@@ -87,8 +87,8 @@ fn a_plan_that_augments_a_session_counts_what_the_session_already_knows() {
     let (config, model) = setup();
     let (session, _) = spmcal::dataset::Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();
     let settings = PlanSettings { poses: 10, candidates: 600, ..PlanSettings::default() };
-    let fresh = plan(&model, None, &config, &settings, None).unwrap();
-    let added = plan(&model, None, &config, &settings, Some(&session)).unwrap();
+    let fresh = Plan::design(&model, None, &config, &settings, None).unwrap();
+    let added = Plan::design(&model, None, &config, &settings, Some(&session)).unwrap();
     assert_eq!(added.summary.augments, Some(("agile_wrist_sim_20".to_string(), 20)));
     // 20 poses already captured plus 10 planned predict better than the 10 alone.
     assert!(

@@ -239,7 +239,7 @@ fn the_default_blueprint_shows_only_panels_with_data() {
     let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
     let settings = spmcal::plan::PlanSettings { poses: 12, candidates: 300, ..Default::default() };
     let config = spmcal::sim::SimConfig::default();
-    let plan = spmcal::plan::plan(&model, None, &config, &settings, None).unwrap();
+    let plan = spmcal::plan::Plan::design(&model, None, &config, &settings, None).unwrap();
     let planned = plan.session(&model);
     for (name, scene) in [
         ("replay", spmcal::record::Scene::replay(&session, &model, None).unwrap()),

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 #[test]
 fn every_bad_session_is_rejected_with_its_message() {
@@ -34,7 +34,7 @@ fn poses_with_few_markers_are_data_and_the_per_pose_estimator_says_what_it_skips
     assert_eq!(session.poses[2].time_s, Some(1.0));
     assert_eq!(session.poses[2].seen(), 2);
     // The per-pose estimator, which needs three, lists them.
-    let estimate = spmcal::vision::estimate_session(&session, spmcal::vision::Method::Kabsch).unwrap();
+    let estimate = spmcal::vision::SessionEstimate::of(&session, spmcal::vision::Method::Kabsch).unwrap();
     let skipped: Vec<u64> = estimate.skipped.iter().map(|s| s.pose).collect();
     assert_eq!(skipped, [1, 2]);
 }
@@ -42,7 +42,7 @@ fn poses_with_few_markers_are_data_and_the_per_pose_estimator_says_what_it_skips
 #[test]
 fn a_reference_pose_with_two_markers_loads_and_only_the_per_pose_estimator_refuses_it() {
     let (session, _) = Session::load(Path::new("tests/data/reference_with_two_markers"), None).unwrap();
-    let err = spmcal::vision::estimate_session(&session, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
+    let err = spmcal::vision::SessionEstimate::of(&session, spmcal::vision::Method::Kabsch).unwrap_err().to_string();
     assert!(err.contains("pose 0") && err.contains("2 markers"), "{err}");
 }
 
@@ -60,7 +60,7 @@ fn write_then_read_gives_the_same_session() {
     config.capture.sequential = true;
     config.camera.outlier_probability = 0.1;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("session");
     session.write(&out).unwrap();

@@ -1,13 +1,14 @@
-//! The simulator against the model: noise-free markers reproduce the joint readings, occlusion
-//! and collisions are detected, and a seed fixes every byte.
+//! The simulator against the model: noise-free markers reproduce the joint readings, and a seed
+//! fixes every byte. Occlusion, collisions and the camera's noise are unit tests inside the crate
+//! (`sim::scene`, `sim::camera`).
 
 use std::path::Path;
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::Matrix3;
 use spmcal::dataset::Session;
 use spmcal::math::so3;
-use spmcal::model::{Body, RobotModel};
-use spmcal::sim::{CollisionScene, SimConfig, simulate};
+use spmcal::model::RobotModel;
+use spmcal::sim::SimConfig;
 
 fn config() -> SimConfig {
     SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap()
@@ -21,7 +22,7 @@ fn noise_free_markers_reproduce_the_joint_readings_to_quantisation() {
     config.camera.depth_sigma_m = 0.0;
     config.encoders.noise_deg = 0.0;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let truth = session.truth.as_ref().unwrap();
     let spm = truth.parameters.spm().unwrap();
     let camera = truth.parameters.camera.unwrap();
@@ -47,47 +48,6 @@ fn noise_free_markers_reproduce_the_joint_readings_to_quantisation() {
 }
 
 #[test]
-fn a_marker_behind_a_link_is_occluded() {
-    let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
-    let scene = CollisionScene::new(&model);
-    let home = scene.body_rotations(&model.spm, &model.spm.home_joints(), &Rotation3::identity());
-    // The middle of leg 1's distal arc (radius 0.16 m from z1 to v0_1): a point inside the
-    // sphere seen from a point outside it along the same direction is hidden by that link.
-    let g = model.spm.geometry()[0];
-    let mid = (g.z + g.v0).normalize();
-    let occluder = scene.occluder(&home, &(mid * 0.10), &(mid * 1.0), 0.006);
-    assert_eq!(occluder, Some(Body::Distal(0)));
-    // The MP markers seen from below the base are hidden; from the camera above they are not.
-    for m in &model.markers[..3] {
-        assert!(scene.occluder(&home, &m.position, &Vector3::new(0.0, 0.0, -1.0), 0.006).is_some());
-        assert_eq!(scene.occluder(&home, &m.position, &Vector3::new(0.06, 0.0, 0.8), 0.006), None);
-    }
-}
-
-#[test]
-fn colliding_poses_are_detected_and_never_written() {
-    let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
-    let scene = CollisionScene::new(&model);
-    let spm = &model.spm;
-    let rotations = |r: &Rotation3<f64>| scene.body_rotations(spm, &spm.ik(r).unwrap(), r);
-    assert_eq!(scene.collision(&rotations(&Rotation3::identity())), None, "home must be collision-free");
-    // 30° of tilt with 30° of yaw: neighbouring links meet (a corner of the workspace).
-    let corner = so3::exp(&(Vector3::x() * 30f64.to_radians())) * so3::exp(&(Vector3::z() * 30f64.to_radians()));
-    assert!(scene.collision(&rotations(&corner)).is_some());
-
-    let mut config = config();
-    config.poses = 150;
-    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
-    assert!(summary.rejected_collision > 0, "the ±30°/±30° workspace has colliding corners");
-    let truth = session.truth.unwrap();
-    let true_spm = truth.parameters.spm().unwrap();
-    for (id, r) in &truth.orientations {
-        let joints = true_spm.ik(r).unwrap();
-        assert_eq!(scene.collision(&scene.body_rotations(&true_spm, &joints, r)), None, "pose {id} collides");
-    }
-}
-
-#[test]
 fn the_same_seed_gives_identical_files_and_another_seed_does_not() {
     let mut config = config();
     config.poses = 40;
@@ -98,7 +58,7 @@ fn the_same_seed_gives_identical_files_and_another_seed_does_not() {
     let write = |seed: u64, name: &str| {
         let mut c = config.clone();
         c.seed = seed;
-        let (session, _) = simulate(&c, &model, &mut |_| {}).unwrap();
+        let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
         session.write(&dir.path().join(name)).unwrap();
     };
     write(7, "a");
@@ -126,7 +86,7 @@ fn markers_are_misplaced_in_the_truth_and_sequential_captures_drift() {
     config.capture.sequential = true;
     config.capture.motion_deg = 0.3;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let truth = session.truth.as_ref().unwrap();
     // Each marker moved by N(0, 3 mm) per axis: over 4 markers × 3 axes the RMS is near 3 mm.
     let sq: f64 = truth
@@ -147,32 +107,6 @@ fn markers_are_misplaced_in_the_truth_and_sequential_captures_drift() {
 }
 
 #[test]
-fn stereo_noise_grows_with_the_square_of_the_distance() {
-    use rand::SeedableRng;
-    let config = config();
-    let registration = spmcal::sim::looking_down(0.8);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-    let spread_at = |height: f64, rng: &mut rand_chacha::ChaCha8Rng| {
-        // A point `height` below the camera: depth error is along camera z.
-        let point = Vector3::new(0.0, 0.0, 0.8 - height);
-        let n = 20_000;
-        let var: f64 = (0..n)
-            .map(|_| {
-                let m = spmcal::sim::measure(&point, &registration, &config.camera, rng);
-                (m.position.z - height).powi(2)
-            })
-            .sum::<f64>()
-            / n as f64;
-        var.sqrt()
-    };
-    let (near, far) = (spread_at(0.8, &mut rng), spread_at(1.6, &mut rng));
-    // (Lateral noise grows linearly: tested through the marker-level fit's noise estimate.)
-    // σ(1.6 m) / σ(0.8 m) = 4; with 20,000 samples each estimate is within ~1.5% (3σ).
-    assert!((far / near - 4.0).abs() < 0.15, "ratio {}", far / near);
-    assert!((near - config.camera.depth_sigma_m).abs() < 0.03 * config.camera.depth_sigma_m);
-}
-
-#[test]
 fn the_spiral_is_a_continuous_trajectory() {
     let mut config = config();
     config.poses = 300;
@@ -180,7 +114,7 @@ fn the_spiral_is_a_continuous_trajectory() {
     // Within ±10° of yaw no corner collides, so every candidate is kept and the steps are visible.
     config.workspace.max_yaw_deg = 10.0;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, summary) = config.simulate(&model, &mut |_| {}).unwrap();
     let truth = session.truth.unwrap();
     let rotations: Vec<_> = truth.orientations.values().collect();
     assert_eq!((summary.attempts, summary.poses), (300, 300), "{summary:?}");
@@ -198,7 +132,7 @@ fn poses_near_a_singularity_are_rejected() {
     config.poses = 60;
     config.workspace.min_conditioning = 0.78;
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, summary) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, summary) = config.simulate(&model, &mut |_| {}).unwrap();
     assert!(summary.rejected_singular > 0, "{summary:?}");
     let truth = session.truth.unwrap();
     let spm = truth.parameters.spm().unwrap();
@@ -217,7 +151,7 @@ fn the_shipped_20_pose_dataset_is_what_the_committed_config_makes() {
     config.seed = 20;
     config.name = "agile_wrist_sim_20".into();
     let model = RobotModel::load(&config.model).unwrap();
-    let (session, _) = simulate(&config, &model, &mut |_| {}).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let dir = tempfile::tempdir().unwrap();
     session.write(dir.path()).unwrap();
     for file in ["joints.csv", "markers.csv", "truth.yaml", "truth_orientations.csv"] {

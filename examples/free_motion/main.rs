@@ -9,7 +9,7 @@ use std::path::Path;
 
 use spmcal::calib::{CalibConfig, Group, calibrate};
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 #[path = "../marker_efficiency/study.rs"]
 #[allow(dead_code)]
@@ -41,7 +41,7 @@ fn main() {
             let mut c = recording.clone();
             c.seed = 50_000 + s;
             c.recording.as_mut().unwrap().duration_s = seconds;
-            let (session, _) = simulate(&c, &model, &mut |_| {}).expect("the simulation succeeds");
+            let (session, _) = c.simulate(&model, &mut |_| {}).expect("the simulation succeeds");
             let truth = session.truth.as_ref().unwrap();
             let tests = study::test_orientations(&truth.parameters.spm().unwrap(), 60, c.seed ^ 0x5eed);
             let (fitted, held) = match (

@@ -7,12 +7,12 @@
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use spmcal::calib::{
-    CalibConfig, Calibration, FitLevel, MarkerModel, Parameterisation, TruthInGauge, calibrate, marker_observations,
+    CalibConfig, Calibration, FitLevel, MarkerModel, MarkerObservation, Parameterisation, TruthInGauge, calibrate,
 };
 use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::{LegGeometry, RobotModel, Spm};
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 /// One session's figures: RMS orientation errors (degrees) against the truth over the test
 /// orientations.
@@ -93,8 +93,8 @@ pub fn cramer_rao(session: &Session, model: &RobotModel, config: &SimConfig, tes
     let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
     let gauge = TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &true_markers);
     let spm_true = truth.parameters.spm().expect("a valid truth");
-    let (observations, _) = marker_observations(session, &spm_true);
-    let noise = spmcal::plan::stereo_noise(&config.camera);
+    let (observations, _) = MarkerObservation::of_session(session, &spm_true);
+    let noise = config.camera.stereo_noise();
     let fisher = MarkerModel::new(&p, &observations)
         .information_per_pose(&gauge.x, &noise)
         .expect("the truth evaluates")
@@ -133,7 +133,7 @@ pub fn calibration_error(session: &Session, calibration: &Calibration, tests: &[
 pub fn run_session(config: &SimConfig, model: &RobotModel, seed: u64, tests: usize) -> SessionResult {
     let mut c = config.clone();
     c.seed = seed;
-    let (session, _) = simulate(&c, model, &mut |_| {}).expect("the simulation succeeds");
+    let (session, _) = c.simulate(model, &mut |_| {}).expect("the simulation succeeds");
     let truth = session.truth.as_ref().expect("a simulated session");
     let spm_true = truth.parameters.spm().expect("a valid truth");
     let tests = test_orientations(&spm_true, tests, seed ^ 0x5eed);

@@ -10,7 +10,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 use spmcal::model::RobotModel;
-use spmcal::plan::{PlanSettings, plan};
+use spmcal::plan::{Plan, PlanSettings};
 use spmcal::sim::SimConfig;
 
 mod study;
@@ -28,7 +28,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|");
     for n in [12, 20, 40, 80] {
         let settings = PlanSettings { poses: n, ..PlanSettings::default() };
-        let planned = plan(&model, None, &config, &settings, None).expect("a plan");
+        let planned = Plan::design(&model, None, &config, &settings, None).expect("a plan");
         let rotations: Vec<_> = planned.poses.iter().map(|p| p.rotation).collect();
         let mut row = |poses: Option<usize>| -> (f64, String) {
             let errors: Vec<Option<f64>> = (0..geometries)

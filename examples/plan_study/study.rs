@@ -6,7 +6,7 @@
 use nalgebra::Rotation3;
 use spmcal::calib::{CalibConfig, calibrate};
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, simulate};
+use spmcal::sim::SimConfig;
 
 #[path = "../marker_efficiency/study.rs"]
 #[allow(dead_code)]
@@ -24,7 +24,7 @@ pub fn calibrated_error(
     let mut c = config.clone();
     c.seed = seed;
     c.plan = plan.map(<[_]>::to_vec);
-    let (session, _) = simulate(&c, model, &mut |_| {}).ok()?;
+    let (session, _) = c.simulate(model, &mut |_| {}).ok()?;
     let truth = session.truth.as_ref()?;
     let tests = efficiency::test_orientations(&truth.parameters.spm().ok()?, 60, seed ^ 0x5eed);
     let fit = calibrate(&session, model, &CalibConfig { folds: 0, ..CalibConfig::default() }, &mut |_| {}).ok()?;

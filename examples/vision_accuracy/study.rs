@@ -3,8 +3,8 @@
 
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::sim::{SimConfig, SimError, simulate};
-use spmcal::vision::{Method, estimate_session};
+use spmcal::sim::{SimConfig, SimError};
+use spmcal::vision::{Method, SessionEstimate};
 
 /// One noise level of the study.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,12 +33,12 @@ pub fn accuracy_study(config: &SimConfig, model: &RobotModel, scales: &[f64]) ->
         let mut c = config.clone();
         c.camera.lateral_sigma_m *= scale;
         c.camera.depth_sigma_m *= scale;
-        let (session, _) = simulate(&c, model, &mut |_| {})?;
+        let (session, _) = c.simulate(model, &mut |_| {})?;
         let truth = session.truth.as_ref().expect("simulated sessions carry truth");
         let camera = truth.parameters.camera.expect("simulated truth has a camera");
         let r0 = truth.orientations[&session.reference_pose];
         let rms = |method: Method| -> (f64, f64, usize) {
-            let estimate = estimate_session(&session, method).expect("a simulated reference pose is regular");
+            let estimate = SessionEstimate::of(&session, method).expect("a simulated reference pose is regular");
             let mut sum = 0.0;
             let mut e = 0.0;
             for (pose, est) in &estimate.poses {

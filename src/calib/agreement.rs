@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::config::{CalibConfig, Group, Loss};
 use super::fit::{FitError, FitOutcome, FitSettings, fit};
-use super::marker_model::{MarkerModel, MarkerObservation, marker_observations, per_pose_rms_mm};
+use super::marker_model::{MarkerModel, MarkerObservation, per_pose_rms_mm};
 use super::model::{EvalError, Model};
 use super::orientation_model::{Observation, OrientationModel, observations};
 use super::params::Parameterisation;
@@ -190,7 +190,7 @@ pub(crate) fn marker_pose_errors(
 ) -> Result<(PoseErrors, CameraRegistration), SetError> {
     let spm = Spm::new(params.legs).map_err(SetError::Geometry)?;
     let (session, left_out) = session.at_latency(params.latency_s.unwrap_or(0.0));
-    let (observations, failed) = marker_observations(&session, &spm);
+    let (observations, failed) = MarkerObservation::of_session(&session, &spm);
     let mut excluded: Vec<String> = left_out.iter().map(|w| w.to_string()).collect();
     excluded.extend(failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")));
     if observations.len() < 3 {

@@ -45,34 +45,36 @@ pub struct MarkerObservation {
     pub time_s: Option<f64>,
 }
 
-/// Every marker observation of `session`, pose by pose, and the poses whose FDA fails on `spm`
-/// (left out, with the error).
-pub fn marker_observations(session: &Session, spm: &Spm) -> (Vec<MarkerObservation>, Vec<(u64, FdaError)>) {
-    let (mut kept, mut failed) = (Vec::new(), Vec::new());
-    for pose in session.poses.iter().filter(|p| p.seen() > 0) {
-        if let Err(e) = spm.forward(&pose.joints) {
-            failed.push((pose.id, e));
-            continue;
-        }
-        for (marker, seen) in pose.markers.iter().enumerate() {
-            if let Some(measured) = seen {
-                kept.push(MarkerObservation {
-                    pose: pose.id,
-                    marker,
-                    joints: pose.joints,
-                    measured: *measured,
-                    line: pose.marker_lines[marker],
-                    station: pose.station,
-                    time_s: pose.time_s,
-                });
+impl MarkerObservation {
+    /// Every marker observation of `session`, pose by pose, and the poses whose FDA fails on
+    /// `spm` (left out, with the error).
+    pub fn of_session(session: &Session, spm: &Spm) -> (Vec<MarkerObservation>, Vec<(u64, FdaError)>) {
+        let (mut kept, mut failed) = (Vec::new(), Vec::new());
+        for pose in session.poses.iter().filter(|p| p.seen() > 0) {
+            if let Err(e) = spm.forward(&pose.joints) {
+                failed.push((pose.id, e));
+                continue;
+            }
+            for (marker, seen) in pose.markers.iter().enumerate() {
+                if let Some(measured) = seen {
+                    kept.push(MarkerObservation {
+                        pose: pose.id,
+                        marker,
+                        joints: pose.joints,
+                        measured: *measured,
+                        line: pose.marker_lines[marker],
+                        station: pose.station,
+                        time_s: pose.time_s,
+                    });
+                }
             }
         }
+        (kept, failed)
     }
-    (kept, failed)
 }
 
 /// Per pose, the RMS (mm) of the residuals of its marker observations, in the observations'
-/// order (they come pose by pose, as [`marker_observations`] makes them).
+/// order (they come pose by pose, as [`MarkerObservation::of_session`] makes them).
 pub(crate) fn per_pose_rms_mm(observations: &[MarkerObservation], residuals: &[Vector3<f64>]) -> Vec<(u64, f64)> {
     let mut poses: Vec<(u64, f64, usize)> = Vec::new();
     for (o, r) in observations.iter().zip(residuals) {

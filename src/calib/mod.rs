@@ -1,6 +1,6 @@
 //! Calibration: one pipeline for both fit levels.
 //!
-//! observations → a [`Model`] (orientation-level or marker-level, each with its own noise model)
+//! observations → a `Model` (orientation-level or marker-level, each with its own noise model)
 //! → the fit (noise re-estimation, robust weighting, exclusion of gross errors) → validation
 //! (k-fold cross-validation) → uncertainty (covariance, correlations, identifiability,
 //! significance) → one [`CalibrationReport`] with one [`Verdict`].
@@ -38,10 +38,11 @@ pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Uniden
 pub use fit::{Convergence, IterationLog};
 pub use identify::{Direction, Identifiability};
 pub(crate) use marker_model::per_pose_rms_mm;
-pub use marker_model::{MarkerModel, MarkerObservation, StereoNoise, marker_observations};
-pub use model::{EvalError, Evaluation, Model};
-pub(crate) use orientation_model::observations;
-pub use orientation_model::{Observation, OrientationModel};
+pub use marker_model::{MarkerModel, MarkerObservation, StereoNoise};
+pub use model::EvalError;
+pub(crate) use model::Model;
+pub use orientation_model::Observation;
+pub(crate) use orientation_model::{OrientationModel, observations};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use pipeline::{CalibError, Calibration, Fitted, Solution, calibrate};
 pub use report::{

@@ -10,15 +10,15 @@ use crate::model::{FdaError, SpmError};
 
 /// Residuals (and optionally their Jacobian) at a parameter vector.
 #[derive(Debug, Clone)]
-pub struct Evaluation {
+pub(crate) struct Evaluation {
     /// Per-observation residuals, in the model's unit (radians or metres), camera frame.
-    pub residuals: Vec<Vector3<f64>>,
+    pub(crate) residuals: Vec<Vector3<f64>>,
     /// Predicted MP orientation `R` (P → B) of each distinct pose.
-    pub orientations: Vec<Rotation3<f64>>,
+    pub(crate) orientations: Vec<Rotation3<f64>>,
     /// `3n × N`: rows `3j..3j+3` belong to observation j.
-    pub jacobian: Option<DMatrix<f64>>,
+    pub(crate) jacobian: Option<DMatrix<f64>>,
     /// Sensitivity of each pose's predicted orientation to the parameters, `∂ω/∂x` (3 × N, in B).
-    pub orientation_jacobians: Option<Vec<DMatrix<f64>>>,
+    pub(crate) orientation_jacobians: Option<Vec<DMatrix<f64>>>,
 }
 
 /// Why a model could not be evaluated.
@@ -47,7 +47,7 @@ pub enum EvalError {
 }
 
 /// Residuals of a parameterisation and the noise model that whitens them.
-pub trait Model {
+pub(crate) trait Model {
     /// What the residuals imply about the measurement noise (feasible GLS): per-class covariances
     /// for orientations, the stereo σ's for markers.
     type Noise: Clone + std::fmt::Debug;
@@ -57,11 +57,6 @@ pub trait Model {
 
     /// Observations (residuals) of the model.
     fn len(&self) -> usize;
-
-    /// Whether the model has no observation.
-    fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
 
     /// Residuals (and optionally their Jacobian) at `x`; each pose's FDA starts from `warm` (the
     /// orientations of the previous evaluation) when given.

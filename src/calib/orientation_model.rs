@@ -79,7 +79,7 @@ pub(crate) type ResidualClasses = Vec<(usize, usize, Matrix3<f64>)>;
 
 /// The orientation-level model: one rotation residual per pose, `r_j = log(Q_j A R_jᵀ R_CBᵀ)`.
 #[derive(Debug, Clone)]
-pub struct OrientationModel<'a> {
+pub(crate) struct OrientationModel<'a> {
     p: &'a Parameterisation,
     observations: Vec<Observation>,
     /// Whether the mechanism's Jacobian columns (most of the cost) are computed.
@@ -88,12 +88,12 @@ pub struct OrientationModel<'a> {
 
 impl<'a> OrientationModel<'a> {
     /// The model of `observations`.
-    pub fn new(p: &'a Parameterisation, observations: &[Observation]) -> Self {
+    pub(crate) fn new(p: &'a Parameterisation, observations: &[Observation]) -> Self {
         OrientationModel { p, observations: observations.to_vec(), mechanism: true }
     }
 
     /// The observations.
-    pub fn observations(&self) -> &[Observation] {
+    pub(crate) fn observations(&self) -> &[Observation] {
         &self.observations
     }
 }

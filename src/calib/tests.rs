@@ -1,17 +1,23 @@
-//! Tests of the pipeline's internals that the public API does not reach.
+//! Tests of the pipeline's internals that the public API does not reach: the noise floor of the
+//! orientation-level fit, both models' analytic Jacobians against finite differences, the
+//! directions the gauge fixes, and the one-step cross-validation against refitting.
 
 use std::path::Path;
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
 use super::config::{CalibConfig, FitLevel, Group, Loss};
 use super::fit::{FitSettings, fit};
-use super::model::Model;
-use super::orientation_model::OrientationModel;
+use super::identify::Identifiability;
+use super::marker_model::{MarkerModel, MarkerObservation};
+use super::model::{EvalError, Evaluation, Model};
+use super::orientation_model::{Observation, OrientationModel};
 use super::params::Parameterisation;
-use super::pipeline::{Fitted, calibrate};
+use super::pipeline::{Calibration, Fitted, calibrate};
 use crate::dataset::Session;
-use crate::model::RobotModel;
+use crate::math::so3;
+use crate::model::{CameraRegistration, LegGeometry, RobotModel};
+use crate::sim::SimConfig;
 
 /// On held-out poses, the calibrated model's FDA agrees with vision within 10% of what the true
 /// parameters achieve with their own best-fit registration (fitted on the same poses, the same
@@ -38,4 +44,336 @@ fn the_orientation_level_fit_reaches_the_noise_floor_on_held_out_poses() {
     eprintln!("held-out FDA vs vision: calibrated {achieved:.4}°, true parameters {floor:.4}°");
     assert!(achieved <= 1.10 * floor, "calibrated {achieved:.4}° vs floor {floor:.4}°");
     assert_eq!(calibration.report.held_out_poses, 100);
+}
+
+// The orientation-level model (`fit: orientations`).
+
+fn load(dir: &str) -> (Session, RobotModel) {
+    let (session, _) = Session::load(Path::new(dir), None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    (session, model)
+}
+
+fn orientation_config() -> CalibConfig {
+    CalibConfig { fit: FitLevel::Orientations, ..CalibConfig::default() }
+}
+
+/// The poses an orientation-level calibration fitted.
+fn fitted_poses(calibration: &Calibration) -> &[Observation] {
+    match &calibration.fitted {
+        Fitted::Orientations { fitted, .. } => fitted,
+        _ => panic!("an orientation-level calibration"),
+    }
+}
+
+/// The orientation-level residuals of `observations` at `x`.
+fn evaluate(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    observations: &[Observation],
+    warm: Option<&[Rotation3<f64>]>,
+    jacobian: bool,
+) -> Result<Evaluation, EvalError> {
+    OrientationModel::new(p, observations).evaluate(x, warm, jacobian)
+}
+
+#[test]
+fn analytic_jacobian_matches_finite_differences() {
+    let (session, model) = load("datasets/agile_wrist_sim_20");
+    let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
+    let p = &calibration.parameterisation;
+    // Away from the optimum, with every parameter non-zero, so that no term hides.
+    let x = calibration.calibrated.x.map(|v| v * 1.5 + 0.003);
+    let obs = fitted_poses(&calibration);
+    let at = evaluate(p, &x, obs, None, true).unwrap();
+    let jac = at.jacobian.unwrap();
+    let h = 1e-6;
+    for i in 0..p.len() {
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[i] += h;
+        minus[i] -= h;
+        let rp = evaluate(p, &plus, obs, Some(&at.orientations), false).unwrap().residuals;
+        let rm = evaluate(p, &minus, obs, Some(&at.orientations), false).unwrap().residuals;
+        for j in 0..obs.len() {
+            let numeric = (rp[j] - rm[j]) / (2.0 * h);
+            let analytic = jac.fixed_view::<3, 1>(3 * j, i);
+            // Central differences: O(h²) ≈ 1e-12 truncation, ~1e-10 rounding (1e-16 / h).
+            assert!(
+                (numeric - analytic).amax() < 1e-8,
+                "{} pose {}: {numeric:?} vs {analytic:?}",
+                p.entries[i].name,
+                obs[j].pose
+            );
+        }
+    }
+}
+
+#[test]
+fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
+    let (session, model) = load("datasets/agile_wrist_sim_400");
+    let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
+    let id = &calibration.report.identifiability;
+    assert_eq!((id.rank, id.parameters), (21, 21), "{id:?}");
+    assert!(calibration.report.regularised.is_empty());
+    // Add the six gauge directions as extra columns: tilts of u_1 (2), of u_2 out of its plane (1),
+    // of v0_1 (2), of v0_2 out of its plane (1). They must be null: numerically differentiate the
+    // residuals along each and check the augmented Jacobian has exactly six zero singular values.
+    let p = &calibration.parameterisation;
+    let x = &calibration.calibrated.x;
+    let obs = fitted_poses(&calibration);
+    let base = evaluate(p, x, obs, None, true).unwrap();
+    let augmented = augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
+        let q = Parameterisation::new(legs, p.camera(x), p.reference(x), &orientation_config().bounds);
+        evaluate(&q, &DVector::zeros(q.len()), obs, Some(&base.orientations), false).unwrap().residuals
+    });
+    let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
+    let all: Vec<usize> = (0..augmented.ncols()).collect();
+    let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
+    assert_eq!(analysis.rank, 21, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.unidentifiable.len(), 6);
+}
+
+// The marker-level model (the default fit).
+
+fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel) {
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    config.poses = poses;
+    config.seed = seed;
+    config.capture.sequential = sequential;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
+    (session, model)
+}
+
+/// The true registration and the model's markers: a parameterisation near the truth.
+fn parameterisation(session: &Session, model: &RobotModel) -> Parameterisation {
+    let truth = session.truth.as_ref().unwrap();
+    let markers: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
+    Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &truth.parameters.camera.unwrap(),
+        &markers,
+        &session.markers,
+        &CalibConfig::default().bounds,
+    )
+}
+
+#[test]
+fn the_analytic_jacobian_matches_central_differences() {
+    for sequential in [false, true] {
+        let (session, model) = simulated(15, 3, sequential);
+        let p = parameterisation(&session, &model);
+        let (observations, failed) = MarkerObservation::of_session(&session, &model.spm);
+        assert!(failed.is_empty());
+        let m = MarkerModel::new(&p, &observations);
+        // Away from zero, so that every term (left Jacobians, moved axes) is exercised.
+        let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
+        let at = m.evaluate(&x, None, true).unwrap();
+        let jac = at.jacobian.as_ref().unwrap();
+        let h = 1e-6;
+        for i in 0..p.len() {
+            let mut plus = x.clone();
+            plus[i] += h;
+            let mut minus = x.clone();
+            minus[i] -= h;
+            let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+            let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+            for j in 0..observations.len() {
+                let numeric = (rp[j] - rm[j]) / (2.0 * h);
+                let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+                // Central differences are exact to O(h²) ≈ 1e-12 relative, plus rounding
+                // (1e-16 / 1e-6 on residuals of ~1 m): 1e-8 absolute is far above both.
+                assert!(
+                    (numeric - analytic).amax() < 1e-8,
+                    "sequential {sequential}, {}: numeric {numeric:?}, analytic {analytic:?}",
+                    p.entries[i].name
+                );
+            }
+        }
+    }
+}
+
+/// Singular values of `J`, smallest first.
+fn spectrum(jac: &DMatrix<f64>) -> Vec<f64> {
+    let mut s: Vec<f64> = jac.clone().svd(false, false).singular_values.iter().copied().collect();
+    s.sort_by(f64::total_cmp);
+    s
+}
+
+#[test]
+fn marker_data_identify_every_parameter_of_the_gauge_fixed_parameterisation() {
+    let (session, model) = simulated(60, 5, false);
+    let p = parameterisation(&session, &model);
+    let (observations, _) = MarkerObservation::of_session(&session, &model.spm);
+    let m = MarkerModel::new(&p, &observations);
+    let jac = m.evaluate(&DVector::zeros(p.len()), None, true).unwrap().jacobian.unwrap();
+    // Scale columns (angles vs metres) before judging the spectrum.
+    let scaled = DMatrix::from_fn(jac.nrows(), jac.ncols(), |r, c| jac[(r, c)] / jac.column(c).norm());
+    let s = spectrum(&scaled);
+    assert!(s[0] > 1e-4 * s[s.len() - 1], "a free direction: smallest {:e}, largest {:e}", s[0], s[s.len() - 1]);
+}
+
+#[test]
+fn cross_validation_by_one_newton_step_matches_refitting_each_fold() {
+    let (session, model) = simulated(120, 12, false);
+    let config = CalibConfig::default();
+    let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
+    let cv = calibration.report.cross_validation.clone().unwrap();
+    assert_eq!(cv.unpredicted, 0);
+    let Fitted::Markers(observations) = &calibration.fitted else { panic!("a marker-level calibration") };
+    // Folds: poses dealt out in order of appearance (no stations here).
+    let mut poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
+    poses.dedup();
+    let fold_of = |pose: u64| poses.iter().position(|p| *p == pose).unwrap() % config.folds;
+    let (mut nominal_sq, mut calibrated_sq) = (0.0, 0.0);
+    for f in 0..config.folds {
+        // The whole calibration again, on the session without the fold's poses; the fold's
+        // observations predicted by its nominal and calibrated models.
+        let mut train = session.clone();
+        train.poses.retain(|p| !poses.contains(&p.id) || fold_of(p.id) != f);
+        train.reference_pose = train.poses[0].id;
+        let refit = calibrate(&train, &model, &config, &mut |_| {}).unwrap();
+        let test: Vec<_> = observations.iter().filter(|o| fold_of(o.pose) == f).copied().collect();
+        let test_model = MarkerModel::new(&refit.parameterisation, &test);
+        for (x, sum) in [(&refit.nominal.x, &mut nominal_sq), (&refit.calibrated.x, &mut calibrated_sq)] {
+            let eval = test_model.evaluate(x, None, false).unwrap();
+            *sum += eval.residuals.iter().map(|r| r.norm_squared() * 1e6).sum::<f64>();
+        }
+    }
+    let n = observations.len() as f64;
+    let (nominal, calibrated) = ((nominal_sq / n).sqrt(), (calibrated_sq / n).sqrt());
+    eprintln!("refit {nominal:.5} / {calibrated:.5} mm, one step {:.5} / {:.5} mm", cv.nominal_rms, cv.calibrated_rms);
+    // The one-step estimate is second-order exact; the refits re-estimate the noise model per
+    // fold, which the one step keeps: agreement to 1% of the held-out error.
+    assert!((cv.calibrated_rms / calibrated - 1.0).abs() < 0.01, "{} vs {calibrated}", cv.calibrated_rms);
+    assert!((cv.nominal_rms / nominal - 1.0).abs() < 0.01, "{} vs {nominal}", cv.nominal_rms);
+}
+
+#[test]
+fn marker_data_leave_free_only_the_two_rotation_gauges() {
+    // Add the six directions the parameterisation fixes — tilts of u_1 (2), of u_2 out of its
+    // plane (1), of v0_1 (2), of v0_2 out of its plane (1) — as extra Jacobian columns. They lie
+    // in the span of the others (a rotation of B carried by R_CB, of P carried by the markers and
+    // the v0's): the augmented rank stays that of the gauge-fixed set, and exactly six directions
+    // are null. Everything else — t_CB and every marker included — is identified.
+    let (session, model) = simulated(200, 13, false);
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let id = &calibration.report.identifiability;
+    assert_eq!((id.rank, id.parameters), (33, 33), "{id:?}");
+    let p = &calibration.parameterisation;
+    let x = &calibration.calibrated.x;
+    let Fitted::Markers(obs) = &calibration.fitted else { panic!("a marker-level calibration") };
+    let base = MarkerModel::new(p, obs).evaluate(x, None, true).unwrap();
+    let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
+    let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
+    let augmented = augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
+        let q =
+            Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &CalibConfig::default().bounds);
+        MarkerModel::new(&q, obs).evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false).unwrap().residuals
+    });
+    let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
+    let all: Vec<usize> = (0..augmented.ncols()).collect();
+    let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
+    assert_eq!(analysis.rank, 33, "the six gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.unidentifiable.len(), 6);
+}
+
+/// A free-motion recording of the shipped settings, `seconds` long, a waypoint every `period_s / 10`.
+fn free_motion(seconds: f64, period_s: f64) -> (Session, RobotModel) {
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+    let r = config.recording.as_mut().unwrap();
+    (r.duration_s, r.period_s) = (seconds, period_s);
+    let model = RobotModel::load(&config.model).unwrap();
+    (config.simulate(&model, &mut |_| {}).unwrap().0, model)
+}
+
+#[test]
+fn the_latency_column_of_the_jacobian_matches_central_differences() {
+    // A smooth hand motion (10 s of the shipped recording's settings).
+    let (session, model) = free_motion(10.0, 20.0);
+    let (recording, _) = session.at_latency(0.04);
+    let truth = session.truth.as_ref().unwrap();
+    let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &truth.parameters.camera.unwrap(),
+        &markers,
+        &recording.markers,
+        &CalibConfig::default().bounds,
+    )
+    .with_latency(0.04, 0.2);
+    // Frames at least 20 ms inside the stream at either end, so that ±10 ms of latency keeps them in.
+    let (observations, _) = MarkerObservation::of_session(&recording, &model.spm);
+    let (first, last) = (observations[0].time_s.unwrap(), observations[observations.len() - 1].time_s.unwrap());
+    let observations: Vec<_> =
+        observations.into_iter().filter(|o| o.time_s.is_some_and(|t| t > first + 0.02 && t < last - 0.02)).collect();
+    let m = MarkerModel::new(&p, &observations).with_streams(recording.streams.as_ref().unwrap());
+    let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-3 * ((i * 5 + 1) as f64).sin());
+    let at = m.evaluate(&x, None, true).unwrap();
+    let i = p.len() - 1;
+    assert_eq!(p.entries[i].name, "camera.latency");
+    // The analytic column uses the joint velocity over ±10 ms (`VELOCITY_WINDOW_S`), not the
+    // quantised slope of one 1 ms interval: central differences over the same ±10 ms agree with
+    // it up to the curvature of the motion over that window (well under 1%).
+    let h = 0.01; // the velocity window, ±10 ms
+    let (mut plus, mut minus) = (x.clone(), x.clone());
+    plus[i] += h;
+    minus[i] -= h;
+    let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+    let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+    let jac = at.jacobian.unwrap();
+    let mut agree = 0;
+    for j in 0..observations.len() {
+        let numeric = (rp[j] - rm[j]) / (2.0 * h);
+        let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+        agree += usize::from((numeric - analytic).norm() <= 0.01 * analytic.norm() + 1e-6);
+    }
+    assert_eq!(agree, observations.len(), "{agree} of {} frames agree", observations.len());
+}
+
+/// The six directions the parameterisation fixes (the gauge), as extra Jacobian columns: `jac`
+/// with six columns added: the central-difference derivatives of the residuals along tilts
+/// of `u_1` (2), of `u_2` out of its plane with `u_1` (1), of `v0_1` (2) and of `v0_2` out of its
+/// plane (1). `residuals_of` evaluates the model with the legs so moved.
+fn augmented_with_gauge(
+    jac: &DMatrix<f64>,
+    legs: &[LegGeometry; 3],
+    residuals_of: impl Fn([LegGeometry; 3]) -> Vec<Vector3<f64>>,
+) -> DMatrix<f64> {
+    let g = legs;
+    let tangent = |a: &Vector3<f64>| {
+        let e1 = a.cross(&Vector3::z()).normalize();
+        [e1, a.cross(&e1)]
+    };
+    let n12 = g[0].u.cross(&g[1].u).normalize();
+    let m12 = g[0].v0.cross(&g[1].v0).normalize();
+    let moves = [
+        (true, 0, tangent(&g[0].u)[0]),
+        (true, 0, tangent(&g[0].u)[1]),
+        (true, 1, g[1].u.cross(&n12).normalize()),
+        (false, 0, tangent(&g[0].v0)[0]),
+        (false, 0, tangent(&g[0].v0)[1]),
+        (false, 1, g[1].v0.cross(&m12).normalize()),
+    ];
+    let mut augmented = DMatrix::zeros(jac.nrows(), jac.ncols() + moves.len());
+    augmented.view_mut((0, 0), (jac.nrows(), jac.ncols())).copy_from(jac);
+    let moved = |actuated: bool, leg: usize, angle: Vector3<f64>| {
+        let rot = so3::exp(&angle);
+        let mut legs = *g;
+        if actuated {
+            legs[leg].u = rot * legs[leg].u;
+            legs[leg].z = rot * legs[leg].z;
+        } else {
+            legs[leg].v0 = rot * legs[leg].v0;
+        }
+        residuals_of(legs)
+    };
+    let h = 1e-6;
+    for (k, (actuated, leg, dir)) in moves.iter().enumerate() {
+        let (plus, minus) = (moved(*actuated, *leg, dir * h), moved(*actuated, *leg, dir * -h));
+        for j in 0..plus.len() {
+            augmented.fixed_view_mut::<3, 1>(3 * j, jac.ncols() + k).copy_from(&((plus[j] - minus[j]) / (2.0 * h)));
+        }
+    }
+    augmented
 }

@@ -82,7 +82,7 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     }
     if let Some(slot) = html {
         let text = calibration.report.to_string();
-        outputs.write(slot, spmcal::html::calibration_html(&calibration, &text).as_bytes())?;
+        outputs.write(slot, calibration.html(&text).as_bytes())?;
     }
     outputs.commit()?;
     if args.json {

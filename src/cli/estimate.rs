@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Args;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
-use spmcal::vision::{EstimateSummary, Method, SessionEstimate, estimate_session};
+use spmcal::vision::{EstimateSummary, Method, SessionEstimate};
 
 use super::args::{MethodArg, SessionArgs};
 use super::envelope::Envelope;
@@ -43,7 +43,7 @@ pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     let (table_slot, rrd) = (reserve(&mut outputs, args.out.as_deref())?, reserve(&mut outputs, args.rrd.as_deref())?);
     let (session, warnings) = args.session.load()?;
     let method: Method = args.method.into();
-    let result = estimate_session(&session, method)?;
+    let result = SessionEstimate::of(&session, method)?;
     if let Some(slot) = rrd {
         files.check_model(&session.model)?;
         let model = RobotModel::load(&session.model)?;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 use clap::Args;
 use spmcal::dataset::Session;
-use spmcal::plan::{PlanSettings, PlannedPose};
+use spmcal::plan::{Plan, PlanSettings, PlannedPose};
 use spmcal::sim::SimConfig;
 
 use super::args::GeometryArgs;
@@ -80,7 +80,7 @@ pub(crate) fn run(args: PlanArgs) -> Result<()> {
     if !(settings.margin_deg.is_finite() && (0.0..=20.0).contains(&settings.margin_deg)) {
         anyhow::bail!("--margin-deg must be between 0 and 20 degrees (got {})", settings.margin_deg);
     }
-    let plan = spmcal::plan::plan(&model, params.as_ref(), &config, &settings, augment.as_ref())?;
+    let plan = Plan::design(&model, params.as_ref(), &config, &settings, augment.as_ref())?;
     outputs.write(slot, PlannedPose::csv(&plan.poses).as_bytes())?;
     if let Some(slot) = rrd {
         let session = plan.session(&model);

@@ -74,7 +74,7 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
     let model = RobotModel::load(&config.model)?;
     let bar = progress_bar(config.poses, "simulating");
-    let (session, summary) = spmcal::sim::simulate(&config, &model, &mut |n| bar.set_position(n as u64))?;
+    let (session, summary) = config.simulate(&model, &mut |n| bar.set_position(n as u64))?;
     bar.finish_and_clear();
     if let Some(slot) = rrd {
         record(&outputs, slot, &spmcal::record::Scene::simulation(&session, &model)?)?;

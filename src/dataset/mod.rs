@@ -10,4 +10,5 @@ pub use joints::JointReading;
 pub use orientations::OrientationRecord;
 pub(crate) use session::MIN_MARKERS;
 pub use session::{Session, SessionPose, Truth, Warning};
-pub use streams::{Capture, EncoderSample, Streams};
+pub use streams::Streams;
+pub(crate) use streams::{Capture, EncoderSample};

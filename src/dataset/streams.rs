@@ -19,24 +19,24 @@ use crate::io::table::{Table, first_repeat};
 
 /// One encoder sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EncoderSample {
+pub(crate) struct EncoderSample {
     /// Time on the encoders' clock (s).
-    pub time_s: f64,
+    pub(crate) time_s: f64,
     /// Joint readings θ1, θ2, θ3 (rad).
-    pub joints: Vector3<f64>,
+    pub(crate) joints: Vector3<f64>,
 }
 
 /// One marker captured by the camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Capture {
+pub(crate) struct Capture {
     /// Time on the camera's clock (s).
-    pub time_s: f64,
+    pub(crate) time_s: f64,
     /// Marker index (as in the session's `markers`).
-    pub marker: usize,
+    pub(crate) marker: usize,
     /// Marker centre in the camera frame (m).
-    pub position: Vector3<f64>,
+    pub(crate) position: Vector3<f64>,
     /// Line of `captures.csv`.
-    pub line: usize,
+    pub(crate) line: usize,
 }
 
 /// Fewest camera frames (distinct time stamps of `captures.csv`) a recording must hold: three
@@ -63,15 +63,18 @@ impl Default for StreamLimits {
     }
 }
 
-/// The two streams of a recording.
+/// The two streams of a recording. Outside the crate they are read through the joints at an
+/// instant ([`Streams::joints_at`], [`Streams::velocity_at`]) and the session's poses at a camera
+/// latency ([`Session::at_latency`](crate::dataset::Session::at_latency)); the rows themselves
+/// are the crate's.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Streams {
     /// The `captures.csv` they were read from (warnings name its lines).
-    pub captures_path: std::path::PathBuf,
+    pub(crate) captures_path: std::path::PathBuf,
     /// Encoder samples, time strictly increasing.
-    pub encoders: Vec<EncoderSample>,
+    pub(crate) encoders: Vec<EncoderSample>,
     /// Captures, time non-decreasing (several markers may share a frame).
-    pub captures: Vec<Capture>,
+    pub(crate) captures: Vec<Capture>,
 }
 
 /// Read `encoders.csv`: numbers, finite, time strictly increasing, no gap over the limit.

@@ -49,50 +49,57 @@ pub enum PolarError {
     },
 }
 
-/// Polar decomposition by Higham's scaled Newton iteration, falling back to the SVD when the
-/// input is singular to working precision or Newton does not settle.
-///
-/// # Errors
-/// A [`PolarError`] when `a` is not finite or is singular.
-pub fn polar(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
-    if !a.iter().all(|x| x.is_finite()) {
-        return Err(PolarError::NotFinite);
-    }
-    let mut x = *a;
-    let mut scaled = true;
-    for iteration in 1..=MAX_ITERATIONS {
-        let Some(inverse) = x.try_inverse() else { break };
-        let gamma = if scaled { (inverse.norm() / x.norm()).sqrt() } else { 1.0 };
-        let next = (x * gamma + inverse.transpose() / gamma) * 0.5;
-        let step = (next - x).norm();
-        x = next;
-        if step <= STEP_TOLERANCE {
-            return Ok(Polar { q: x, t: symmetric_part(&(x.transpose() * a)), iterations: iteration, by_svd: false });
+impl Polar {
+    /// Polar decomposition by Higham's scaled Newton iteration, falling back to the SVD when the
+    /// input is singular to working precision or Newton does not settle.
+    ///
+    /// # Errors
+    /// A [`PolarError`] when `a` is not finite or is singular.
+    pub fn of(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
+        if !a.iter().all(|x| x.is_finite()) {
+            return Err(PolarError::NotFinite);
         }
-        scaled = step > UNSCALED_BELOW;
+        let mut x = *a;
+        let mut scaled = true;
+        for iteration in 1..=MAX_ITERATIONS {
+            let Some(inverse) = x.try_inverse() else { break };
+            let gamma = if scaled { (inverse.norm() / x.norm()).sqrt() } else { 1.0 };
+            let next = (x * gamma + inverse.transpose() / gamma) * 0.5;
+            let step = (next - x).norm();
+            x = next;
+            if step <= STEP_TOLERANCE {
+                return Ok(Polar {
+                    q: x,
+                    t: symmetric_part(&(x.transpose() * a)),
+                    iterations: iteration,
+                    by_svd: false,
+                });
+            }
+            scaled = step > UNSCALED_BELOW;
+        }
+        Polar::by_svd(a)
     }
-    polar_svd(a)
-}
 
-/// Polar decomposition from the SVD `A = U Σ Vᵀ`: `Q = U Vᵀ`, `T = V Σ Vᵀ`.
-///
-/// # Errors
-/// A [`PolarError`] when `a` is not finite or is singular.
-///
-/// # Panics
-/// Never: the SVD is asked for both factors.
-pub fn polar_svd(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
-    if !a.iter().all(|x| x.is_finite()) {
-        return Err(PolarError::NotFinite);
+    /// Polar decomposition from the SVD `A = U Σ Vᵀ`: `Q = U Vᵀ`, `T = V Σ Vᵀ`.
+    ///
+    /// # Errors
+    /// A [`PolarError`] when `a` is not finite or is singular.
+    ///
+    /// # Panics
+    /// Never: the SVD is asked for both factors.
+    pub fn by_svd(a: &Matrix3<f64>) -> Result<Polar, PolarError> {
+        if !a.iter().all(|x| x.is_finite()) {
+            return Err(PolarError::NotFinite);
+        }
+        let svd = super::linalg::bounded_svd(a, true, true).ok_or(PolarError::NotFinite)?;
+        let smallest = svd.singular_values.min();
+        if smallest <= 8.0 * f64::EPSILON * svd.singular_values.max() {
+            return Err(PolarError::Singular { smallest });
+        }
+        let (u, vt) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
+        let q = u * vt;
+        Ok(Polar { q, t: symmetric_part(&(q.transpose() * a)), iterations: 0, by_svd: true })
     }
-    let svd = super::linalg::bounded_svd(a, true, true).ok_or(PolarError::NotFinite)?;
-    let smallest = svd.singular_values.min();
-    if smallest <= 8.0 * f64::EPSILON * svd.singular_values.max() {
-        return Err(PolarError::Singular { smallest });
-    }
-    let (u, vt) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
-    let q = u * vt;
-    Ok(Polar { q, t: symmetric_part(&(q.transpose() * a)), iterations: 0, by_svd: true })
 }
 
 /// `(M + Mᵀ)/2`: `QᵀA` is symmetric in exact arithmetic; this removes the rounding residue.
@@ -107,7 +114,7 @@ mod tests {
     #[test]
     fn newton_agrees_with_the_svd_and_stops_early() {
         let a = Matrix3::new(-0.0675, 1.0157, 0.0007, -0.9323, -0.0151, 0.3778, 0.4010, 0.0376, 0.9949);
-        let (newton, svd) = (polar(&a).unwrap(), polar_svd(&a).unwrap());
+        let (newton, svd) = (Polar::of(&a).unwrap(), Polar::by_svd(&a).unwrap());
         assert!((newton.q - svd.q).amax() < 1e-14 && (newton.t - svd.t).amax() < 1e-14);
         assert!((newton.q.transpose() * newton.q - Matrix3::identity()).amax() < 1e-15);
         assert!(!newton.by_svd && newton.iterations <= 5, "{} iterations", newton.iterations);
@@ -116,14 +123,14 @@ mod tests {
     #[test]
     fn singular_input_is_refused() {
         let a = Matrix3::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 1.0, 1.0);
-        assert!(matches!(polar(&a), Err(PolarError::Singular { .. })));
-        assert!(matches!(polar(&(a * f64::NAN)), Err(PolarError::NotFinite)));
+        assert!(matches!(Polar::of(&a), Err(PolarError::Singular { .. })));
+        assert!(matches!(Polar::of(&(a * f64::NAN)), Err(PolarError::NotFinite)));
     }
 
     #[test]
     fn a_reflection_keeps_its_negative_determinant() {
         let a = Matrix3::from_diagonal(&nalgebra::Vector3::new(1.1, 0.9, -1.0));
-        let p = polar(&a).unwrap();
+        let p = Polar::of(&a).unwrap();
         assert!((p.q.determinant() + 1.0).abs() < 1e-14);
     }
 }

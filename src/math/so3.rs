@@ -109,7 +109,7 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     // against 548 ns, docs/benchmarks.md).
     let scale = m.norm();
     if m.determinant() > 8.0 * f64::EPSILON * scale * scale * scale
-        && let Ok(p) = super::polar::polar(m)
+        && let Ok(p) = super::polar::Polar::of(m)
     {
         return Some(Rotation3::from_matrix_unchecked(p.q));
     }

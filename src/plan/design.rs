@@ -332,17 +332,17 @@ mod tests {
     use super::{cone_program, multiplicative};
     use crate::calib::{CalibConfig, Parameterisation};
     use crate::model::RobotModel;
-    use crate::plan::{information, stereo_noise};
-    use crate::sim::{SimConfig, candidates, looking_down};
+    use crate::plan::Information;
+    use crate::sim::{Candidate, SimConfig};
 
     #[test]
     fn the_continuous_design_meets_the_equivalence_theorem_and_the_cone_programs_optimum() {
         let config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
         let model = RobotModel::load(&config.model).unwrap();
-        let camera = looking_down(config.camera.height_m);
+        let camera = config.camera.looking_down();
         let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
         let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
-        let pool = candidates(&config, &model, &model.spm, &camera, &markers, 80, 2f64.to_radians());
+        let pool = Candidate::draw(&config, &model, &model.spm, &camera, &markers, 80, 2f64.to_radians());
         let p = Parameterisation::for_markers(
             *model.spm.geometry(),
             &camera,
@@ -350,7 +350,7 @@ mod tests {
             &names,
             &CalibConfig::default().bounds,
         );
-        let info = information(&p, &camera, &pool, &stereo_noise(&config.camera)).unwrap();
+        let info = Information::of(&p, &camera, &pool, &config.camera.stereo_noise()).unwrap();
         let zero = nalgebra::DMatrix::zeros(p.len(), p.len());
         let design = multiplicative(&info.per_candidate, &info.workspace, &zero, 1e-4, 100_000);
         // The general equivalence theorem: no candidate's directional derivative exceeds the

@@ -98,7 +98,7 @@ impl PlannedPose {
 
     /// Read a `plan.csv` (as [`PlannedPose::read`]) into a simulation config: its orientations
     /// as the poses to capture (`plan`, and `poses` their number) and its rows (`plan_source`:
-    /// the file, each row's line, step and joints), so that [`crate::sim::simulate`] refuses,
+    /// the file, each row's line, step and joints), so that [`SimConfig::simulate`] refuses,
     /// naming the file and line, a row the model cannot reach, one outside the config's
     /// workspace, and one whose joints contradict its quaternion under the model.
     ///

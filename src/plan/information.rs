@@ -13,73 +13,79 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::calib::{EvalError, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
 use crate::model::CameraRegistration;
-use crate::sim::Candidate;
+use crate::sim::{Camera, Candidate};
 
 /// The candidates' information and the workspace weighting.
 #[derive(Debug, Clone)]
-pub struct Information {
+pub(crate) struct Information {
     /// `M_c` per candidate (p × p).
-    pub per_candidate: Vec<DMatrix<f64>>,
+    pub(crate) per_candidate: Vec<DMatrix<f64>>,
     /// `G_c` per candidate (3 × p): the orientation's sensitivity to the parameters there.
-    pub sensitivities: Vec<DMatrix<f64>>,
+    pub(crate) sensitivities: Vec<DMatrix<f64>>,
     /// `L = mean_c G_cᵀ G_c` (p × p).
-    pub workspace: DMatrix<f64>,
+    pub(crate) workspace: DMatrix<f64>,
 }
 
-/// The information of each candidate's visible markers under `noise`, and the workspace weighting,
-/// at `x = 0` of `p` (the parameters planned around); `camera` places the markers in the camera
-/// frame as the model predicts them.
-///
-/// # Errors
-/// The model cannot be evaluated at a candidate (in words).
-pub fn information(
-    p: &Parameterisation,
-    camera: &CameraRegistration,
-    candidates: &[Candidate],
-    noise: &StereoNoise,
-) -> Result<Information, EvalError> {
-    let x0 = DVector::zeros(p.len());
-    let observation = |c: usize, marker: usize| {
-        let candidate = &candidates[c];
-        let point = candidate.rotation * p.marker(&x0, marker);
-        MarkerObservation {
-            pose: c as u64,
-            marker,
-            joints: candidate.joints,
-            measured: camera.rotation * point + camera.translation,
-            line: 0,
-            station: None,
-            time_s: None,
+impl Information {
+    /// The information of each candidate's visible markers under `noise`, and the workspace
+    /// weighting, at `x = 0` of `p` (the parameters planned around); `camera` places the markers
+    /// in the camera frame as the model predicts them.
+    ///
+    /// # Errors
+    /// The model cannot be evaluated at a candidate (in words).
+    pub(crate) fn of(
+        p: &Parameterisation,
+        camera: &CameraRegistration,
+        candidates: &[Candidate],
+        noise: &StereoNoise,
+    ) -> Result<Information, EvalError> {
+        let x0 = DVector::zeros(p.len());
+        let observation = |c: usize, marker: usize| {
+            let candidate = &candidates[c];
+            let point = candidate.rotation * p.marker(&x0, marker);
+            MarkerObservation {
+                pose: c as u64,
+                marker,
+                joints: candidate.joints,
+                measured: camera.rotation * point + camera.translation,
+                line: 0,
+                station: None,
+                time_s: None,
+            }
+        };
+        let seen: Vec<MarkerObservation> = (0..candidates.len())
+            .flat_map(|c| candidates[c].visible.iter().map(move |&k| (c, k)))
+            .map(|(c, k)| observation(c, k))
+            .collect();
+        let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
+        for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise)? {
+            per_candidate[c as usize] = m;
         }
-    };
-    let seen: Vec<MarkerObservation> = (0..candidates.len())
-        .flat_map(|c| candidates[c].visible.iter().map(move |&k| (c, k)))
-        .map(|(c, k)| observation(c, k))
-        .collect();
-    let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
-    for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise)? {
-        per_candidate[c as usize] = m;
+        // One observation per candidate gives every candidate's orientation sensitivity, seen or not.
+        let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();
+        let sensitivities =
+            MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default(); // always there when the Jacobian is asked for
+        let mut workspace = DMatrix::zeros(p.len(), p.len());
+        for g in &sensitivities {
+            workspace += g.transpose() * g;
+        }
+        workspace /= candidates.len().max(1) as f64;
+        Ok(Information { per_candidate, sensitivities, workspace })
     }
-    // One observation per candidate gives every candidate's orientation sensitivity, seen or not.
-    let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();
-    let sensitivities =
-        MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default(); // always there when the Jacobian is asked for
-    let mut workspace = DMatrix::zeros(p.len(), p.len());
-    for g in &sensitivities {
-        workspace += g.transpose() * g;
-    }
-    workspace /= candidates.len().max(1) as f64;
-    Ok(Information { per_candidate, sensitivities, workspace })
 }
 
-/// The noise model of a simulation config's camera.
-pub fn stereo_noise(camera: &crate::sim::Camera) -> StereoNoise {
-    StereoNoise {
-        reference_distance_m: camera.reference_distance_m,
-        lateral_m: camera.lateral_sigma_m,
-        lateral_std_error_m: 0.0,
-        depth_m: camera.depth_sigma_m,
-        depth_std_error_m: 0.0,
+// The simulated camera's noise in the terms of the marker-level fit: here and not in `sim`,
+// which sits on a floor below the fit's noise model (`calib`).
+impl Camera {
+    /// The noise model of this (simulated) camera, as the marker-level fit sees it.
+    pub fn stereo_noise(&self) -> StereoNoise {
+        StereoNoise {
+            reference_distance_m: self.reference_distance_m,
+            lateral_m: self.lateral_sigma_m,
+            lateral_std_error_m: 0.0,
+            depth_m: self.depth_sigma_m,
+            depth_std_error_m: 0.0,
+        }
     }
 }
 

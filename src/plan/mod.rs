@@ -3,8 +3,8 @@
 //!
 //! Candidates are drawn from the workspace as the simulator draws poses and kept when they pass
 //! its checks (working mode, away from singularities, no link collisions), each with the markers
-//! the camera sees ([`crate::sim::candidates`]). Each candidate's Fisher information for the
-//! marker-level fit and the workspace weighting are in [`information`]; the I-optimal design —
+//! the camera sees (`Candidate::draw`). Each candidate's Fisher information for the
+//! marker-level fit and the workspace weighting are in `information`; the I-optimal design —
 //! the poses that minimise the mean predicted orientation variance over the workspace after
 //! calibration — continuous by the cone program for small fresh candidate sets, else by the
 //! multiplicative algorithm (`design`), rounded and improved by exchanges (`design::exact`); the
@@ -24,13 +24,12 @@ pub(crate) use design::information_of;
 pub(crate) use design::{cone_program, criterion, exact, log_det, multiplicative};
 pub use file::PlannedPose;
 pub(crate) use information::{Information, orientation_errors};
-pub use information::{information, stereo_noise};
 pub(crate) use route::tour;
 
-use crate::calib::{CalibConfig, MarkerModel, Parameterisation, marker_observations, marker_pose_errors};
+use crate::calib::{CalibConfig, MarkerModel, MarkerObservation, Parameterisation, marker_pose_errors};
 use crate::dataset::Session;
 use crate::model::{Parameters, RobotModel};
-use crate::sim::{Candidate, SimConfig, candidates, looking_down};
+use crate::sim::{Candidate, SimConfig};
 
 /// What to plan.
 #[derive(Debug, Clone, PartialEq)]
@@ -184,13 +183,122 @@ pub struct Plan {
     /// What it buys.
     pub summary: PlanSummary,
     /// The candidates it chose from.
-    pub candidates: Vec<Candidate>,
+    pub(crate) candidates: Vec<Candidate>,
     /// Predicted orientation error after calibration at each candidate (degrees): the map of the
     /// plan's accuracy over the workspace.
-    pub uncertainty_deg: Vec<f64>,
+    pub(crate) uncertainty_deg: Vec<f64>,
 }
 
 impl Plan {
+    /// Plan `settings.poses` poses for `model` (or `params`: geometry, registration and markers
+    /// where it has them) with the workspace, camera and noise of `config`; `augment`: a session the
+    /// plan adds to (its information counts, its registration is fitted when `params` has none).
+    ///
+    /// # Errors
+    /// A [`PlanError`] when too few candidates pass the checks, a marker is never seen, the model or
+    /// the session cannot be evaluated, or the parameters stay undetermined.
+    pub fn design(
+        model: &RobotModel,
+        params: Option<&Parameters>,
+        config: &SimConfig,
+        settings: &PlanSettings,
+        augment: Option<&Session>,
+    ) -> Result<Plan, PlanError> {
+        settings.check()?;
+        let nominal = Parameters::nominal(&model.spm, None);
+        let params = params.unwrap_or(&nominal);
+        let spm = params.spm().map_err(crate::calib::SetError::Geometry)?;
+        let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
+        let markers: Vec<Vector3<f64>> =
+            model.markers.iter().map(|m| params.marker(&m.name).unwrap_or(m.position)).collect();
+        let camera = match (params.camera, augment) {
+            (Some(c), _) => c,
+            (None, Some(session)) => marker_pose_errors(session, model, params)?.1,
+            (None, None) => config.camera.looking_down(),
+        };
+        let pool = Candidate::draw(
+            config,
+            model,
+            &spm,
+            &camera,
+            &markers,
+            settings.candidates,
+            settings.margin_deg.to_radians(),
+        );
+        if pool.len() < settings.poses.max(2) {
+            return Err(PlanError::TooFewCandidates { found: pool.len(), wanted: settings.poses });
+        }
+        if let Some(&k) = information::unseen_markers(&pool, markers.len()).first() {
+            return Err(PlanError::UnseenMarker(names[k].clone()));
+        }
+        let p =
+            Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &CalibConfig::default().bounds);
+        let noise = config.camera.stereo_noise();
+        let info = Information::of(&p, &camera, &pool, &noise).map_err(crate::calib::SetError::Eval)?;
+        let n = settings.poses;
+        let prior = match augment {
+            Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
+            None => DMatrix::zeros(p.len(), p.len()),
+        };
+        let l = &info.workspace;
+        let every = design::weighted_sum(&info.per_candidate, &vec![1.0; pool.len()], &prior);
+        if !criterion(&every, l).is_finite() {
+            return Err(PlanError::Singular(pool.len()));
+        }
+        // Small fresh candidate sets: the cone program (exact to clarabel's tolerance); otherwise, or
+        // should clarabel fail, the multiplicative algorithm.
+        let by_cone = (augment.is_none() && pool.len() <= CONE_PROGRAM_MAX_CANDIDATES)
+            .then(|| cone_program(&info.per_candidate, l).ok())
+            .flatten();
+        let solver = if by_cone.is_some() { "cone program (clarabel)" } else { "multiplicative algorithm" };
+        let continuous = by_cone.unwrap_or_else(|| {
+            multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations)
+        });
+        let chosen = exact(&info.per_candidate, l, &prior, n, &continuous.weights);
+        let m_plan = information_of(&info.per_candidate, &prior, &chosen.chosen);
+        let m_continuous = design::weighted_sum(&info.per_candidate, &continuous.weights, &prior) * n as f64;
+        let predicted = |m: &DMatrix<f64>| {
+            let covariance = m.clone().cholesky().map(|c| c.inverse());
+            let errors = covariance.map(|c| orientation_errors(&info, &c)).unwrap_or_default();
+            Predicted {
+                rms_deg: criterion(m, l).sqrt().to_degrees(),
+                worst_deg: errors.iter().copied().fold(0.0, f64::max).to_degrees(),
+                log_det: log_det(m),
+            }
+        };
+        let (random, random_poses_needed) = random_designs(&info, &prior, n, chosen.criterion, settings.random_draws);
+        let rotations: Vec<Rotation3<f64>> = chosen.chosen.iter().map(|&c| pool[c].rotation).collect();
+        let (order, travel) = tour(&rotations);
+        let poses = order
+            .iter()
+            .enumerate()
+            .map(|(step, &k)| {
+                let c = &pool[chosen.chosen[k]];
+                PlannedPose { step: step as u64 + 1, rotation: c.rotation, joints: c.joints }
+            })
+            .collect();
+        let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::SingularPlan(n))?;
+        let uncertainty_deg = orientation_errors(&info, &covariance).iter().map(|e| e.to_degrees()).collect();
+        let summary = PlanSummary {
+            poses: n,
+            candidates: pool.len(),
+            parameters: p.len(),
+            continuous_optimum: predicted(&m_continuous),
+            solver,
+            equivalence_ratio: continuous.equivalence_ratio,
+            iterations: continuous.iterations,
+            support: continuous.weights.iter().filter(|&&w| w > 0.01 / n as f64).count(),
+            plan: predicted(&m_plan),
+            efficiency: (continuous.criterion / n as f64) / chosen.criterion,
+            exchanges: chosen.exchanges,
+            random,
+            random_poses_needed,
+            travel_deg: travel.to_degrees(),
+            augments: augment.map(|s| (s.name.clone(), s.poses.len())),
+        };
+        Ok(Plan { poses, summary, candidates: pool, uncertainty_deg })
+    }
+
     /// The plan as a session (its poses, numbered by step, with the joint readings the model
     /// expects and no markers), for recordings.
     pub fn session(&self, model: &RobotModel) -> Session {
@@ -265,106 +373,6 @@ fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
     (tilt.to_degrees(), yaw.to_degrees())
 }
 
-/// Plan `settings.poses` poses for `model` (or `params`: geometry, registration and markers
-/// where it has them) with the workspace, camera and noise of `config`; `augment`: a session the
-/// plan adds to (its information counts, its registration is fitted when `params` has none).
-///
-/// # Errors
-/// A [`PlanError`] when too few candidates pass the checks, a marker is never seen, the model or
-/// the session cannot be evaluated, or the parameters stay undetermined.
-pub fn plan(
-    model: &RobotModel,
-    params: Option<&Parameters>,
-    config: &SimConfig,
-    settings: &PlanSettings,
-    augment: Option<&Session>,
-) -> Result<Plan, PlanError> {
-    settings.check()?;
-    let nominal = Parameters::nominal(&model.spm, None);
-    let params = params.unwrap_or(&nominal);
-    let spm = params.spm().map_err(crate::calib::SetError::Geometry)?;
-    let names: Vec<String> = model.markers.iter().map(|m| m.name.clone()).collect();
-    let markers: Vec<Vector3<f64>> =
-        model.markers.iter().map(|m| params.marker(&m.name).unwrap_or(m.position)).collect();
-    let camera = match (params.camera, augment) {
-        (Some(c), _) => c,
-        (None, Some(session)) => marker_pose_errors(session, model, params)?.1,
-        (None, None) => looking_down(config.camera.height_m),
-    };
-    let pool =
-        candidates(config, model, &spm, &camera, &markers, settings.candidates, settings.margin_deg.to_radians());
-    if pool.len() < settings.poses.max(2) {
-        return Err(PlanError::TooFewCandidates { found: pool.len(), wanted: settings.poses });
-    }
-    if let Some(&k) = information::unseen_markers(&pool, markers.len()).first() {
-        return Err(PlanError::UnseenMarker(names[k].clone()));
-    }
-    let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &CalibConfig::default().bounds);
-    let noise = stereo_noise(&config.camera);
-    let info = information(&p, &camera, &pool, &noise).map_err(crate::calib::SetError::Eval)?;
-    let n = settings.poses;
-    let prior = match augment {
-        Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
-        None => DMatrix::zeros(p.len(), p.len()),
-    };
-    let l = &info.workspace;
-    let every = design::weighted_sum(&info.per_candidate, &vec![1.0; pool.len()], &prior);
-    if !criterion(&every, l).is_finite() {
-        return Err(PlanError::Singular(pool.len()));
-    }
-    // Small fresh candidate sets: the cone program (exact to clarabel's tolerance); otherwise, or
-    // should clarabel fail, the multiplicative algorithm.
-    let by_cone = (augment.is_none() && pool.len() <= CONE_PROGRAM_MAX_CANDIDATES)
-        .then(|| cone_program(&info.per_candidate, l).ok())
-        .flatten();
-    let solver = if by_cone.is_some() { "cone program (clarabel)" } else { "multiplicative algorithm" };
-    let continuous = by_cone
-        .unwrap_or_else(|| multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations));
-    let chosen = exact(&info.per_candidate, l, &prior, n, &continuous.weights);
-    let m_plan = information_of(&info.per_candidate, &prior, &chosen.chosen);
-    let m_continuous = design::weighted_sum(&info.per_candidate, &continuous.weights, &prior) * n as f64;
-    let predicted = |m: &DMatrix<f64>| {
-        let covariance = m.clone().cholesky().map(|c| c.inverse());
-        let errors = covariance.map(|c| orientation_errors(&info, &c)).unwrap_or_default();
-        Predicted {
-            rms_deg: criterion(m, l).sqrt().to_degrees(),
-            worst_deg: errors.iter().copied().fold(0.0, f64::max).to_degrees(),
-            log_det: log_det(m),
-        }
-    };
-    let (random, random_poses_needed) = random_designs(&info, &prior, n, chosen.criterion, settings.random_draws);
-    let rotations: Vec<Rotation3<f64>> = chosen.chosen.iter().map(|&c| pool[c].rotation).collect();
-    let (order, travel) = tour(&rotations);
-    let poses = order
-        .iter()
-        .enumerate()
-        .map(|(step, &k)| {
-            let c = &pool[chosen.chosen[k]];
-            PlannedPose { step: step as u64 + 1, rotation: c.rotation, joints: c.joints }
-        })
-        .collect();
-    let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::SingularPlan(n))?;
-    let uncertainty_deg = orientation_errors(&info, &covariance).iter().map(|e| e.to_degrees()).collect();
-    let summary = PlanSummary {
-        poses: n,
-        candidates: pool.len(),
-        parameters: p.len(),
-        continuous_optimum: predicted(&m_continuous),
-        solver,
-        equivalence_ratio: continuous.equivalence_ratio,
-        iterations: continuous.iterations,
-        support: continuous.weights.iter().filter(|&&w| w > 0.01 / n as f64).count(),
-        plan: predicted(&m_plan),
-        efficiency: (continuous.criterion / n as f64) / chosen.criterion,
-        exchanges: chosen.exchanges,
-        random,
-        random_poses_needed,
-        travel_deg: travel.to_degrees(),
-        augments: augment.map(|s| (s.name.clone(), s.poses.len())),
-    };
-    Ok(Plan { poses, summary, candidates: pool, uncertainty_deg })
-}
-
 /// The Fisher information of an existing session's marker observations at `p`'s parameters.
 fn session_information(
     session: &Session,
@@ -372,7 +380,7 @@ fn session_information(
     spm: &crate::model::Spm,
     noise: &crate::calib::StereoNoise,
 ) -> Result<DMatrix<f64>, PlanError> {
-    let (observations, _) = marker_observations(session, spm);
+    let (observations, _) = MarkerObservation::of_session(session, spm);
     let per_pose = MarkerModel::new(p, &observations)
         .information_per_pose(&nalgebra::DVector::zeros(p.len()), noise)
         .map_err(crate::calib::SetError::Eval)?;

@@ -29,20 +29,20 @@ pub use scenes::SceneError;
 
 /// MP orientations of one source, by pose.
 #[derive(Debug, Clone)]
-pub struct PoseFrames {
+pub(crate) struct PoseFrames {
     /// Entity name under `world/mp/`.
-    pub name: String,
+    pub(crate) name: String,
     /// Orientation (P → B) per pose.
-    pub rotations: BTreeMap<u64, Rotation3<f64>>,
+    pub(crate) rotations: BTreeMap<u64, Rotation3<f64>>,
 }
 
 /// A scalar per pose, plotted under `errors/`.
 #[derive(Debug, Clone)]
-pub struct Series {
+pub(crate) struct Series {
     /// Entity path under `errors/`.
-    pub name: String,
+    pub(crate) name: String,
     /// Value per pose.
-    pub values: BTreeMap<u64, f64>,
+    pub(crate) values: BTreeMap<u64, f64>,
 }
 
 /// Everything one recording shows.
@@ -56,9 +56,9 @@ pub struct Scene<'a> {
     /// Camera registration, to put the measured markers in the base frame.
     pub registration: Option<CameraRegistration>,
     /// MP orientations to draw (e.g. vision, nominal, calibrated).
-    pub frames: Vec<PoseFrames>,
+    pub(crate) frames: Vec<PoseFrames>,
     /// Per-pose scalars to plot.
-    pub series: Vec<Series>,
+    pub(crate) series: Vec<Series>,
     /// The fit's iterations, on the `iteration` timeline.
     pub iterations: Vec<IterationLog>,
     /// `(entity under parameters/, markdown)`.
@@ -110,6 +110,12 @@ const FIT_TABLE: &str = "fit/iterations";
 pub(crate) const APPLICATION: &str = "spmcal";
 
 impl Scene<'_> {
+    /// The entity paths of the per-pose scalars plotted under `errors/` (e.g.
+    /// `markers_mm/replayed`).
+    pub fn series_names(&self) -> impl Iterator<Item = &str> {
+        self.series.iter().map(|s| s.name.as_str())
+    }
+
     /// Write `scene` to `path` (atomically: a temporary file beside it, renamed when complete).
     ///
     /// # Errors

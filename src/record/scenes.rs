@@ -12,7 +12,7 @@ use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_po
 use crate::compare::SetComparison;
 use crate::dataset::Session;
 use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
-use crate::vision::{MarkerError, Method, SessionEstimate, VisionError, estimate_session};
+use crate::vision::{MarkerError, Method, SessionEstimate, VisionError};
 
 /// Why a scene could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -136,7 +136,7 @@ impl Scene<'_> {
         model: &'a RobotModel,
         params: Option<&Parameters>,
     ) -> Result<Scene<'a>, SceneError> {
-        match estimate_session(session, Method::Kabsch) {
+        match SessionEstimate::of(session, Method::Kabsch) {
             Ok(estimate) => vision_scene(session, model, params, &estimate),
             // Nothing for the per-pose estimator (one marker at a time): the mechanism, and the
             // measured markers through the parameters' registration (or the best-fit one), with each
@@ -425,7 +425,7 @@ impl Scene<'_> {
             scene.series.clear();
             scene
         } else {
-            let estimate = estimate_session(session, method)?;
+            let estimate = SessionEstimate::of(session, method)?;
             let mut scene = vision_scene(session, model, last.filter(|p| p.camera.is_some()), &estimate)?;
             scene.frames.retain(|f| f.name == "vision");
             scene

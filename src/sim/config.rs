@@ -70,27 +70,27 @@ pub struct SimConfig {
     /// contradict its orientation under the model, and its errors name the file and line
     /// (`PlannedPose::read_into` sets both fields). Not read from the file.
     #[serde(skip)]
-    pub plan_source: Option<PlanSource>,
+    pub(crate) plan_source: Option<PlanSource>,
 }
 
 /// The file a plan was read from and, per pose (in the order of [`SimConfig::plan`]), its row.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct PlanSource {
+pub(crate) struct PlanSource {
     /// The plan file.
-    pub path: PathBuf,
+    pub(crate) path: PathBuf,
     /// One row per planned orientation.
-    pub rows: Vec<PlanRow>,
+    pub(crate) rows: Vec<PlanRow>,
 }
 
 /// One row of a plan file.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlanRow {
+pub(crate) struct PlanRow {
     /// Its step number.
-    pub step: u64,
+    pub(crate) step: u64,
     /// Its line in the file.
-    pub line: usize,
+    pub(crate) line: usize,
     /// The joint readings the plan expects at its orientation (rad).
-    pub joints: Vector3<f64>,
+    pub(crate) joints: Vector3<f64>,
 }
 
 /// Standard deviations of the true geometry around the nominal model.

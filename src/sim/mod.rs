@@ -6,9 +6,7 @@ mod config;
 mod scene;
 mod simulator;
 
-pub use camera::{looking_down, measure};
-pub use config::{
-    Camera, CaptureSettings, Encoders, PlanRow, PlanSource, Recording, SimConfig, Trajectory, TruthSpread, Workspace,
-};
-pub use scene::CollisionScene;
-pub use simulator::{Candidate, SimError, SimSummary, candidates, simulate};
+pub use config::{Camera, CaptureSettings, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
+pub(crate) use config::{PlanRow, PlanSource};
+pub(crate) use simulator::Candidate;
+pub use simulator::{SimError, SimSummary};

@@ -44,7 +44,7 @@ struct PlacedShape {
 }
 
 /// Collision geometry of a model, ready to be posed.
-pub struct CollisionScene {
+pub(crate) struct CollisionScene {
     shapes: Vec<PlacedShape>,
     /// Per leg, the home directions the links carry: `(u, w(0))` for the proximal and
     /// `(w(0), v0)` for the distal link.
@@ -62,7 +62,7 @@ fn to_vector(v: &Vector3<f64>) -> Vector {
 impl CollisionScene {
     /// The model's collision primitives. URDF cylinders and capsules run along z, parry's
     /// cylinders along y: a quarter turn about x maps one onto the other.
-    pub fn new(model: &RobotModel) -> Self {
+    pub(crate) fn new(model: &RobotModel) -> Self {
         let y_to_z = Isometry3::from_parts(
             Default::default(),
             UnitQuaternion::from_euler_angles(std::f64::consts::FRAC_PI_2, 0.0, 0.0),
@@ -92,7 +92,7 @@ impl CollisionScene {
 
     /// Rotation of every body for joint readings `joints` and MP orientation `r` of manipulator
     /// `spm` (the true geometry in a simulation): each link carries its two axes.
-    pub fn body_rotations(&self, spm: &Spm, joints: &Vector3<f64>, r: &Rotation3<f64>) -> BodyRotations {
+    pub(crate) fn body_rotations(&self, spm: &Spm, joints: &Vector3<f64>, r: &Rotation3<f64>) -> BodyRotations {
         let w = spm.intermediate_axes(joints);
         let v = spm.platform_axes(r);
         let g = spm.geometry();
@@ -117,7 +117,7 @@ impl CollisionScene {
     /// overlap are tested exactly — a model with many shapes costs about its number of shapes
     /// (times the few each one overlaps), not its number of pairs. A box holds its shape, so no
     /// intersecting pair is missed: the answer is the one of testing every pair.
-    pub fn collision(&self, rotations: &BodyRotations) -> Option<(Body, Body)> {
+    pub(crate) fn collision(&self, rotations: &BodyRotations) -> Option<(Body, Body)> {
         let posed: Vec<Pose> = self.shapes.iter().map(|s| self.posed(rotations, s)).collect();
         let boxes: Vec<Aabb> = self.shapes.iter().zip(&posed).map(|(s, p)| s.shape.compute_aabb(p)).collect();
         let mut order: Vec<usize> = (0..self.shapes.len()).collect();
@@ -152,7 +152,7 @@ impl CollisionScene {
 
     /// The body that hides the segment from a marker centre to a lens, if any. The segment starts
     /// `marker_radius` out of the marker, so that the surface it sits on does not hide it.
-    pub fn occluder(
+    pub(crate) fn occluder(
         &self,
         rotations: &BodyRotations,
         marker: &Vector3<f64>,
@@ -168,5 +168,54 @@ impl CollisionScene {
             .iter()
             .find(|s| s.shape.as_ref().cast_ray(&self.posed(rotations, s), &ray, reach, true).is_some())
             .map(|s| BODIES[s.body])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::sim::SimConfig;
+
+    #[test]
+    fn a_marker_behind_a_link_is_occluded() {
+        let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
+        let scene = CollisionScene::new(&model);
+        let home = scene.body_rotations(&model.spm, &model.spm.home_joints(), &Rotation3::identity());
+        // The middle of leg 1's distal arc (radius 0.16 m from z1 to v0_1): a point inside the
+        // sphere seen from a point outside it along the same direction is hidden by that link.
+        let g = model.spm.geometry()[0];
+        let mid = (g.z + g.v0).normalize();
+        let occluder = scene.occluder(&home, &(mid * 0.10), &(mid * 1.0), 0.006);
+        assert_eq!(occluder, Some(Body::Distal(0)));
+        // The MP markers seen from below the base are hidden; from the camera above they are not.
+        for m in &model.markers[..3] {
+            assert!(scene.occluder(&home, &m.position, &Vector3::new(0.0, 0.0, -1.0), 0.006).is_some());
+            assert_eq!(scene.occluder(&home, &m.position, &Vector3::new(0.06, 0.0, 0.8), 0.006), None);
+        }
+    }
+
+    #[test]
+    fn colliding_poses_are_detected_and_never_written() {
+        let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
+        let scene = CollisionScene::new(&model);
+        let spm = &model.spm;
+        let rotations = |r: &Rotation3<f64>| scene.body_rotations(spm, &spm.ik(r).unwrap(), r);
+        assert_eq!(scene.collision(&rotations(&Rotation3::identity())), None, "home must be collision-free");
+        // 30° of tilt with 30° of yaw: neighbouring links meet (a corner of the workspace).
+        let corner = so3::exp(&(Vector3::x() * 30f64.to_radians())) * so3::exp(&(Vector3::z() * 30f64.to_radians()));
+        assert!(scene.collision(&rotations(&corner)).is_some());
+
+        let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+        config.poses = 150;
+        let (session, summary) = config.simulate(&model, &mut |_| {}).unwrap();
+        assert!(summary.rejected_collision > 0, "the ±30°/±30° workspace has colliding corners");
+        let truth = session.truth.unwrap();
+        let true_spm = truth.parameters.spm().unwrap();
+        for (id, r) in &truth.orientations {
+            let joints = true_spm.ik(r).unwrap();
+            assert_eq!(scene.collision(&scene.body_rotations(&true_spm, &joints, r)), None, "pose {id} collides");
+        }
     }
 }

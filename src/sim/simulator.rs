@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
-use super::camera::{lenses, looking_down, measure};
+use super::camera::lenses;
 use super::config::{Recording, SimConfig, Trajectory, Workspace};
 use super::scene::CollisionScene;
 use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, Streams, Truth};
@@ -293,106 +293,112 @@ struct Simulator<'a> {
     summary: SimSummary,
 }
 
-/// Simulate a session with `config` on `model`, with the counts of what was rejected, occluded
-/// and drawn as an outlier; `progress` is told the number of poses made so far. Deterministic for
-/// a seed.
-///
-/// # Errors
-/// A [`SimError`] when the drawn geometry is invalid or too few candidate poses pass the checks
-/// (naming the config key to loosen); with a plan, when a planned pose is out of the model's
-/// reach or the config's workspace, or its row's joints contradict its orientation (naming the
-/// plan file's line when `config.plan_source` gives it).
-///
-/// # Panics
-/// If `config` holds a deviation that is not finite or an outlier probability outside [0, 1]
-/// (configs are checked when read).
-pub fn simulate(
-    config: &SimConfig,
-    model: &RobotModel,
-    progress: &mut dyn FnMut(usize),
-) -> Result<(Session, SimSummary), SimError> {
-    check_plan(config, model)?;
-    let mut rng = ChaCha8Rng::seed_from_u64(config.seed);
-    let t = &config.truth;
-    let spread = GeometrySpread {
-        axis_tilt: t.axis_tilt_deg.to_radians(),
-        link_angle: t.link_angle_deg.to_radians(),
-        joint_offset: t.joint_offset_deg.to_radians(),
-    };
-    let spm = Spm::new(perturb(model.spm.geometry(), &spread, &mut rng))?;
-    let nominal = looking_down(config.camera.height_m);
-    let position = Normal::new(0.0, t.camera_position_m).expect("validated deviation");
-    let camera_centre =
-        Vector3::new(0.0, 0.0, config.camera.height_m) + Vector3::from_fn(|_, _| position.sample(&mut rng));
-    let rotation = so3::exp(&random_rotation_vector(t.camera_rotation_deg.to_radians(), &mut rng)) * nominal.rotation;
-    let camera = CameraRegistration::from_centre(rotation, &camera_centre);
-    let misplacement = Normal::new(0.0, t.marker_position_m).expect("validated deviation");
-    let markers =
-        model.markers.iter().map(|m| m.position + Vector3::from_fn(|_, _| misplacement.sample(&mut rng))).collect();
-    let summary = SimSummary { name: config.name.clone(), seed: config.seed, ..Default::default() };
-    let mut sim = Simulator { config, model, spm, camera, markers, scene: CollisionScene::new(model), rng, summary };
-    let session = match &config.recording {
-        Some(r) => sim.record_streams(r, progress)?,
-        None => sim.run(progress)?,
-    };
-    Ok((session, sim.summary))
+impl SimConfig {
+    /// Simulate a session with this config on `model`, with the counts of what was rejected,
+    /// occluded and drawn as an outlier; `progress` is told the number of poses made so far.
+    /// Deterministic for a seed.
+    ///
+    /// # Errors
+    /// A [`SimError`] when the drawn geometry is invalid or too few candidate poses pass the
+    /// checks (naming the config key to loosen); with a plan, when a planned pose is out of the
+    /// model's reach or the config's workspace, or its row's joints contradict its orientation
+    /// (naming the plan file's line when the plan was read from one).
+    ///
+    /// # Panics
+    /// If the config holds a deviation that is not finite or an outlier probability outside
+    /// [0, 1] (configs are checked when read).
+    pub fn simulate(
+        &self,
+        model: &RobotModel,
+        progress: &mut dyn FnMut(usize),
+    ) -> Result<(Session, SimSummary), SimError> {
+        check_plan(self, model)?;
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        let t = &self.truth;
+        let spread = GeometrySpread {
+            axis_tilt: t.axis_tilt_deg.to_radians(),
+            link_angle: t.link_angle_deg.to_radians(),
+            joint_offset: t.joint_offset_deg.to_radians(),
+        };
+        let spm = Spm::new(perturb(model.spm.geometry(), &spread, &mut rng))?;
+        let nominal = self.camera.looking_down();
+        let position = Normal::new(0.0, t.camera_position_m).expect("validated deviation");
+        let camera_centre =
+            Vector3::new(0.0, 0.0, self.camera.height_m) + Vector3::from_fn(|_, _| position.sample(&mut rng));
+        let rotation =
+            so3::exp(&random_rotation_vector(t.camera_rotation_deg.to_radians(), &mut rng)) * nominal.rotation;
+        let camera = CameraRegistration::from_centre(rotation, &camera_centre);
+        let misplacement = Normal::new(0.0, t.marker_position_m).expect("validated deviation");
+        let markers =
+            model.markers.iter().map(|m| m.position + Vector3::from_fn(|_, _| misplacement.sample(&mut rng))).collect();
+        let summary = SimSummary { name: self.name.clone(), seed: self.seed, ..Default::default() };
+        let mut sim =
+            Simulator { config: self, model, spm, camera, markers, scene: CollisionScene::new(model), rng, summary };
+        let session = match &self.recording {
+            Some(r) => sim.record_streams(r, progress)?,
+            None => sim.run(progress)?,
+        };
+        Ok((session, sim.summary))
+    }
 }
 
 /// A pose the capture checks accept: its orientation, the joint readings there and the markers
 /// both lenses see.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Candidate {
+pub(crate) struct Candidate {
     /// MP orientation (P → B).
-    pub rotation: Rotation3<f64>,
+    pub(crate) rotation: Rotation3<f64>,
     /// Joint readings of the working mode there.
-    pub joints: Vector3<f64>,
+    pub(crate) joints: Vector3<f64>,
     /// Markers (indices into the model's) both lenses see.
-    pub visible: Vec<usize>,
+    pub(crate) visible: Vec<usize>,
 }
 
-/// Up to `count` orientations drawn from `config`'s workspace as `simulate` draws its poses
-/// (home first, then random, seeded by `config.seed`), kept when they pass its checks on the
-/// geometry `spm` — reachable in the working mode, away from singularities, no link collisions —
-/// each with the markers (at `markers`, in P) the camera at `camera` sees. With a `margin`
-/// (radians) the checks must also pass, and the markers stay visible, `margin` further out in
-/// tilt and `margin` either way in yaw: a real mechanism, camera and operator are that far from
-/// the model. Gives up after `50 count + 100` draws.
-pub fn candidates(
-    config: &SimConfig,
-    model: &RobotModel,
-    spm: &Spm,
-    camera: &CameraRegistration,
-    markers: &[Vector3<f64>],
-    count: usize,
-    margin: f64,
-) -> Vec<Candidate> {
-    let mut sim = Simulator {
-        config,
-        model,
-        spm: spm.clone(),
-        camera: *camera,
-        markers: markers.to_vec(),
-        scene: CollisionScene::new(model),
-        rng: ChaCha8Rng::seed_from_u64(config.seed),
-        summary: SimSummary::default(),
-    };
-    let max_attempts = 50 * count + 100;
-    let mut out = Vec::with_capacity(count);
-    let mut attempts = 0;
-    // Drawn in order (the random stream decides), checked in batches on two cores, kept in order.
-    while out.len() < count && attempts < max_attempts {
-        let batch: Vec<Rotation3<f64>> = (attempts..max_attempts.min(attempts + (count - out.len()).max(64)))
-            .map(|k| if k == 0 { Rotation3::identity() } else { sim.candidate(k, max_attempts) })
-            .collect();
-        attempts += batch.len();
-        let (first, second) = batch.split_at(batch.len() / 2);
-        let check = |rotations: &[Rotation3<f64>]| -> Vec<Option<Candidate>> {
-            rotations.iter().map(|r| sim.robust_candidate(r, margin)).collect()
+impl Candidate {
+    /// Up to `count` orientations drawn from `config`'s workspace as `simulate` draws its poses
+    /// (home first, then random, seeded by `config.seed`), kept when they pass its checks on the
+    /// geometry `spm` — reachable in the working mode, away from singularities, no link
+    /// collisions — each with the markers (at `markers`, in P) the camera at `camera` sees. With a
+    /// `margin` (radians) the checks must also pass, and the markers stay visible, `margin`
+    /// further out in tilt and `margin` either way in yaw: a real mechanism, camera and operator
+    /// are that far from the model. Gives up after `50 count + 100` draws.
+    pub(crate) fn draw(
+        config: &SimConfig,
+        model: &RobotModel,
+        spm: &Spm,
+        camera: &CameraRegistration,
+        markers: &[Vector3<f64>],
+        count: usize,
+        margin: f64,
+    ) -> Vec<Candidate> {
+        let mut sim = Simulator {
+            config,
+            model,
+            spm: spm.clone(),
+            camera: *camera,
+            markers: markers.to_vec(),
+            scene: CollisionScene::new(model),
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            summary: SimSummary::default(),
         };
-        let (a, b) = crate::in_parallel(|| check(first), || check(second));
-        out.extend(a.into_iter().chain(b).flatten().take(count - out.len()));
+        let max_attempts = 50 * count + 100;
+        let mut out = Vec::with_capacity(count);
+        let mut attempts = 0;
+        // Drawn in order (the random stream decides), checked in batches on two cores, kept in order.
+        while out.len() < count && attempts < max_attempts {
+            let batch: Vec<Rotation3<f64>> = (attempts..max_attempts.min(attempts + (count - out.len()).max(64)))
+                .map(|k| if k == 0 { Rotation3::identity() } else { sim.candidate(k, max_attempts) })
+                .collect();
+            attempts += batch.len();
+            let (first, second) = batch.split_at(batch.len() / 2);
+            let check = |rotations: &[Rotation3<f64>]| -> Vec<Option<Candidate>> {
+                rotations.iter().map(|r| sim.robust_candidate(r, margin)).collect()
+            };
+            let (a, b) = crate::in_parallel(|| check(first), || check(second));
+            out.extend(a.into_iter().chain(b).flatten().take(count - out.len()));
+        }
+        out
     }
-    out
 }
 
 fn random_rotation_vector<R: Rng + ?Sized>(sigma: f64, rng: &mut R) -> Vector3<f64> {
@@ -698,7 +704,7 @@ impl Simulator<'_> {
     }
 
     /// `r` as a planning candidate: passing the checks there and `margin` beyond (see
-    /// [`candidates`]), with the markers seen at all of them.
+    /// [`Candidate::draw`]), with the markers seen at all of them.
     fn robust_candidate(&self, r: &Rotation3<f64>, margin: f64) -> Option<Candidate> {
         let joints = self.accept(r).ok()?;
         let mut visible = self.visible(r, &joints);
@@ -742,7 +748,7 @@ impl Simulator<'_> {
                 self.summary.markers_occluded += 1;
                 continue;
             }
-            let m = measure(&point, &self.camera, cam, &mut self.rng);
+            let m = cam.measure(&point, &self.camera, &mut self.rng);
             self.summary.markers_seen += 1;
             self.summary.outliers += usize::from(m.outlier);
             markers[k] = Some(m.position);

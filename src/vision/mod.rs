@@ -7,6 +7,6 @@ mod session;
 mod summary;
 
 pub use centre::CentreOfRotation;
-pub use pose::{MarkerError, Method, PoseEstimate, Reference, orthogonality_error};
-pub use session::{SessionEstimate, VisionError, estimate_session};
+pub use pose::{MarkerError, Method, PoseEstimate, Reference};
+pub use session::{SessionEstimate, VisionError};
 pub use summary::EstimateSummary;

@@ -15,7 +15,7 @@
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 use crate::math::constellation::{self, Degeneracy, MARKER_NOISE_M};
-use crate::math::polar::polar;
+use crate::math::polar::Polar;
 use crate::math::so3;
 
 /// Which rotation estimate to return.
@@ -101,7 +101,7 @@ pub struct PoseEstimate {
 /// `(1/n) tr(A Aᵀ)` and calls `1` the 4×4 identity, but `T` is 3×3 and its printed numbers follow
 /// `(1/n) √tr(E Eᵀ)` with n = 3: eq. (13) gives ‖E‖_F = 0.0831 and Table I prints e₁₄ = 0.0277 =
 /// 0.0831 / 3 (the footnote's formula would give 0.0023). We follow the numbers.
-pub fn orthogonality_error(t: &Matrix3<f64>) -> f64 {
+pub(crate) fn orthogonality_error(t: &Matrix3<f64>) -> f64 {
     (t - Matrix3::identity()).norm() / 3.0
 }
 
@@ -206,7 +206,7 @@ impl Reference {
         if det <= 0.0 {
             return Err(MarkerError::Reflection { det });
         }
-        let decomposition = polar(&putative).map_err(MarkerError::Singular)?;
+        let decomposition = Polar::of(&putative).map_err(MarkerError::Singular)?;
         let rotation = match method {
             Method::Paper => Rotation3::from_matrix_unchecked(decomposition.q),
             Method::Kabsch => self.kabsch(points, &centroid)?,
@@ -245,4 +245,17 @@ fn newell(points: &[Vector3<f64>], centroid: &Vector3<f64>) -> Vector3<f64> {
         n += (points[i] - centroid).cross(&(points[(i + 1) % points.len()] - centroid));
     }
     n.normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Matrix3, Vector3};
+
+    use super::orthogonality_error;
+
+    #[test]
+    fn e_is_the_frobenius_norm_over_three() {
+        let t = Matrix3::identity() + Matrix3::from_diagonal(&Vector3::new(0.03, 0.0, -0.04));
+        assert!((orthogonality_error(&t) - 0.05 / 3.0).abs() < 1e-16);
+    }
 }

@@ -38,22 +38,24 @@ pub struct SessionEstimate {
     pub centre: Option<CentreOfRotation>,
 }
 
-/// Estimate every pose of `session` against its reference pose. A reference pose whose markers
-/// are degenerate is an error; any other pose that fails is listed in `skipped`. A session
-/// captured one marker at a time is estimated per station ([`Session::by_station`]): the pose ids
-/// are then the stations' first captures.
-///
-/// # Errors
-/// A [`VisionError`] when no pose (station) sees three markers, or the reference pose's markers
-/// are too few or degenerate.
-///
-/// # Panics
-/// Never: only seen markers are used.
-pub fn estimate_session(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
-    if session.poses.iter().any(|p| p.station.is_some()) {
-        return estimate_poses(&session.by_station(), method);
+impl SessionEstimate {
+    /// Estimate every pose of `session` against its reference pose. A reference pose whose
+    /// markers are degenerate is an error; any other pose that fails is listed in `skipped`. A
+    /// session captured one marker at a time is estimated per station ([`Session::by_station`]):
+    /// the pose ids are then the stations' first captures.
+    ///
+    /// # Errors
+    /// A [`VisionError`] when no pose (station) sees three markers, or the reference pose's
+    /// markers are too few or degenerate.
+    ///
+    /// # Panics
+    /// Never: only seen markers are used.
+    pub fn of(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
+        if session.poses.iter().any(|p| p.station.is_some()) {
+            return estimate_poses(&session.by_station(), method);
+        }
+        estimate_poses(session, method)
     }
-    estimate_poses(session, method)
 }
 
 fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {

@@ -9,7 +9,7 @@ use crate::calib::agreement::{
     MarkerErrors, SetError, largest_rotation, model_markers, pose_errors, pose_orientations,
 };
 use crate::calib::config::{CalibConfig, Group};
-use crate::calib::marker_model::{MarkerModel, MarkerObservation, marker_observations};
+use crate::calib::marker_model::{MarkerModel, MarkerObservation};
 use crate::calib::model::Model;
 use crate::calib::params::{Kind, Parameterisation};
 use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Origin, Results, Solution};
@@ -19,7 +19,7 @@ use crate::calib::uncertainty::{orientation_uncertainty, parameter_reports, std_
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
-use crate::vision::{Method, estimate_session};
+use crate::vision::{Method, SessionEstimate};
 
 /// A session's marker observations, ready to fit.
 pub(crate) struct MarkerLevel<'s> {
@@ -40,7 +40,7 @@ impl<'s> MarkerLevel<'s> {
     /// The observations of `session` on `robot`'s nominal model, registered.
     pub(crate) fn prepare(session: &'s Session, robot: &RobotModel, config: &CalibConfig) -> Result<Self, CalibError> {
         let spm = &robot.spm;
-        let (observations, failed) = marker_observations(session, spm);
+        let (observations, failed) = MarkerObservation::of_session(session, spm);
         let excluded = failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")).collect();
         let markers0 = model_markers(&session.markers, robot).map_err(|e| match e {
             SetError::UnknownMarker(name) => CalibError::UnknownMarker(name),
@@ -156,7 +156,7 @@ impl Level for MarkerLevel<'_> {
         };
         // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
         // model with its best-fit registration, the calibrated one with its own.
-        let vision = estimate_session(r.session, Method::Kabsch).ok();
+        let vision = SessionEstimate::of(r.session, Method::Kabsch).ok();
         let per_pose = |params: &Parameters| {
             let fit = vision.as_ref().and_then(|v| pose_errors(r.session, v, params).ok());
             let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();

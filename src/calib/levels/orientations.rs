@@ -18,7 +18,7 @@ use crate::calib::uncertainty::{parameter_reports, residual_uncertainty};
 use crate::dataset::Session;
 use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
-use crate::vision::{SessionEstimate, estimate_session};
+use crate::vision::SessionEstimate;
 
 /// A session's per-pose orientations, ready to fit.
 pub(crate) struct OrientationLevel {
@@ -34,7 +34,7 @@ pub(crate) struct OrientationLevel {
 impl OrientationLevel {
     /// The vision estimate of `session`, its poses on `robot`'s nominal model, registered.
     pub(crate) fn prepare(session: &Session, robot: &RobotModel, config: &CalibConfig) -> Result<Self, CalibError> {
-        let vision = estimate_session(session, config.vision_method)?;
+        let vision = SessionEstimate::of(session, config.vision_method)?;
         let nominal_spm = &robot.spm;
         // Observations whose nominal FDA exists.
         let (all, failed) = observations(session, &vision, nominal_spm);
