@@ -6,7 +6,7 @@ use nalgebra::{Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use spmcal::math::so3;
-use spmcal::model::{Branch, GeometrySpread, IkError, LegGeometry, Spm, perturb};
+use spmcal::model::{Branch, GeometrySpread, IkError, LegGeometry, Spm};
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
@@ -21,7 +21,7 @@ fn workspace_orientation(rng: &mut impl Rng, max_tilt: f64, max_yaw: f64) -> Rot
 
 fn perturbed(rng: &mut StdRng) -> Spm {
     let spread = GeometrySpread { axis_tilt: 1.0 * DEG, link_angle: 0.5 * DEG, joint_offset: 3.0 * DEG };
-    Spm::new(perturb(Spm::agile_wrist_nominal().geometry(), &spread, rng)).expect("small perturbations stay valid")
+    Spm::new(spread.perturb(Spm::agile_wrist_nominal().geometry(), rng)).expect("small perturbations stay valid")
 }
 
 #[test]

@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 use proptest::prelude::*;
 use rand::SeedableRng;
 use spmcal::math::so3;
-use spmcal::model::{Branch, GeometrySpread, Spm, perturb};
+use spmcal::model::{Branch, GeometrySpread, Spm};
 
 /// `a` wrapped into (−π, π].
 fn wrap_angle(a: f64) -> f64 {
@@ -19,7 +19,7 @@ const DEG: f64 = std::f64::consts::PI / 180.0;
 fn geometry(seed: u64) -> Spm {
     let spread = GeometrySpread { axis_tilt: 1.0 * DEG, link_angle: 0.5 * DEG, joint_offset: 5.0 * DEG };
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    Spm::new(perturb(Spm::agile_wrist_nominal().geometry(), &spread, &mut rng)).unwrap()
+    Spm::new(spread.perturb(Spm::agile_wrist_nominal().geometry(), &mut rng)).unwrap()
 }
 
 proptest! {

@@ -137,7 +137,7 @@ fn urdf_passes_the_ros_checker_when_installed() {
 fn parameters_file_round_trip() {
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(7);
     let spread = spmcal::model::GeometrySpread { axis_tilt: 0.02, link_angle: 0.01, joint_offset: 0.05 };
-    let spm = Spm::new(spmcal::model::perturb(Spm::agile_wrist_nominal().geometry(), &spread, &mut rng)).unwrap();
+    let spm = Spm::new(spread.perturb(Spm::agile_wrist_nominal().geometry(), &mut rng)).unwrap();
     let mut params = Parameters::nominal(&spm, Some(URDF.into()));
     params.source = ParameterSource::Calibrated;
     params.camera = Some(CameraRegistration {

@@ -17,7 +17,7 @@
 use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
 
 use super::geometry::HomeBranch;
-use super::spm::{Branch, Spm, conditioning_index};
+use super::spm::{Branch, Spm};
 use crate::math::so3;
 
 /// One real solution of the FDA.
@@ -202,7 +202,7 @@ impl Spm {
         modes.push(AssemblyMode {
             rotation,
             branches: self.branches(joints, &rotation),
-            conditioning: conditioning_index(&self.jacobians(joints, &rotation).a),
+            conditioning: self.jacobians(joints, &rotation).conditioning(),
             residual: self.closure_residual(joints, &rotation).amax(),
         });
     }

@@ -27,7 +27,7 @@ pub use geometry::{GeometryError, HomeBranch, LegGeometry};
 pub use modes::{FdaPose, ModeReport};
 pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters};
 #[cfg(feature = "full")]
-pub use perturb::{GeometrySpread, perturb, tilt};
-pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError, conditioning_index};
+pub use perturb::GeometrySpread;
+pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
 pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape};

@@ -4,7 +4,7 @@
 use nalgebra::{Rotation3, Vector3};
 use serde::Serialize;
 
-use super::spm::{FdaError, Spm, conditioning_index};
+use super::spm::{FdaError, Spm};
 use crate::math::so3;
 
 /// One assembly mode of a pose.
@@ -47,7 +47,7 @@ impl FdaPose {
     /// The working-mode FDA fails (see [`Spm::forward`]).
     pub fn working(spm: &Spm, pose: u64, joints: &Vector3<f64>) -> Result<(FdaPose, Rotation3<f64>), FdaError> {
         let rotation = spm.forward(joints)?;
-        let conditioning = conditioning_index(&spm.jacobians(joints, &rotation).a);
+        let conditioning = spm.jacobians(joints, &rotation).conditioning();
         let q = Some(so3::to_wxyz(&rotation));
         Ok((FdaPose { pose, q_wxyz: q, conditioning: Some(conditioning), modes: Vec::new() }, rotation))
     }

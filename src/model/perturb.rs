@@ -22,7 +22,7 @@ pub struct GeometrySpread {
 ///
 /// # Panics
 /// If `sigma` is infinite (a NaN or negative `sigma` counts as 0: no tilt).
-pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vector3<f64> {
+fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vector3<f64> {
     let normal = Normal::new(0.0, sigma.max(0.0)).expect("finite, non-negative deviation");
     let e1 = a.cross(&if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
     let e2 = a.cross(&e1);
@@ -30,24 +30,26 @@ pub fn tilt<R: Rng + ?Sized>(a: &Vector3<f64>, sigma: f64, rng: &mut R) -> Vecto
     crate::math::so3::exp(&omega) * a
 }
 
-/// A geometry drawn around `nominal`: axes tilted, link angles and offsets shifted. `z` is
-/// re-orthogonalised against the moved `u`, as the conventions require.
-///
-/// # Panics
-/// If a spread is infinite (a NaN or negative one counts as 0).
-pub fn perturb<R: Rng + ?Sized>(nominal: &[LegGeometry; 3], spread: &GeometrySpread, rng: &mut R) -> [LegGeometry; 3] {
-    let angle = Normal::new(0.0, spread.link_angle.max(0.0)).expect("finite deviation");
-    let offset = Normal::new(0.0, spread.joint_offset.max(0.0)).expect("finite deviation");
-    nominal.map(|g| {
-        let u = tilt(&g.u, spread.axis_tilt, rng);
-        LegGeometry {
-            u,
-            z: (g.z - u * u.dot(&g.z)).normalize(),
-            alpha1: g.alpha1 + angle.sample(rng),
-            alpha2: g.alpha2 + angle.sample(rng),
-            v0: tilt(&g.v0, spread.axis_tilt, rng),
-            delta: g.delta + offset.sample(rng),
-            home_branch: g.home_branch,
-        }
-    })
+impl GeometrySpread {
+    /// A geometry drawn around `nominal`: axes tilted, link angles and offsets shifted. `z` is
+    /// re-orthogonalised against the moved `u`, as the conventions require.
+    ///
+    /// # Panics
+    /// If a spread is infinite (a NaN or negative one counts as 0).
+    pub fn perturb<R: Rng + ?Sized>(&self, nominal: &[LegGeometry; 3], rng: &mut R) -> [LegGeometry; 3] {
+        let angle = Normal::new(0.0, self.link_angle.max(0.0)).expect("finite deviation");
+        let offset = Normal::new(0.0, self.joint_offset.max(0.0)).expect("finite deviation");
+        nominal.map(|g| {
+            let u = tilt(&g.u, self.axis_tilt, rng);
+            LegGeometry {
+                u,
+                z: (g.z - u * u.dot(&g.z)).normalize(),
+                alpha1: g.alpha1 + angle.sample(rng),
+                alpha2: g.alpha2 + angle.sample(rng),
+                v0: tilt(&g.v0, self.axis_tilt, rng),
+                delta: g.delta + offset.sample(rng),
+                home_branch: g.home_branch,
+            }
+        })
+    }
 }

@@ -144,12 +144,17 @@ impl Jacobians {
     pub fn forward(&self) -> Option<Matrix3<f64>> {
         self.a.try_inverse().map(|ai| ai * self.b)
     }
+
+    /// Conditioning index of `A` in `[0, 1]` (0 at a parallel singularity): see [`conditioning_index`].
+    pub fn conditioning(&self) -> f64 {
+        conditioning_index(&self.a)
+    }
 }
 
 /// Conditioning index `1/κ_F(M) = 3 / (‖M‖_F ‖M⁻¹‖_F)` in `[0, 1]`: 1 for a multiple of an
 /// orthogonal matrix, 0 when singular. The Frobenius condition number is Angeles' choice for
 /// manipulator dexterity and costs one 3×3 inverse, which the haptic path computes anyway.
-pub fn conditioning_index(m: &Matrix3<f64>) -> f64 {
+pub(crate) fn conditioning_index(m: &Matrix3<f64>) -> f64 {
     match m.try_inverse() {
         Some(inv) => (3.0 / (m.norm() * inv.norm())).min(1.0),
         None => 0.0,
@@ -239,7 +244,7 @@ impl Spm {
         if let Some(leg) = (0..3).find(|&i| margins[i].abs() < minimum) {
             return Err(SpmError::HomeNearSerialSingularity { leg, margin: margins[leg].abs(), minimum });
         }
-        let conditioning = conditioning_index(&self.jacobians(&self.home_joints, &home).a);
+        let conditioning = self.jacobians(&self.home_joints, &home).conditioning();
         let minimum = self.settings.min_conditioning;
         if conditioning < minimum {
             return Err(SpmError::HomeNearParallelSingularity { conditioning, minimum });
@@ -372,7 +377,7 @@ impl Spm {
 
     /// Reject a pose that is near a parallel singularity or has a leg off the working branch.
     fn check_pose(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Result<(), FdaError> {
-        let conditioning = conditioning_index(&self.jacobians(joints, r).a);
+        let conditioning = self.jacobians(joints, r).conditioning();
         if conditioning < self.settings.min_conditioning {
             return Err(FdaError::NearSingular { conditioning });
         }
@@ -474,7 +479,7 @@ impl Spm {
         r: &Rotation3<f64>,
     ) -> Result<Rotation3<f64>, FdaError> {
         let jac = self.jacobians(from, r);
-        let conditioning = conditioning_index(&jac.a);
+        let conditioning = jac.conditioning();
         if conditioning < self.settings.min_conditioning {
             return Err(FdaError::NearSingular { conditioning });
         }

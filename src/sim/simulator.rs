@@ -17,7 +17,6 @@ use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, 
 use crate::math::so3;
 use crate::model::{
     Body, CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
-    conditioning_index, perturb,
 };
 
 /// What a simulation did, for reports and `--json`.
@@ -188,7 +187,7 @@ fn workspace_check(
     r: &Rotation3<f64>,
 ) -> Result<Vector3<f64>, Rejection> {
     let joints = spm.ik(r).map_err(Rejection::Unreachable)?;
-    let conditioning = conditioning_index(&spm.jacobians(&joints, r).a);
+    let conditioning = spm.jacobians(&joints, r).conditioning();
     let margins = spm.branch_margins(&joints, r);
     if conditioning < workspace.min_conditioning || margins.max() > -workspace.min_branch_margin {
         let leg = margins.argmax().0;
@@ -320,7 +319,7 @@ impl SimConfig {
             link_angle: t.link_angle_deg.to_radians(),
             joint_offset: t.joint_offset_deg.to_radians(),
         };
-        let spm = Spm::new(perturb(model.spm.geometry(), &spread, &mut rng))?;
+        let spm = Spm::new(spread.perturb(model.spm.geometry(), &mut rng))?;
         let nominal = self.camera.looking_down();
         let position = Normal::new(0.0, t.camera_position_m).expect("validated deviation");
         let camera_centre =
