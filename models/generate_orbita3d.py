@@ -46,7 +46,7 @@ def rpy_aligning_z(d):
     return 0.0, math.atan2(math.hypot(d[0], d[1]), d[2]), math.atan2(d[1], d[0])
 
 
-def f(x): return f"{x:.12f}".rstrip("0").rstrip(".") if abs(x) > 1e-12 else "0"
+def f(x): return f"{x:.15g}" if abs(x) > 1e-15 else "0"
 def fv(a): return " ".join(f(x) for x in a)
 
 

@@ -12,6 +12,7 @@ fn main() -> ExitCode {
     cli::exit(match Cli::parse().command {
         Command::Ik(args) => cli::ik::run(args),
         Command::Fda(args) => cli::fda::run(args),
+        Command::Check(args) => cli::check::run(args),
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Estimate(args) => cli::estimate::run(args),
         Command::Calibrate(args) => cli::calibrate::run(args),

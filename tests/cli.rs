@@ -294,3 +294,27 @@ fn export_writes_a_urdf_and_companion_that_drive_fda_as_the_parameters_file_does
     let err = spmcal(&["export", "--params", params.to_str().unwrap(), "--urdf", missing.to_str().unwrap()]);
     assert!(!err.status.success() && String::from_utf8_lossy(&err.stderr).contains("no/such/folder"));
 }
+
+#[test]
+fn check_describes_a_model_its_home_branches_and_its_workspace() {
+    let out = spmcal(&["check", "--model", "models/orbita3d.urdf"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("a coaxial SPM") && text.matches("+ positive").count() == 3, "{text}");
+    assert!(text.contains("3757 of 3757 orientations regular") && text.contains("problems: none"), "{text}");
+
+    // The Agile Wrist over more workspace than it has: the problem is said, with numbers.
+    let out = spmcal(&["check", "--max-tilt-deg", "80", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let results = &json["results"];
+    assert_eq!(results["legs"][0]["home_branch"], "negative");
+    let (regular, total) = (results["regular"].as_u64().unwrap(), results["orientations"].as_u64().unwrap());
+    assert!(regular < total, "{results}");
+    let problems = results["problems"].as_array().unwrap();
+    assert!(problems.iter().any(|p| p.as_str().unwrap().contains(&format!("{} of the {total}", total - regular))));
+
+    let out = spmcal(&["check", "--max-tilt-deg", "120"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--max-tilt-deg 120 is outside [0, 90]"));
+}

@@ -5,6 +5,7 @@
 
 pub(crate) mod args;
 pub(crate) mod calibrate;
+pub(crate) mod check;
 pub(crate) mod compare;
 pub(crate) mod envelope;
 pub(crate) mod estimate;
@@ -22,6 +23,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use calibrate::CalibrateArgs;
+use check::CheckArgs;
 use compare::CompareArgs;
 use estimate::EstimateArgs;
 use export::ExportArgs;
@@ -45,6 +47,8 @@ pub(crate) enum Command {
     Ik(IkArgs),
     /// Forward displacement analysis: joint readings in, MP orientations out.
     Fda(FdaArgs),
+    /// Load a model and say what it is: geometry, home branches, conditioning over a workspace, problems.
+    Check(CheckArgs),
     /// Simulate a session with ground truth (true geometry, stereo camera, occlusion, collisions).
     Simulate(SimulateArgs),
     /// Estimate the MP orientation of every pose of a session from its markers.

@@ -15,6 +15,8 @@ mod params;
 mod perturb;
 mod spm;
 #[cfg(feature = "full")]
+mod survey;
+#[cfg(feature = "full")]
 mod urdf;
 #[cfg(feature = "full")]
 mod urdf_check;
@@ -29,5 +31,7 @@ pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters
 #[cfg(feature = "full")]
 pub use perturb::GeometrySpread;
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
+#[cfg(feature = "full")]
+pub use survey::ModelSurvey;
 #[cfg(feature = "full")]
 pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape};
