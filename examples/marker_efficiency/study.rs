@@ -28,6 +28,9 @@ pub struct SessionResult {
     pub cramer_rao_deg: f64,
     /// Marker observations fitted.
     pub observations: usize,
+    /// Of the marker-level fit's parameters with a standard error, how many lie within three of
+    /// them of the truth (in the fit's gauge), and how many there are: honest σ's put ~99.7% inside.
+    pub within_3_sigma: (usize, usize),
 }
 
 /// Random orientations of the workspace (tilt ≤ 30°, yaw ≤ 30°) that `truth` reaches.
@@ -144,13 +147,29 @@ pub fn run_session(config: &SimConfig, model: &RobotModel, seed: u64, tests: usi
     let camera = truth.parameters.camera.expect("a simulated camera");
     let gauge =
         TruthInGauge::new(&fitted.parameterisation, &truth.parameters.legs, &camera.rotation, &Rotation3::identity());
+    let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
+    let in_gauge = TruthInGauge::for_markers(&fitted.parameterisation, &truth.parameters.legs, &camera, &true_markers);
     SessionResult {
         markers_deg: calibration_error(&session, &fitted, &tests),
         orientations_deg: by_orientation.as_ref().map(|c| calibration_error(&session, c, &tests)),
         nominal_deg: workspace_error(model.spm.geometry(), &spm_true, &gauge, &tests),
         cramer_rao_deg: cramer_rao(&session, model, &c, &tests),
         observations: fitted.report.markers.as_ref().map_or(0, |m| m.observations),
+        within_3_sigma: within_3_sigma(&fitted, &in_gauge.x),
     }
+}
+
+/// How many of `calibration`'s parameters with a standard error lie within three of them of
+/// `truth` (the true parameters in its gauge), out of how many.
+fn within_3_sigma(calibration: &Calibration, truth: &DVector<f64>) -> (usize, usize) {
+    let x = &calibration.calibrated.x;
+    let z: Vec<f64> = (0..x.len())
+        .filter_map(|i| {
+            let sigma = calibration.covariance[(i, i)].sqrt();
+            (sigma.is_finite() && sigma > 0.0).then(|| ((x[i] - truth[i]) / sigma).abs())
+        })
+        .collect();
+    (z.iter().filter(|z| **z <= 3.0).count(), z.len())
 }
 
 /// RMS over sessions of per-session RMS figures.

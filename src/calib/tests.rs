@@ -257,7 +257,34 @@ fn marker_data_leave_free_only_the_two_rotation_gauges() {
     // the v0's): the augmented rank stays that of the gauge-fixed set, and exactly six directions
     // are null. Everything else — t_CB and every marker included — is identified.
     let (session, model) = simulated(200, 13, false);
-    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    assert_only_the_gauges_are_free(&session, &model);
+}
+
+#[test]
+fn a_coaxial_spm_leaves_free_only_its_own_gauges() {
+    // Orbita3d: one line carries the three actuated axes, so a turn of B about it moves every
+    // zero direction — with the offsets — and the plane of u_1, u_2 is undefined. Leg 1's offset
+    // fixes that turn instead; the six directions are again exactly the null ones.
+    let mut config = SimConfig::read(Path::new("configs/simulate_orbita3d.yaml")).unwrap();
+    (config.poses, config.seed) = (200, 13);
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() },
+        &[],
+        &[],
+        &CalibConfig::default().bounds,
+    );
+    let names: Vec<&str> = p.entries.iter().map(|e| e.name.as_str()).collect();
+    assert!(!names.contains(&"leg1.delta") && names.contains(&"leg2.u_tilt2"), "{names:?}");
+    assert_only_the_gauges_are_free(&session, &model);
+}
+
+/// The marker-level calibration of `session` identifies all 33 parameters, and the six directions
+/// its parameterisation fixes add nothing: exactly six null directions.
+fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
+    let calibration = calibrate(session, model, &CalibConfig::default(), &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
     assert_eq!((id.rank, id.parameters), (33, 33), "{id:?}");
     let p = &calibration.parameterisation;
@@ -333,8 +360,9 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
 
 /// The six directions the parameterisation fixes (the gauge), as extra Jacobian columns: `jac`
 /// with six columns added: the central-difference derivatives of the residuals along tilts
-/// of `u_1` (2), of `u_2` out of its plane with `u_1` (1), of `v0_1` (2) and of `v0_2` out of its
-/// plane (1). `residuals_of` evaluates the model with the legs so moved.
+/// of `u_1` (2), of `u_2` out of its plane with `u_1` (1; for a coaxial SPM, a turn of leg 1's
+/// zero direction about `u_1`, which its fixed offset holds), of `v0_1` (2) and of `v0_2` out of
+/// its plane (1). `residuals_of` evaluates the model with the legs so moved.
 fn augmented_with_gauge(
     jac: &DMatrix<f64>,
     legs: &[LegGeometry; 3],
@@ -342,15 +370,20 @@ fn augmented_with_gauge(
 ) -> DMatrix<f64> {
     let g = legs;
     let tangent = |a: &Vector3<f64>| {
-        let e1 = a.cross(&Vector3::z()).normalize();
+        let hint = if a.z.abs() < 0.9 { Vector3::z() } else { Vector3::x() };
+        let e1 = a.cross(&hint).normalize();
         [e1, a.cross(&e1)]
     };
-    let n12 = g[0].u.cross(&g[1].u).normalize();
+    let n12 = g[0].u.cross(&g[1].u);
     let m12 = g[0].v0.cross(&g[1].v0).normalize();
+    let base_turn = match n12.norm() < 1e-6 {
+        true => (true, 0, g[0].u),
+        false => (true, 1, g[1].u.cross(&n12.normalize()).normalize()),
+    };
     let moves = [
         (true, 0, tangent(&g[0].u)[0]),
         (true, 0, tangent(&g[0].u)[1]),
-        (true, 1, g[1].u.cross(&n12).normalize()),
+        base_turn,
         (false, 0, tangent(&g[0].v0)[0]),
         (false, 0, tangent(&g[0].v0)[1]),
         (false, 1, g[1].v0.cross(&m12).normalize()),
