@@ -322,11 +322,10 @@ proptest! {
             // Each label is the sign of (u×w)·v; a leg exactly at a serial singularity in this
             // mode (the symmetric designs have such modes) has no sign to compare.
             let label: Vec<char> = m.branch_label(&home).chars().collect();
-            for i in 0..3 {
-                let g = &spm.geometry()[i];
-                let value = g.u.cross(&spm.intermediate_axes(joints)[i]).dot(&(m.rotation * g.v0));
+            for ((g, w), sign) in spm.geometry().iter().zip(spm.intermediate_axes(joints)).zip(label) {
+                let value = g.u.cross(&w).dot(&(m.rotation * g.v0));
                 if value.abs() > 1e-9 {
-                    prop_assert_eq!(label[i], if value < 0.0 { '-' } else { '+' });
+                    prop_assert_eq!(sign, if value < 0.0 { '-' } else { '+' });
                 }
             }
         }
