@@ -101,6 +101,9 @@ fn resultant(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [f64; 9] {
 /// Real roots of `Σ c_k t^k` from the eigenvalues of the companion matrix, after scaling `t` so
 /// that the extreme coefficients balance. Roots with an imaginary part below `1e-5 (1 + |t|)` count
 /// as real: a near-double root splits into such a pair by rounding, and Newton polishing decides.
+/// So does a root whose imaginary part comes back NaN: nalgebra's Schur form gives a 2×2 block at a
+/// double real root a NaN imaginary part (two modes sharing leg 1's platform axis, as symmetric
+/// designs have; the Agile Wrist with reversed platform axes lost its working mode to it).
 pub(crate) fn real_roots(coefficients: &[f64]) -> Vec<f64> {
     let scale = coefficients.iter().fold(0.0_f64, |m, c| m.max(c.abs()));
     let mut c: Vec<f64> = coefficients.to_vec();
@@ -124,7 +127,7 @@ pub(crate) fn real_roots(coefficients: &[f64]) -> Vec<f64> {
     companion
         .complex_eigenvalues()
         .iter()
-        .filter(|z| z.im.abs() <= 1e-5 * (1.0 + z.re.abs()))
+        .filter(|z| z.re.is_finite() && !(z.im.abs() > 1e-5 * (1.0 + z.re.abs())))
         .map(|z| z.re * rho)
         .collect()
 }
@@ -138,29 +141,13 @@ impl Spm {
             return Vec::new();
         }
         let w = self.intermediate_axes(joints);
-        let mut modes: Vec<AssemblyMode> = Vec::with_capacity(8);
-        // A root of the octic near ψ1 = π sits near t1 = ∞, where its leading coefficient vanishes
-        // and the root is lost; symmetric designs put solutions exactly there (the Agile Wrist with
-        // its platform axes reversed lost its working mode). A second pass with leg 1's cone
-        // angle measured from another origin moves those roots to finite t1.
-        for origin in [0.0, 1.0] {
-            self.solve_octic(&w, joints, origin, &mut modes);
-        }
-        // Distance from home grows as the trace falls: sort on the trace, largest first.
-        modes.sort_by(|a, b| b.rotation.matrix().trace().total_cmp(&a.rotation.matrix().trace()));
-        modes
-    }
-
-    /// The solutions found through the octic in `t1 = tan((ψ1 − origin)/2)`, added to `modes`.
-    fn solve_octic(&self, w: &[Vector3<f64>; 3], joints: &Vector3<f64>, origin: f64, modes: &mut Vec<AssemblyMode>) {
-        let cone = |i: usize, turn: f64| -> [Vector3<f64>; 3] {
+        let cone = |i: usize| -> [Vector3<f64>; 3] {
             let leg = &self.legs[i];
             let p = w[i].cross(&leg.u).normalize();
             let q = w[i].cross(&p);
-            let (s, c) = turn.sin_cos();
-            [w[i] * leg.cos_a2, (p * c + q * s) * leg.sin_a2, (q * c - p * s) * leg.sin_a2]
+            [w[i] * leg.cos_a2, p * leg.sin_a2, q * leg.sin_a2]
         };
-        let (e1, e2) = (cone(0, origin), cone(1, 0.0));
+        let (e1, e2) = (cone(0), cone(1));
         let (v01, v02, v03) = (self.legs[0].v0, self.legs[1].v0, self.legs[2].v0);
         let k12 = v01.dot(&v02);
         let s12 = v01.cross(&v02).norm();
@@ -185,14 +172,19 @@ impl Spm {
         let octic = resultant(&to_half_angle(&first), &to_half_angle(&second));
         let mut psi1s: Vec<f64> = real_roots(&octic).into_iter().map(|t| 2.0 * t.atan()).collect();
         psi1s.push(std::f64::consts::PI);
+
+        let mut modes: Vec<AssemblyMode> = Vec::with_capacity(8);
         for psi1 in psi1s {
             for psi2 in second_angles(&first, &second, psi1) {
                 let v1 = e1[0] + e1[1] * psi1.cos() + e1[2] * psi1.sin();
                 let v2 = e2[0] + e2[1] * psi2.cos() + e2[2] * psi2.sin();
                 let guess = Rotation3::from_matrix_unchecked(so3::pair_frame(&v1, &v2) * frame0.transpose());
-                self.add_polished(w, joints, &guess, modes);
+                self.add_polished(&w, joints, &guess, &mut modes);
             }
         }
+        // Distance from home grows as the trace falls: sort on the trace, largest first.
+        modes.sort_by(|a, b| b.rotation.matrix().trace().total_cmp(&a.rotation.matrix().trace()));
+        modes
     }
 
     /// Polish `guess` by Newton; keep it if it converged and is not already listed.
