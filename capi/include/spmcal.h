@@ -39,7 +39,9 @@ extern "C" {
 const char *spmcal_last_error(void);
 
 // Load the parameters file at `path` (UTF-8, null-terminated) into `*model`. Free it with
-// [`spmcal_model_free`].
+// [`spmcal_model_free`]. The file carries each leg's home branch (`home_branch`), so the working
+// mode that `spmcal_forward`, `spmcal_track` and `spmcal_ik` keep is the model's own, whichever
+// sign its home has (the Agile Wrist's legs are negative, Orbita3d's positive).
 //
 // # Safety
 // `path` must be a valid null-terminated string and `model` a valid pointer to write to.

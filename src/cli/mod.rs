@@ -33,7 +33,7 @@ use plan::PlanArgs;
 use replay::ReplayArgs;
 use simulate::SimulateArgs;
 
-/// Calibration of spherical parallel manipulators (the Agile Wrist) from joints and camera markers.
+/// Calibration of spherical parallel manipulators (the Agile Wrist, Orbita3d, any SPM a URDF describes) from joints and camera markers.
 #[derive(Parser)]
 #[command(name = "spmcal", version, about)]
 pub(crate) struct Cli {
