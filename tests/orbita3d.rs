@@ -221,3 +221,24 @@ fn the_shipped_orbita3d_session_calibrates_and_passes() {
     assert!(report.verdict.pass, "{:?}", report.verdict);
     assert_eq!(calibration.parameters.legs.map(|g| g.home_branch), [HomeBranch::Positive; 3]);
 }
+
+#[test]
+fn plan_simulate_calibrate_and_export_work_for_orbita3d_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal")).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let config = "configs/simulate_orbita3d.yaml";
+    let text = run(&["plan", "--poses", "30", "--model", MODEL, "--config", config, "--out", &path("plan.csv")]);
+    assert!(text.contains("plan efficiency"), "{text}");
+    run(&["simulate", "--config", config, "--plan", &path("plan.csv"), "--out", &path("session")]);
+    run(&["calibrate", "--dataset", &path("session"), "--out", &path("params.yaml")]);
+    let params = Parameters::read(Path::new(&path("params.yaml"))).unwrap();
+    assert_eq!(params.legs.map(|g| g.home_branch), [HomeBranch::Positive; 3]);
+    run(&["export", "--params", &path("params.yaml"), "--urdf", &path("calibrated.urdf")]);
+    let exported = RobotModel::load(Path::new(&path("calibrated.urdf"))).unwrap();
+    assert_eq!(exported.spm.home_branches(), [HomeBranch::Positive; 3]);
+}
