@@ -174,9 +174,11 @@ fn usable(layout: Layout, seed: u64) -> Option<(Spm, Drawn)> {
     }
 }
 
-/// The orientations `exp(t ω)` for `t = k/steps` that IK reaches regularly (every margin and the
-/// conditioning above 0.1), with their joint readings, up to the first that it does not.
-fn regular_path(spm: &Spm, omega: &Vector3<f64>, steps: usize) -> Vec<(Rotation3<f64>, Vector3<f64>)> {
+/// The orientations `exp(t ω)` for `t = k/steps`, `ω` of length `angle` about a direction drawn
+/// from `axis_seed`, that IK reaches regularly (every margin and the conditioning above 0.1), with
+/// their joint readings, up to the first that it does not.
+fn regular_path(spm: &Spm, axis_seed: u64, angle: f64, steps: usize) -> Vec<(Rotation3<f64>, Vector3<f64>)> {
+    let omega = direction(&mut StdRng::seed_from_u64(axis_seed)) * angle;
     let mut path = Vec::new();
     for k in 0..=steps {
         let r = so3::exp(&(omega * (k as f64 / steps as f64)));
@@ -273,8 +275,7 @@ proptest! {
         kind in 0u8..4, seed in 0u64..1_000_000, axis_seed in 0u64..1000, angle in 0.05..0.6f64,
     ) {
         let Some((spm, _)) = usable(layout(kind), seed) else { return Ok(()) };
-        let omega = direction(&mut StdRng::seed_from_u64(axis_seed)) * angle;
-        let path = regular_path(&spm, &omega, 24);
+        let path = regular_path(&spm, axis_seed, angle, 24);
         prop_assume!(path.len() > 1);
         for (k, (r, joints)) in path.iter().enumerate() {
             prop_assert!(spm.closure_residual(joints, r).amax() < 1e-12);
@@ -309,10 +310,8 @@ proptest! {
         kind in 0u8..4, seed in 0u64..1_000_000, axis_seed in 0u64..1000, angle in 0.0..0.5f64,
     ) {
         let Some((spm, _)) = usable(layout(kind), seed) else { return Ok(()) };
-        let omega = direction(&mut StdRng::seed_from_u64(axis_seed)) * angle;
-        let path = regular_path(&spm, &omega, 12);
-        prop_assume!(!path.is_empty());
-        let (r, joints) = path.last().unwrap();
+        let Some((r, joints)) = regular_path(&spm, axis_seed, angle, 12).pop() else { return Err(TestCaseError::reject("no regular pose")) };
+        let (r, joints) = (&r, &joints);
         let modes = spm.all_modes(joints);
         prop_assert!(!modes.is_empty() && modes.len() <= 8, "{} modes", modes.len());
         let home = spm.home_branches();
@@ -344,10 +343,8 @@ proptest! {
         kind in 0u8..4, seed in 0u64..1_000_000, axis_seed in 0u64..1000, angle in 0.0..0.5f64,
     ) {
         let Some((spm, _)) = usable(layout(kind), seed) else { return Ok(()) };
-        let omega = direction(&mut StdRng::seed_from_u64(axis_seed)) * angle;
-        let path = regular_path(&spm, &omega, 12);
-        prop_assume!(!path.is_empty());
-        let (r, joints) = path.last().unwrap();
+        let Some((r, joints)) = regular_path(&spm, axis_seed, angle, 12).pop() else { return Err(TestCaseError::reject("no regular pose")) };
+        let (r, joints) = (&r, &joints);
         let j = spm.jacobians(joints, r).forward().unwrap();
         let h = 1e-6;
         for k in 0..3 {

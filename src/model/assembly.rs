@@ -127,7 +127,7 @@ pub(crate) fn real_roots(coefficients: &[f64]) -> Vec<f64> {
     companion
         .complex_eigenvalues()
         .iter()
-        .filter(|z| z.re.is_finite() && !(z.im.abs() > 1e-5 * (1.0 + z.re.abs())))
+        .filter(|z| z.re.is_finite() && (z.im.is_nan() || z.im.abs() <= 1e-5 * (1.0 + z.re.abs())))
         .map(|z| z.re * rho)
         .collect()
 }
