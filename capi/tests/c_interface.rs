@@ -33,7 +33,11 @@ fn a_c_program_tracks_ten_thousand_steps_without_allocating_and_matches_rust_bit
     }
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
     let library = build_dir().join("libspmcal_c.a");
-    assert!(library.exists(), "{} not built", library.display());
+    assert!(
+        library.exists(),
+        "{} not built: `cargo build --release -p spmcal-c` first (.ci/run does)",
+        library.display()
+    );
     let dir = tempfile_dir();
     let program = dir.join("track");
     let compiled = Command::new(&compiler)
