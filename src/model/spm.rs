@@ -146,7 +146,8 @@ impl Jacobians {
         self.a.try_inverse().map(|ai| ai * self.b)
     }
 
-    /// Conditioning index of `A` in `[0, 1]` (0 at a parallel singularity): see [`conditioning_index`].
+    /// Conditioning index `1/κ_F(A) = 3 / (‖A‖_F ‖A⁻¹‖_F)` in `[0, 1]`: 1 for a multiple of an
+    /// orthogonal matrix, 0 at a parallel singularity (Angeles' dexterity measure).
     pub fn conditioning(&self) -> f64 {
         conditioning_index(&self.a)
     }
