@@ -127,7 +127,10 @@ pub(crate) fn real_roots(coefficients: &[f64]) -> Vec<f64> {
     companion
         .complex_eigenvalues()
         .iter()
-        .filter(|z| z.re.is_finite() && !(z.im.abs() > 1e-5 * (1.0 + z.re.abs())))
+        .filter(|z| {
+            z.re.is_finite()
+                && z.im.abs().partial_cmp(&(1e-5 * (1.0 + z.re.abs()))) != Some(std::cmp::Ordering::Greater)
+        })
         .map(|z| z.re * rho)
         .collect()
 }

@@ -376,6 +376,16 @@ impl Scene<'_> {
             series.push(marker_series("calibrated", calibration, &after));
             series.extend(marker_residuals(session, calibration, &after));
         }
+        // The report's predicted error of the calibrated model at each pose (the same figures as
+        // `--json`'s `predicted_error_deg` / `predicted_error_mm`).
+        let report = &calibration.report;
+        for (name, predicted) in
+            [("predicted_error_deg", &report.predicted_error_deg), ("predicted_error_mm", &report.predicted_error_mm)]
+        {
+            if let Some(e) = predicted {
+                series.push(Series { name: name.into(), values: e.per_pose.iter().copied().collect() });
+            }
+        }
         let fitted_markers = (!marker_observations_of(calibration).is_empty())
             .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
         let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
