@@ -156,6 +156,24 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
             e.rms, e.interval_90[0], e.interval_90[1], e.max
         )?;
     }
+    if let Some(e) = r.predicted_error_deg.as_ref().filter(|e| e.by_region.len() > 1) {
+        writeln!(f, "  by region of the workspace (deg RMS / worst, poses):")?;
+        for g in &e.by_region {
+            let band = |b: [f64; 2]| match b[1].is_finite() {
+                true => format!("{:.0}–{:.0}°", b[0], b[1]),
+                false => format!("> {:.0}°", b[0]),
+            };
+            writeln!(
+                f,
+                "    tilt {:<7} |yaw| {:<7} {:.4} / {:.4} ({})",
+                band(g.tilt_deg),
+                band(g.yaw_deg),
+                g.rms,
+                g.worst,
+                g.poses
+            )?;
+        }
+    }
     if let Some((cv, expected)) = r.cross_validation.as_ref().and_then(|cv| Some((cv, cv.expected_rms?))) {
         let unit = cv.unit;
         let se = cv.calibrated_ms_std_error / (2.0 * cv.calibrated_rms.max(f64::MIN_POSITIVE));

@@ -179,6 +179,53 @@ pub struct PredictedError {
     pub effective_dof: f64,
     /// `(pose, expected RMS)` of each pose (the RMS over its markers at the marker level).
     pub per_pose: Vec<(u64, f64)>,
+    /// The map over the workspace: the poses' figures by band of tilt and of |yaw| (10° bands),
+    /// where to add poses.
+    pub by_region: Vec<RegionError>,
+}
+
+/// The predicted error over one band of tilt and |yaw| of the session's poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RegionError {
+    /// Tilt band, degrees (`[30, inf]` for the last).
+    pub tilt_deg: [f64; 2],
+    /// |Yaw| band, degrees.
+    pub yaw_deg: [f64; 2],
+    /// Poses in it.
+    pub poses: usize,
+    /// RMS of their predicted errors.
+    pub rms: f64,
+    /// The worst of them.
+    pub worst: f64,
+}
+
+/// The 10° bands of the map: 0–10, 10–20, 20–30, beyond.
+const BANDS: [f64; 5] = [0.0, 10.0, 20.0, 30.0, f64::INFINITY];
+
+/// The per-pose figures `values` of poses at `orientations`, by band of tilt and |yaw|.
+fn by_region(orientations: &[nalgebra::Rotation3<f64>], values: &[f64]) -> Vec<RegionError> {
+    let band = |x: f64| BANDS.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
+    let mut cells = [[(0.0f64, 0.0f64, 0usize); 4]; 4];
+    for (r, v) in orientations.iter().zip(values) {
+        let (tilt, yaw) = crate::math::so3::tilt_and_yaw(r);
+        let cell = &mut cells[band(tilt)][band(yaw)];
+        *cell = (cell.0 + v * v, cell.1.max(*v), cell.2 + 1);
+    }
+    let mut out = Vec::new();
+    for (t, row) in cells.iter().enumerate() {
+        for (y, &(sum, worst, poses)) in row.iter().enumerate() {
+            if poses > 0 {
+                out.push(RegionError {
+                    tilt_deg: [BANDS[t], BANDS[t + 1]],
+                    yaw_deg: [BANDS[y], BANDS[y + 1]],
+                    poses,
+                    rms: (sum / poses as f64).sqrt(),
+                    worst,
+                });
+            }
+        }
+    }
+    out
 }
 
 impl PredictedError {
@@ -204,6 +251,7 @@ impl PredictedError {
             interval_90: [rms * quantile(-1.645).sqrt(), rms * quantile(1.645).sqrt()],
             effective_dof: k,
             per_pose,
+            by_region: Vec::new(),
         })
     }
 }
@@ -222,10 +270,42 @@ pub(crate) fn predicted_orientation_error(
     fda: &[bool],
     cov: &DMatrix<f64>,
 ) -> Option<PredictedError> {
-    if sens.is_empty() || sens.len() != orientations.len() || sens.len() != poses.len() {
+    if sens.is_empty() || sens.len() != poses.len() {
         return None;
     }
     let n = cov.ncols();
+    let projected = project_common_rotations(sens, orientations, fda)?;
+    let mut q = DMatrix::<f64>::zeros(n, n);
+    let per_pose_ms: Vec<f64> = projected
+        .iter()
+        .map(|s| {
+            q += s.transpose() * s;
+            (s * cov * s.transpose()).trace().max(0.0)
+        })
+        .collect();
+    let per_pose: Vec<(u64, f64)> =
+        poses.iter().zip(&per_pose_ms).map(|(&p, ms)| (p, ms.sqrt().to_degrees())).collect();
+    let values: Vec<f64> = per_pose.iter().map(|(_, v)| *v).collect();
+    let mut predicted = PredictedError::of(per_pose, &(q / per_pose_ms.len() as f64 * cov), 1f64.to_degrees())?;
+    predicted.by_region = by_region(orientations, &values);
+    Some(predicted)
+}
+
+/// The orientation sensitivities `sens` (`∂ω/∂x` in B, 3 × N, one per pose at `orientations`)
+/// restricted to the columns `fda` and with the rotations common to every pose projected out:
+/// `S̃_j = S_j − [I R_j] C`, `C = (Σ Bᵀ B)⁺ Σ Bᵀ S` — a base rotation ψ_B and a platform rotation
+/// ψ_P common to every pose move pose j by `ψ_B + R_j ψ_P`, and no measurement sees them (the
+/// camera registration and the markers carry them). `None` when the lengths differ or the
+/// projection fails.
+pub(crate) fn project_common_rotations(
+    sens: &[DMatrix<f64>],
+    orientations: &[nalgebra::Rotation3<f64>],
+    fda: &[bool],
+) -> Option<Vec<DMatrix<f64>>> {
+    if sens.is_empty() || sens.len() != orientations.len() {
+        return None;
+    }
+    let n = sens[0].ncols();
     let mask = |s: &DMatrix<f64>| {
         let mut s = s.clone();
         for (i, keep) in fda.iter().enumerate() {
@@ -249,18 +329,7 @@ pub(crate) fn predicted_orientation_error(
         bts += b.transpose() * s;
     }
     let common = btb.pseudo_inverse(1e-10).ok()? * bts;
-    let mut q = DMatrix::<f64>::zeros(n, n);
-    let per_pose_ms: Vec<f64> = sens
-        .iter()
-        .zip(orientations)
-        .map(|(s, r)| {
-            let projected = s - design(r) * &common;
-            q += projected.transpose() * &projected;
-            (&projected * cov * projected.transpose()).trace().max(0.0)
-        })
-        .collect();
-    let per_pose = poses.iter().zip(&per_pose_ms).map(|(&p, ms)| (p, ms.sqrt().to_degrees())).collect();
-    PredictedError::of(per_pose, &(q / per_pose_ms.len() as f64 * cov), 1f64.to_degrees())
+    Some(sens.iter().zip(orientations).map(|(s, r)| s - design(r) * &common).collect())
 }
 
 /// The expected squared prediction error (unit², of each residual): `tr(J_j Cov J_jᵀ)`.
@@ -282,31 +351,36 @@ pub(crate) fn predicted_marker_error<N>(
     outcome: &FitOutcome<N>,
     cov: &DMatrix<f64>,
     poses: &[u64],
+    orientation_of: impl Fn(usize) -> nalgebra::Rotation3<f64>,
 ) -> Option<PredictedError> {
     let ms = residual_mean_squares(outcome, cov)?;
     if ms.is_empty() || ms.len() != poses.len() {
         return None;
     }
-    let mut order: Vec<u64> = Vec::new();
+    let (mut order, mut rotations) = (Vec::new(), Vec::new());
     let mut sums: std::collections::HashMap<u64, (f64, usize)> = std::collections::HashMap::new();
-    for (&p, &v) in poses.iter().zip(&ms) {
+    for (j, (&p, &v)) in poses.iter().zip(&ms).enumerate() {
         let e = sums.entry(p).or_insert_with(|| {
             order.push(p);
+            rotations.push(orientation_of(j));
             (0.0, 0)
         });
         e.0 += v;
         e.1 += 1;
     }
-    let per_pose = order
+    let per_pose: Vec<(u64, f64)> = order
         .iter()
         .map(|p| {
             let (s, c) = sums[p];
             (*p, (s / c as f64).sqrt() * 1e3)
         })
         .collect();
+    let values: Vec<f64> = per_pose.iter().map(|(_, v)| *v).collect();
     let jac = outcome.evaluation.jacobian.as_ref()?;
     let q = jac.tr_mul(jac) / ms.len() as f64;
-    PredictedError::of(per_pose, &(q * cov), 1e3)
+    let mut predicted = PredictedError::of(per_pose, &(q * cov), 1e3)?;
+    predicted.by_region = by_region(&rotations, &values);
+    Some(predicted)
 }
 
 /// The noise's expected squared norm (unit²) of each residual: `σ̂² tr(Σ_j)`, `Σ_j = (W_jᵀ W_j)⁻¹`

@@ -183,7 +183,8 @@ impl Level for MarkerLevel<'_> {
             .as_ref()
             .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
-        report.predicted_error_mm = predicted_marker_error(&r.calibrated, cov, &observation_poses);
+        report.predicted_error_mm =
+            predicted_marker_error(&r.calibrated, cov, &observation_poses, |j| eval.orientations[r.model.pose_of(j)]);
         report.camera_translation_m = Some(camera.translation.into());
         report.camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
             Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
