@@ -52,6 +52,7 @@ impl Calibration {
             mark.1,
             escape(&sentence)
         );
+        html += &predicted(report);
         let plots = [
             ("per-pose", per_pose(self)),
             ("residuals", residuals(self)),
@@ -83,6 +84,37 @@ const STYLE: &str = "body{font-family:sans-serif;max-width:960px;margin:2em auto
     .pass{background:#e6f4ea;border-left:6px solid #2e7d32;padding:.8em}\
     .warn{background:#fff4e5;border-left:6px solid #ef6c00;padding:.8em}\
     .meta{color:#666}pre{background:#f6f6f6;padding:1em;overflow-x:auto;font-size:12px}svg{display:block}";
+
+/// The predicted error on unseen poses beside the cross-validated one, as the text report says it.
+fn predicted(report: &crate::calib::CalibrationReport) -> String {
+    let mut out = String::new();
+    for (e, unit) in [(&report.predicted_error_deg, "°"), (&report.predicted_error_mm, " mm")] {
+        if let Some(e) = e {
+            let _ = write!(
+                out,
+                "<p>Predicted error of the calibrated model on unseen poses: <b>{:.4}{unit} RMS</b> (90%: {:.4}–{:.4}{unit}; worst pose {:.4}{unit}).</p>",
+                e.rms, e.interval_90[0], e.interval_90[1], e.max
+            );
+        }
+    }
+    if let Some(cv) = &report.cross_validation
+        && let Some(expected) = cv.expected_rms
+    {
+        let _ = write!(
+            out,
+            "<p class=\"{}\">Cross-validated {:.4} {unit} RMS against {expected:.4} {unit} expected from the camera noise and the predicted error: {}.</p>",
+            if cv.consistent { "pass" } else { "warn" },
+            cv.calibrated_rms,
+            if cv.consistent {
+                "consistent"
+            } else {
+                "they disagree beyond their uncertainty: the noise model or the model is wrong"
+            },
+            unit = cv.unit
+        );
+    }
+    out
+}
 
 /// `&`, `<`, `>` and quotes escaped.
 fn escape(text: &str) -> String {

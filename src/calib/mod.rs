@@ -48,5 +48,5 @@ pub use pipeline::{CalibError, Calibration, Fitted, Solution, calibrate};
 pub use report::{
     CalibrationReport, Errors, FastCapture, FlaggedObservation, Latency, MarkerFitReport, MarkerReport, Verdict,
 };
-pub use uncertainty::{Correlation, ParameterReport};
+pub use uncertainty::{Correlation, ParameterReport, PredictedError, RegionError};
 pub use validation::CrossValidation;

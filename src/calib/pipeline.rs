@@ -342,9 +342,24 @@ fn run<L: Level>(
         );
         return Err(CalibError::Config { key: "folds".into(), reason });
     }
-    let cross_validation =
+    let mut cross_validation =
         cross_validate(&model, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     let mut warnings = Vec::new();
+    if let (Some(cv), Some(predicted)) =
+        (cross_validation.as_mut(), super::uncertainty::residual_mean_squares(&calibrated, &covariance))
+    {
+        let noise = super::uncertainty::noise_mean_squares(&calibrated, determined.iter().filter(|f| **f).count());
+        cv.check(&noise, &predicted, model.unit_scale());
+        if let (false, Some(expected)) = (cv.consistent, cv.expected_rms) {
+            let unit = model.unit();
+            warnings.push(format!(
+                "the cross-validated error ({:.4} {unit} RMS) disagrees with the {expected:.4} {unit} the fit predicts \
+                 for itself (camera noise plus the predicted error) beyond their uncertainty: the noise model or the \
+                 model is wrong (e.g. an unmodelled depth scale of the camera)",
+                cv.calibrated_rms
+            ));
+        }
+    }
     if let Some(cv) = cross_validation.as_ref().filter(|cv| !cv.clearly_better) {
         let warning = not_better_warning(cv, &identifiability.unidentifiable, model.poses());
         if config.if_not_better == IfNotBetter::Refuse {
@@ -380,7 +395,8 @@ fn run<L: Level>(
         high_correlations: super::uncertainty::correlations(p, &covariance, 0.9),
         identifiability,
         regularised,
-        orientation_uncertainty_deg: None,
+        predicted_error_deg: None,
+        predicted_error_mm: None,
         residual_sigma_deg: Vec::new(),
         flagged: flagged.into_iter().map(|(_, f)| f).collect(),
         unit: model.unit(),

@@ -8,7 +8,7 @@ use super::config::{CalibConfig, FitLevel, Loss};
 use super::fit::{Convergence, IterationLog};
 use super::identify::Identifiability;
 use super::marker_model::StereoNoise;
-use super::uncertainty::{Correlation, ParameterReport};
+use super::uncertainty::{Correlation, ParameterReport, PredictedError};
 use super::validation::CrossValidation;
 use crate::math::stats::Stats;
 use crate::vision::Method;
@@ -211,10 +211,12 @@ pub struct CalibrationReport {
     pub not_significant: Vec<String>,
     /// Parameter pairs with |ρ| above 0.9.
     pub high_correlations: Vec<Correlation>,
-    /// Predicted orientation uncertainty (1σ, RMS over axes) from the parameter covariance: of
-    /// each pose's orientation as the camera sees it (`R_CB R_j Aᵀ`, orientation level) or of its
-    /// FDA in B (marker level).
-    pub orientation_uncertainty_deg: Option<Stats>,
+    /// The expected RMS orientation error (degrees) of the calibrated FDA on an unseen pose of the
+    /// session's workspace, as `compare` measures it (up to the common rotations no measurement
+    /// sees), from the parameter covariance; the same definition at both fit levels.
+    pub predicted_error_deg: Option<PredictedError>,
+    /// The same for the markers' positions, mm (marker-level fit).
+    pub predicted_error_mm: Option<PredictedError>,
     /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
     /// `(markers, poses, [σx, σy, σz])` (orientation-level fit).
     pub residual_sigma_deg: Vec<(usize, usize, [f64; 3])>,

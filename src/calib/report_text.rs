@@ -116,15 +116,7 @@ impl fmt::Display for CalibrationReport {
                 sigma[0], sigma[1], sigma[2]
             )?;
         }
-        if let Some(u) = &r.orientation_uncertainty_deg {
-            writeln!(
-                f,
-                "predicted orientation uncertainty (1 sigma, {}): mean {:.4} deg, max {:.4} deg",
-                if r.fit == FitLevel::Markers { "of each pose's FDA" } else { "as the camera sees it" },
-                u.mean,
-                u.max
-            )?;
-        }
+        predicted(f, r)?;
         match (r.camera_translation_m, r.camera_translation_std_error_m) {
             (Some(t), Some(se)) => writeln!(
                 f,
@@ -146,6 +138,53 @@ impl fmt::Display for CalibrationReport {
         }
         flagged(f, r)
     }
+}
+
+/// The predicted error on unseen poses, beside the cross-validated one.
+fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
+    if let Some(e) = &r.predicted_error_deg {
+        writeln!(
+            f,
+            "predicted error of the calibrated FDA on unseen poses (as `compare` measures it, from the parameter covariance): {:.4} deg RMS (90%: {:.4}–{:.4}), worst pose {:.4} deg",
+            e.rms, e.interval_90[0], e.interval_90[1], e.max
+        )?;
+    }
+    if let Some(e) = &r.predicted_error_mm {
+        writeln!(
+            f,
+            "predicted error of the calibrated markers on unseen poses: {:.4} mm RMS (90%: {:.4}–{:.4}), worst pose {:.4} mm",
+            e.rms, e.interval_90[0], e.interval_90[1], e.max
+        )?;
+    }
+    if let Some(e) = r.predicted_error_deg.as_ref().filter(|e| e.by_region.len() > 1) {
+        writeln!(f, "  by region of the workspace (deg RMS / worst, poses):")?;
+        for g in &e.by_region {
+            let band = |b: [f64; 2]| match b[1].is_finite() {
+                true => format!("{:.0}–{:.0}°", b[0], b[1]),
+                false => format!("> {:.0}°", b[0]),
+            };
+            writeln!(
+                f,
+                "    tilt {:<7} |yaw| {:<7} {:.4} / {:.4} ({})",
+                band(g.tilt_deg),
+                band(g.yaw_deg),
+                g.rms,
+                g.worst,
+                g.poses
+            )?;
+        }
+    }
+    if let Some((cv, expected)) = r.cross_validation.as_ref().and_then(|cv| Some((cv, cv.expected_rms?))) {
+        let unit = cv.unit;
+        let se = cv.calibrated_ms_std_error / (2.0 * cv.calibrated_rms.max(f64::MIN_POSITIVE));
+        writeln!(
+            f,
+            "check: cross-validated {:.4} ± {se:.4} {unit} RMS, expected from the camera noise and the predicted error {expected:.4} {unit}: {}",
+            cv.calibrated_rms,
+            if cv.consistent { "consistent" } else { "DISAGREE (the noise model or the model is wrong)" }
+        )?;
+    }
+    Ok(())
 }
 
 /// The marker errors of a marker-level calibration.

@@ -9,7 +9,6 @@ use super::config::CalibConfig;
 use super::fit::{FitOutcome, weighted_normal};
 use super::identify::{Identifiability, analyse_gram};
 use super::params::Parameterisation;
-use crate::math::stats::Stats;
 
 /// One angle parameter of the report, in degrees (`change` is the departure from nominal; the
 /// marker level reports `t_CB`, the markers' positions and the latency apart).
@@ -69,6 +68,23 @@ pub(crate) fn covariance<N>(outcome: &FitOutcome<N>, free: &[bool], prior: Optio
             h[(a, b)] = full_h[(i, k)] + prior.map_or(0.0, |l| l[(i, k)]);
         }
     }
+    let scale = residual_scale(outcome, idx.len());
+    let inv = if h.iter().all(|x| x.is_finite()) {
+        h.clone().pseudo_inverse(1e-14 * h.amax()).unwrap_or_else(|_| DMatrix::zeros(idx.len(), idx.len()))
+    } else {
+        DMatrix::from_element(idx.len(), idx.len(), f64::NAN)
+    };
+    let mut full = DMatrix::zeros(n, n);
+    for (a, &i) in idx.iter().enumerate() {
+        for (b, &k) in idx.iter().enumerate() {
+            full[(i, k)] = inv[(a, b)] * scale;
+        }
+    }
+    full
+}
+
+/// `σ̂²`: the weighted whitened residual variance per degree of freedom (`free` parameters).
+fn residual_scale<N>(outcome: &FitOutcome<N>, free: usize) -> f64 {
     let w = &outcome.weighting;
     let m = outcome.evaluation.residuals.len();
     let chi2: f64 = outcome
@@ -78,19 +94,8 @@ pub(crate) fn covariance<N>(outcome: &FitOutcome<N>, free: &[bool], prior: Optio
         .enumerate()
         .map(|(j, r)| w.weights[j] * w.whiten(j, r).norm_squared())
         .sum();
-    let dof = (3 * m).saturating_sub(idx.len()).max(1) as f64;
-    let inv = if h.iter().all(|x| x.is_finite()) {
-        h.clone().pseudo_inverse(1e-14 * h.amax()).unwrap_or_else(|_| DMatrix::zeros(idx.len(), idx.len()))
-    } else {
-        DMatrix::from_element(idx.len(), idx.len(), f64::NAN)
-    };
-    let mut full = DMatrix::zeros(n, n);
-    for (a, &i) in idx.iter().enumerate() {
-        for (b, &k) in idx.iter().enumerate() {
-            full[(i, k)] = inv[(a, b)] * chi2 / dof;
-        }
-    }
-    full
+    let dof = (3 * m).saturating_sub(free).max(1) as f64;
+    chi2 / dof
 }
 
 /// The standard error of parameter `i`, `None` when it is not free.
@@ -147,27 +152,246 @@ pub(crate) fn correlations(p: &Parameterisation, cov: &DMatrix<f64>, threshold: 
     out
 }
 
-/// Uncertainty (1σ, RMS over the three axes, degrees) of each residual's prediction: the
-/// propagation `J_j Cov J_jᵀ` of the parameter covariance through the residual Jacobian. For the
-/// orientation-level fit this is each pose's predicted orientation as the camera sees it,
-/// `R_CB R_j Aᵀ`; it carries the strong correlations between axis tilts and the camera rotation
-/// that a base-frame figure would ignore.
-pub(crate) fn residual_uncertainty<N>(outcome: &FitOutcome<N>, cov: &DMatrix<f64>) -> Option<Stats> {
-    let jac = outcome.evaluation.jacobian.as_ref()?;
-    let values: Vec<f64> = (0..outcome.evaluation.residuals.len())
-        .map(|j| {
-            let block = jac.rows(3 * j, 3);
-            ((block * cov * block.transpose()).trace() / 3.0).max(0.0).sqrt().to_degrees()
-        })
-        .collect();
-    Stats::of(&values)
+/// The expected error of the calibrated model on an unseen pose of the session's workspace, from
+/// the parameter covariance: the one "how good is my model" figure of every view of the report.
+///
+/// In degrees (`predicted_error_deg`): the RMS angle between the orientation the calibrated FDA
+/// gives for a pose's joints and the true one, measured as `compare` measures it — up to the
+/// rotations common to every pose that no measurement sees (a rotation of the base, carried by
+/// the camera registration; one of the platform, carried by the markers or the reference pose),
+/// which are projected out. In millimetres (`predicted_error_mm`, marker level): the RMS distance
+/// between where the calibrated model, registration and markers put a marker and where it truly is.
+/// Neither includes the camera's noise.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictedError {
+    /// Expected RMS over the session's poses (degrees or mm): an unseen pose drawn from the
+    /// session's own workspace.
+    pub rms: f64,
+    /// The largest per-pose figure.
+    pub max: f64,
+    /// Where the RMS error of this calibration lies with 90% probability (5th and 95th
+    /// percentiles): the parameter error is one draw, and the RMS it makes over the workspace is a
+    /// weighted χ² of few effective degrees of freedom (`effective_dof`), matched by a scaled χ²
+    /// (Satterthwaite; percentiles by Wilson–Hilferty).
+    pub interval_90: [f64; 2],
+    /// Effective degrees of freedom of the squared error, `tr(QΣ)² / tr((QΣ)²)` (`Q` the mean of
+    /// the per-pose `JᵀJ`, `Σ` the covariance): how many independent parameter directions share it.
+    pub effective_dof: f64,
+    /// `(pose, expected RMS)` of each pose (the RMS over its markers at the marker level).
+    pub per_pose: Vec<(u64, f64)>,
+    /// The map over the workspace: the poses' figures by band of tilt and of |yaw| (10° bands),
+    /// where to add poses.
+    pub by_region: Vec<RegionError>,
 }
 
-/// Uncertainty (1σ, RMS over the three axes, degrees) of each pose's predicted orientation in B:
-/// the parameter covariance propagated through `∂ω/∂x`.
-pub(crate) fn orientation_uncertainty<N>(outcome: &FitOutcome<N>, cov: &DMatrix<f64>) -> Option<Stats> {
-    let sens = outcome.evaluation.orientation_jacobians.as_ref()?;
-    let values: Vec<f64> =
-        sens.iter().map(|s| ((s * cov * s.transpose()).trace() / 3.0).max(0.0).sqrt().to_degrees()).collect();
-    Stats::of(&values)
+/// The predicted error over one band of tilt and |yaw| of the session's poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RegionError {
+    /// Tilt band, degrees (`[30, inf]` for the last).
+    pub tilt_deg: [f64; 2],
+    /// |Yaw| band, degrees.
+    pub yaw_deg: [f64; 2],
+    /// Poses in it.
+    pub poses: usize,
+    /// RMS of their predicted errors.
+    pub rms: f64,
+    /// The worst of them.
+    pub worst: f64,
+}
+
+/// The 10° bands of the map: 0–10, 10–20, 20–30, beyond.
+const BANDS: [f64; 5] = [0.0, 10.0, 20.0, 30.0, f64::INFINITY];
+
+/// The per-pose figures `values` of poses at `orientations`, by band of tilt and |yaw|.
+fn by_region(orientations: &[nalgebra::Rotation3<f64>], values: &[f64]) -> Vec<RegionError> {
+    let band = |x: f64| BANDS.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
+    let mut cells = [[(0.0f64, 0.0f64, 0usize); 4]; 4];
+    for (r, v) in orientations.iter().zip(values) {
+        let (tilt, yaw) = crate::math::so3::tilt_and_yaw(r);
+        let cell = &mut cells[band(tilt)][band(yaw)];
+        *cell = (cell.0 + v * v, cell.1.max(*v), cell.2 + 1);
+    }
+    let mut out = Vec::new();
+    for (t, row) in cells.iter().enumerate() {
+        for (y, &(sum, worst, poses)) in row.iter().enumerate() {
+            if poses > 0 {
+                out.push(RegionError {
+                    tilt_deg: [BANDS[t], BANDS[t + 1]],
+                    yaw_deg: [BANDS[y], BANDS[y + 1]],
+                    poses,
+                    rms: (sum / poses as f64).sqrt(),
+                    worst,
+                });
+            }
+        }
+    }
+    out
+}
+
+impl PredictedError {
+    /// From the per-pose figures, the mean-square `q_cov = QΣ` (its trace is the mean square in
+    /// the model's unit²) and the factor to the reported unit.
+    fn of(per_pose: Vec<(u64, f64)>, q_cov: &DMatrix<f64>, unit: f64) -> Option<Self> {
+        let mean_square = q_cov.trace();
+        let squares = (q_cov * q_cov).trace();
+        if per_pose.is_empty() || !mean_square.is_finite() || mean_square <= 0.0 || squares <= 0.0 {
+            return None;
+        }
+        let k = mean_square * mean_square / squares;
+        // Wilson–Hilferty: χ²_k quantile ≈ k (1 − 2/(9k) + z √(2/(9k)))³.
+        let quantile = |z: f64| {
+            let a = 2.0 / (9.0 * k);
+            (1.0 - a + z * a.sqrt()).max(0.0).powi(3)
+        };
+        let rms = mean_square.sqrt() * unit;
+        let max = per_pose.iter().map(|(_, v)| *v).fold(0.0, f64::max);
+        Some(PredictedError {
+            rms,
+            max,
+            interval_90: [rms * quantile(-1.645).sqrt(), rms * quantile(1.645).sqrt()],
+            effective_dof: k,
+            per_pose,
+            by_region: Vec::new(),
+        })
+    }
+}
+
+/// The predicted orientation error (degrees) of the poses with sensitivities `sens` (`∂ω/∂x` in B,
+/// 3 × N, one per pose), orientations `orientations` and ids `poses`, under `cov`, with the
+/// columns `fda` of the FDA's own parameters (a latency is not the FDA's). The first-order error
+/// at pose j is `δω_j = S_j δx`; a base rotation ψ_B and a platform rotation ψ_P common to every
+/// pose add `ψ_B + R_j ψ_P`, and their least-squares fit over the poses is projected out:
+/// `S̃_j = S_j − [I R_j] C`, `C = (Σ Bᵀ B)⁺ Σ Bᵀ S`, and the per-pose mean square is
+/// `tr(S̃_j Cov S̃_jᵀ)`.
+pub(crate) fn predicted_orientation_error(
+    sens: &[DMatrix<f64>],
+    orientations: &[nalgebra::Rotation3<f64>],
+    poses: &[u64],
+    fda: &[bool],
+    cov: &DMatrix<f64>,
+) -> Option<PredictedError> {
+    if sens.is_empty() || sens.len() != poses.len() {
+        return None;
+    }
+    let n = cov.ncols();
+    let projected = project_common_rotations(sens, orientations, fda)?;
+    let mut q = DMatrix::<f64>::zeros(n, n);
+    let per_pose_ms: Vec<f64> = projected
+        .iter()
+        .map(|s| {
+            q += s.transpose() * s;
+            (s * cov * s.transpose()).trace().max(0.0)
+        })
+        .collect();
+    let per_pose: Vec<(u64, f64)> =
+        poses.iter().zip(&per_pose_ms).map(|(&p, ms)| (p, ms.sqrt().to_degrees())).collect();
+    let values: Vec<f64> = per_pose.iter().map(|(_, v)| *v).collect();
+    let mut predicted = PredictedError::of(per_pose, &(q / per_pose_ms.len() as f64 * cov), 1f64.to_degrees())?;
+    predicted.by_region = by_region(orientations, &values);
+    Some(predicted)
+}
+
+/// The orientation sensitivities `sens` (`∂ω/∂x` in B, 3 × N, one per pose at `orientations`)
+/// restricted to the columns `fda` and with the rotations common to every pose projected out:
+/// `S̃_j = S_j − [I R_j] C`, `C = (Σ Bᵀ B)⁺ Σ Bᵀ S` — a base rotation ψ_B and a platform rotation
+/// ψ_P common to every pose move pose j by `ψ_B + R_j ψ_P`, and no measurement sees them (the
+/// camera registration and the markers carry them). `None` when the lengths differ or the
+/// projection fails.
+pub(crate) fn project_common_rotations(
+    sens: &[DMatrix<f64>],
+    orientations: &[nalgebra::Rotation3<f64>],
+    fda: &[bool],
+) -> Option<Vec<DMatrix<f64>>> {
+    if sens.is_empty() || sens.len() != orientations.len() {
+        return None;
+    }
+    let n = sens[0].ncols();
+    let mask = |s: &DMatrix<f64>| {
+        let mut s = s.clone();
+        for (i, keep) in fda.iter().enumerate() {
+            if !keep {
+                s.column_mut(i).fill(0.0);
+            }
+        }
+        s
+    };
+    let sens: Vec<DMatrix<f64>> = sens.iter().map(mask).collect();
+    let design = |r: &nalgebra::Rotation3<f64>| {
+        let mut b = DMatrix::<f64>::zeros(3, 6);
+        b.view_mut((0, 0), (3, 3)).copy_from(&nalgebra::Matrix3::identity());
+        b.view_mut((0, 3), (3, 3)).copy_from(r.matrix());
+        b
+    };
+    let (mut btb, mut bts) = (DMatrix::<f64>::zeros(6, 6), DMatrix::<f64>::zeros(6, n));
+    for (s, r) in sens.iter().zip(orientations) {
+        let b = design(r);
+        btb += b.transpose() * &b;
+        bts += b.transpose() * s;
+    }
+    let common = btb.pseudo_inverse(1e-10).ok()? * bts;
+    Some(sens.iter().zip(orientations).map(|(s, r)| s - design(r) * &common).collect())
+}
+
+/// The expected squared prediction error (unit², of each residual): `tr(J_j Cov J_jᵀ)`.
+pub(crate) fn residual_mean_squares<N>(outcome: &FitOutcome<N>, cov: &DMatrix<f64>) -> Option<Vec<f64>> {
+    let jac = outcome.evaluation.jacobian.as_ref()?;
+    Some(
+        (0..outcome.evaluation.residuals.len())
+            .map(|j| {
+                let block = jac.rows(3 * j, 3);
+                (block * cov * block.transpose()).trace().max(0.0)
+            })
+            .collect(),
+    )
+}
+
+/// The predicted marker error (mm) of a marker-level fit: per observation `tr(J_j Cov J_jᵀ)`,
+/// grouped by the pose ids `poses` (one per observation).
+pub(crate) fn predicted_marker_error<N>(
+    outcome: &FitOutcome<N>,
+    cov: &DMatrix<f64>,
+    poses: &[u64],
+    orientation_of: impl Fn(usize) -> nalgebra::Rotation3<f64>,
+) -> Option<PredictedError> {
+    let ms = residual_mean_squares(outcome, cov)?;
+    if ms.is_empty() || ms.len() != poses.len() {
+        return None;
+    }
+    let (mut order, mut rotations) = (Vec::new(), Vec::new());
+    let mut sums: std::collections::HashMap<u64, (f64, usize)> = std::collections::HashMap::new();
+    for (j, (&p, &v)) in poses.iter().zip(&ms).enumerate() {
+        let e = sums.entry(p).or_insert_with(|| {
+            order.push(p);
+            rotations.push(orientation_of(j));
+            (0.0, 0)
+        });
+        e.0 += v;
+        e.1 += 1;
+    }
+    let per_pose: Vec<(u64, f64)> = order
+        .iter()
+        .map(|p| {
+            let (s, c) = sums[p];
+            (*p, (s / c as f64).sqrt() * 1e3)
+        })
+        .collect();
+    let values: Vec<f64> = per_pose.iter().map(|(_, v)| *v).collect();
+    let jac = outcome.evaluation.jacobian.as_ref()?;
+    let q = jac.tr_mul(jac) / ms.len() as f64;
+    let mut predicted = PredictedError::of(per_pose, &(q * cov), 1e3)?;
+    predicted.by_region = by_region(&rotations, &values);
+    Some(predicted)
+}
+
+/// The noise's expected squared norm (unit²) of each residual: `σ̂² tr(Σ_j)`, `Σ_j = (W_jᵀ W_j)⁻¹`
+/// the whitening's covariance and `σ̂²` the covariance's own scale (the weighted whitened
+/// residual variance per degree of freedom).
+pub(crate) fn noise_mean_squares<N>(outcome: &FitOutcome<N>, free: usize) -> Vec<f64> {
+    let scale = residual_scale(outcome, free);
+    outcome
+        .weighting
+        .whitening
+        .iter()
+        .map(|w| (w.transpose() * w).try_inverse().map_or(f64::NAN, |s| s.trace() * scale))
+        .collect()
 }

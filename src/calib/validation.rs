@@ -39,6 +39,33 @@ pub struct CrossValidation {
     pub reduction_std_error: f64,
     /// The calibrated model predicts unseen data clearly better than the nominal one.
     pub clearly_better: bool,
+    /// Standard error of the calibrated model's mean squared held-out error (unit²).
+    pub calibrated_ms_std_error: f64,
+    /// The calibrated model's held-out RMS that the fit predicts for itself: the noise model's
+    /// share plus the predicted error of the model fitted without a fold (`k/(k−1)` times the
+    /// full fit's); `None` when the covariance gives none.
+    pub expected_rms: Option<f64>,
+    /// The cross-validated and the expected RMS agree within three standard errors of the mean
+    /// squared held-out error; `false` says the noise model or the model is wrong.
+    pub consistent: bool,
+}
+
+impl CrossValidation {
+    /// Set the expected held-out RMS from the per-observation mean squares (model unit²) of the
+    /// noise and of the full fit's predicted error, and whether the cross-validated one agrees.
+    pub(crate) fn check(&mut self, noise: &[f64], predicted: &[f64], scale: f64) {
+        let n = noise.len().min(predicted.len());
+        if n == 0 || self.folds < 2 {
+            return;
+        }
+        let without_fold = self.folds as f64 / (self.folds - 1) as f64;
+        let ms = noise.iter().zip(predicted).map(|(a, b)| a + without_fold * b).sum::<f64>() / n as f64 * scale * scale;
+        if !ms.is_finite() {
+            return;
+        }
+        self.expected_rms = Some(ms.sqrt());
+        self.consistent = (self.calibrated_rms.powi(2) - ms).abs() <= 3.0 * self.calibrated_ms_std_error;
+    }
 }
 
 /// The groups (stations, else poses) of the model's observations: the most folds there can be.
@@ -107,6 +134,8 @@ pub(crate) fn cross_validate<M: Model>(
     let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
     let se = (var / n as f64).sqrt();
     let rms = |v: &[f64]| (v.iter().sum::<f64>() / v.len() as f64).sqrt();
+    let cal_mean = calibrated_sq.iter().sum::<f64>() / n as f64;
+    let cal_var = calibrated_sq.iter().map(|v| (v - cal_mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
     Some(CrossValidation {
         folds,
         observations: n,
@@ -117,6 +146,9 @@ pub(crate) fn cross_validate<M: Model>(
         reduction: mean,
         reduction_std_error: se,
         clearly_better: mean > 2.0 * se,
+        calibrated_ms_std_error: (cal_var / n as f64).sqrt(),
+        expected_rms: None,
+        consistent: true,
     })
 }
 
@@ -171,5 +203,42 @@ impl FoldNormals {
             }
         }
         moved
+    }
+}
+
+#[cfg(test)]
+mod check_tests {
+    use super::CrossValidation;
+
+    fn cv(calibrated_rms: f64, se: f64) -> CrossValidation {
+        CrossValidation {
+            folds: 5,
+            observations: 100,
+            unpredicted: 0,
+            unit: "mm",
+            nominal_rms: 4.0,
+            calibrated_rms,
+            reduction: 10.0,
+            reduction_std_error: 1.0,
+            clearly_better: true,
+            calibrated_ms_std_error: se,
+            expected_rms: None,
+            consistent: true,
+        }
+    }
+
+    #[test]
+    fn the_check_expects_noise_plus_the_predicted_error_of_a_fit_without_the_fold() {
+        // Noise 0.36 + 5/4 · 0.128 = 0.52 mm² (in m², scaled to mm): expected √0.52.
+        let mut c = cv(0.52f64.sqrt(), 0.01);
+        c.check(&[0.36e-6; 4], &[0.128e-6; 4], 1e3);
+        assert!((c.expected_rms.unwrap() - 0.52f64.sqrt()).abs() < 1e-12 && c.consistent);
+        // 0.49 against 0.52 mm² with a standard error of 0.01: three of them apart, at the edge.
+        let mut c = cv(0.49f64.sqrt(), 0.0101);
+        c.check(&[0.36e-6; 4], &[0.128e-6; 4], 1e3);
+        assert!(c.consistent);
+        let mut c = cv(0.49f64.sqrt(), 0.0099);
+        c.check(&[0.36e-6; 4], &[0.128e-6; 4], 1e3);
+        assert!(!c.consistent);
     }
 }

@@ -123,6 +123,15 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     Some(Rotation3::from_matrix_unchecked(u * d * vt))
 }
 
+/// Tilt of the MP's z axis from the base's and yaw about it (degrees), `R = exp(tilt) exp(yaw z)`.
+pub(crate) fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
+    let z = r * Vector3::z();
+    let tilt = z.z.clamp(-1.0, 1.0).acos();
+    let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
+    let yaw = log(&(tilting.inverse() * r)).z;
+    (tilt.to_degrees(), yaw.to_degrees())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

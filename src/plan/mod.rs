@@ -338,7 +338,7 @@ impl Plan {
         };
         let mut cells = vec![vec![(0.0, 0.0_f64, 0usize); 4]; 4];
         for (c, e) in self.candidates.iter().zip(&self.uncertainty_deg) {
-            let (tilt, yaw) = tilt_and_yaw(&c.rotation);
+            let (tilt, yaw) = crate::math::so3::tilt_and_yaw(&c.rotation);
             let band = |x: f64| bands.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
             let cell = &mut cells[band(tilt)][band(yaw)];
             *cell = (cell.0 + e, cell.1.max(*e), cell.2 + 1);
@@ -362,15 +362,6 @@ impl Plan {
         }
         text
     }
-}
-
-/// Tilt of the MP's z axis from the base's and yaw about it (degrees), `R = exp(tilt) exp(yaw z)`.
-fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
-    let z = r * Vector3::z();
-    let tilt = z.z.clamp(-1.0, 1.0).acos();
-    let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
-    let yaw = crate::math::so3::log(&(tilting.inverse() * r)).z;
-    (tilt.to_degrees(), yaw.to_degrees())
 }
 
 /// The Fisher information of an existing session's marker observations at `p`'s parameters.

@@ -185,6 +185,13 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
                 .into(),
         );
     }
+    if has("predicted_error_mm") {
+        panels.push(
+            TimeSeriesView::new("predicted marker error after calibration (mm)")
+                .with_origin("errors/predicted_error_mm")
+                .into(),
+        );
+    }
     let mut documents: Vec<rerun::blueprint::ContainerLike> = Vec::new();
     if !scene.iterations.is_empty() {
         documents.push(TextDocumentView::new("fit").with_origin(FIT_TABLE).into());

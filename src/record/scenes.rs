@@ -376,6 +376,16 @@ impl Scene<'_> {
             series.push(marker_series("calibrated", calibration, &after));
             series.extend(marker_residuals(session, calibration, &after));
         }
+        // The report's predicted error of the calibrated model at each pose (the same figures as
+        // `--json`'s `predicted_error_deg` / `predicted_error_mm`).
+        let report = &calibration.report;
+        for (name, predicted) in
+            [("predicted_error_deg", &report.predicted_error_deg), ("predicted_error_mm", &report.predicted_error_mm)]
+        {
+            if let Some(e) = predicted {
+                series.push(Series { name: name.into(), values: e.per_pose.iter().copied().collect() });
+            }
+        }
         let fitted_markers = (!marker_observations_of(calibration).is_empty())
             .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
         let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
@@ -398,10 +408,43 @@ impl Scene<'_> {
                     parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None)),
                 ),
                 ("after".to_string(), after),
-            ],
+            ]
+            .into_iter()
+            .chain(
+                calibration
+                    .report
+                    .predicted_error_deg
+                    .as_ref()
+                    .map(|e| ("predicted_error_map".to_string(), region_map(e))),
+            )
+            .collect(),
             fitted_markers,
         })
     }
+}
+
+/// The predicted orientation error by band of tilt and |yaw|, as a markdown table.
+fn region_map(e: &crate::calib::PredictedError) -> String {
+    let band = |b: [f64; 2]| match b[1].is_finite() {
+        true => format!("{:.0}–{:.0}°", b[0], b[1]),
+        false => format!("> {:.0}°", b[0]),
+    };
+    let mut text = format!(
+        "# Predicted error after calibration\n\n{:.4}° RMS over the session's poses (90%: {:.4}–{:.4}°), as `compare` measures it.\n\n| tilt | yaw (abs) | poses | RMS (°) | worst (°) |\n|---|---|---|---|---|\n",
+        e.rms, e.interval_90[0], e.interval_90[1]
+    );
+    for g in &e.by_region {
+        let _ = writeln!(
+            text,
+            "| {} | {} | {} | {:.4} | {:.4} |",
+            band(g.tilt_deg),
+            band(g.yaw_deg),
+            g.poses,
+            g.rms,
+            g.worst
+        );
+    }
+    text
 }
 
 impl Scene<'_> {

@@ -15,7 +15,7 @@ use crate::calib::params::{Kind, Parameterisation};
 use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Origin, Results, Solution};
 use crate::calib::registration;
 use crate::calib::report::{Errors, FastCapture, Latency, MarkerFitReport, MarkerReport};
-use crate::calib::uncertainty::{orientation_uncertainty, parameter_reports, std_error};
+use crate::calib::uncertainty::{parameter_reports, predicted_marker_error, predicted_orientation_error, std_error};
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
@@ -172,7 +172,19 @@ impl Level for MarkerLevel<'_> {
             .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency))
             .map(|(r, _)| r)
             .collect();
-        report.orientation_uncertainty_deg = orientation_uncertainty(&r.calibrated, cov);
+        let mut pose_ids = vec![0; r.model.poses()];
+        for (j, o) in observations.iter().enumerate() {
+            pose_ids[r.model.pose_of(j)] = o.pose;
+        }
+        let fda: Vec<bool> = p.entries.iter().map(|e| e.kind != Kind::Latency).collect();
+        let eval = &r.calibrated.evaluation;
+        report.predicted_error_deg = eval
+            .orientation_jacobians
+            .as_ref()
+            .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
+        let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
+        report.predicted_error_mm =
+            predicted_marker_error(&r.calibrated, cov, &observation_poses, |j| eval.orientations[r.model.pose_of(j)]);
         report.camera_translation_m = Some(camera.translation.into());
         report.camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
             Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])

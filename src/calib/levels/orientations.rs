@@ -14,7 +14,7 @@ use crate::calib::pipeline::{
 };
 use crate::calib::registration;
 use crate::calib::report::Errors;
-use crate::calib::uncertainty::{parameter_reports, residual_uncertainty};
+use crate::calib::uncertainty::{parameter_reports, predicted_orientation_error};
 use crate::dataset::Session;
 use crate::math::stats::Stats;
 use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
@@ -126,7 +126,13 @@ impl Level for OrientationLevel {
             fit: None,
         };
         report.parameters = parameter_reports(p, x, cov, &r.free);
-        report.orientation_uncertainty_deg = residual_uncertainty(&r.calibrated, cov);
+        let eval = &r.calibrated.evaluation;
+        let pose_ids: Vec<u64> = r.model.observations().iter().map(|o| o.pose).collect();
+        let fda = vec![true; p.len()];
+        report.predicted_error_deg = eval
+            .orientation_jacobians
+            .as_ref()
+            .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
         report.residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
