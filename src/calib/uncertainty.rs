@@ -208,6 +208,7 @@ fn by_region(orientations: &[nalgebra::Rotation3<f64>], values: &[f64]) -> Vec<R
     let mut cells = [[(0.0f64, 0.0f64, 0usize); 4]; 4];
     for (r, v) in orientations.iter().zip(values) {
         let (tilt, yaw) = crate::math::so3::tilt_and_yaw(r);
+        let (tilt, yaw) = (tilt.to_degrees(), yaw.to_degrees());
         let cell = &mut cells[band(tilt)][band(yaw)];
         *cell = (cell.0 + v * v, cell.1.max(*v), cell.2 + 1);
     }

@@ -123,13 +123,14 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     Some(Rotation3::from_matrix_unchecked(u * d * vt))
 }
 
-/// Tilt of the MP's z axis from the base's and yaw about it (degrees), `R = exp(tilt) exp(yaw z)`.
+/// Tilt of the MP's z axis from the base's and yaw about it (rad), `R = exp(tilt a) exp(yaw z)`
+/// with `a` horizontal: how the workspace's orientations are drawn, planned and reported.
+#[cfg(feature = "full")]
 pub(crate) fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
     let z = r * Vector3::z();
     let tilt = z.z.clamp(-1.0, 1.0).acos();
     let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
-    let yaw = log(&(tilting.inverse() * r)).z;
-    (tilt.to_degrees(), yaw.to_degrees())
+    (tilt, log(&(tilting.inverse() * r)).z)
 }
 
 #[cfg(test)]

@@ -339,6 +339,7 @@ impl Plan {
         let mut cells = vec![vec![(0.0, 0.0_f64, 0usize); 4]; 4];
         for (c, e) in self.candidates.iter().zip(&self.uncertainty_deg) {
             let (tilt, yaw) = crate::math::so3::tilt_and_yaw(&c.rotation);
+            let (tilt, yaw) = (tilt.to_degrees(), yaw.to_degrees());
             let band = |x: f64| bands.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
             let cell = &mut cells[band(tilt)][band(yaw)];
             *cell = (cell.0 + e, cell.1.max(*e), cell.2 + 1);

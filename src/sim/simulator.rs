@@ -169,15 +169,6 @@ fn body_name(body: Body) -> String {
 /// anything beyond it an edited row or a plan made for another model.
 pub(crate) const PLAN_AGREEMENT_RAD: f64 = 1e-6;
 
-/// Tilt of the MP's z axis from the base's and yaw about it (rad), `R = exp(tilt a) exp(yaw z)`
-/// with `a` horizontal: how the workspace's orientations are drawn.
-fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
-    let z = r * Vector3::z();
-    let tilt = z.z.clamp(-1.0, 1.0).acos();
-    let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
-    (tilt, so3::log(&(tilting.inverse() * r)).z)
-}
-
 /// The joint readings at `r` of `spm` if `r` passes the workspace's checks: reachable in the
 /// working mode, away from singularities (`workspace`'s bounds), no link collisions.
 fn workspace_check(
@@ -260,7 +251,7 @@ fn check_plan(config: &SimConfig, model: &RobotModel) -> Result<(), SimError> {
                 }
             }
         }
-        let (tilt, yaw) = tilt_and_yaw(r);
+        let (tilt, yaw) = so3::tilt_and_yaw(r);
         if tilt > max_tilt + ROUNDING {
             return Err(fail(format!(
                 "its orientation tilts {:.3}° from home, outside the simulation's workspace (`workspace.max_tilt_deg`: {}°)",
