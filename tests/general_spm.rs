@@ -289,9 +289,13 @@ proptest! {
         // The working mode is the one reached along the straight joint-space path from home
         // (DESIGN.md): follow it in 400 tracking steps. Where tracking gets through, `forward` must
         // arrive at the same orientation; where the path meets a singularity it may refuse.
-        if let Some(end) = along_straight_path(&spm, joints, 400) {
-            let found = spm.forward(joints);
-            prop_assert!(found.as_ref().is_ok_and(|f| so3::geodesic_angle(f, &end) < 1e-9), "forward {:?}, tracked {:?}", found, end);
+        if let Some((end, closest)) = along_straight_path(&spm, joints, 400) {
+            match spm.forward(joints) {
+                Ok(found) => prop_assert!(so3::geodesic_angle(&found, &end) < 1e-9, "forward {:?}, tracked {:?}", found, end),
+                // A path that grazes the refusal thresholds (0.02) between tracking's samples may
+                // be refused by `forward`'s own samples: only there.
+                Err(e) => prop_assert!(closest < 0.03, "forward refused a path that stays {} from the thresholds: {}", closest, e),
+            }
         }
         // θ̇ = B⁻¹ A ω against central differences of IK (error O(|ω|³), rounding ~1e-16/|ω|).
         let small = Vector3::new(1e-6, -2e-6, 1.5e-6);
@@ -360,15 +364,18 @@ proptest! {
 }
 
 /// The end of the straight joint-space path from home to `joints`, tracked in `steps` steps
-/// (each checked for singularities and the working branches as `track` does), if it gets there.
-fn along_straight_path(spm: &Spm, joints: &Vector3<f64>, steps: usize) -> Option<Rotation3<f64>> {
+/// (each checked for singularities and the working branches as `track` does), if it gets there,
+/// with the smallest conditioning index or branch margin met on the way.
+fn along_straight_path(spm: &Spm, joints: &Vector3<f64>, steps: usize) -> Option<(Rotation3<f64>, f64)> {
     let home = spm.home_joints();
     let delta = Vector3::from_fn(|i, _| wrap(joints[i] - home[i]));
-    let mut r = Rotation3::identity();
+    let (mut r, mut closest) = (Rotation3::identity(), f64::INFINITY);
     for k in 1..=steps {
-        r = spm.track(&(home + delta * (k as f64 / steps as f64)), &r).ok()?;
+        let j = home + delta * (k as f64 / steps as f64);
+        r = spm.track(&j, &r).ok()?;
+        closest = closest.min(spm.jacobians(&j, &r).conditioning()).min(-spm.branch_margins(&j, &r).max());
     }
-    Some(r)
+    Some((r, closest))
 }
 
 /// Multi-start Newton with backtracking on |f|² from random orientations: the solutions it finds.
