@@ -9,6 +9,7 @@ use super::config::CalibConfig;
 use super::fit::{FitOutcome, weighted_normal};
 use super::identify::{Identifiability, analyse_gram};
 use super::params::Parameterisation;
+use crate::math::so3::WORKSPACE_BANDS_DEG;
 
 /// One angle parameter of the report, in degrees (`change` is the departure from nominal; the
 /// marker level reports `t_CB`, the markers' positions and the latency apart).
@@ -199,17 +200,12 @@ pub struct RegionError {
     pub worst: f64,
 }
 
-/// The 10° bands of the map: 0–10, 10–20, 20–30, beyond.
-const BANDS: [f64; 5] = [0.0, 10.0, 20.0, 30.0, f64::INFINITY];
-
 /// The per-pose figures `values` of poses at `orientations`, by band of tilt and |yaw|.
 fn by_region(orientations: &[nalgebra::Rotation3<f64>], values: &[f64]) -> Vec<RegionError> {
-    let band = |x: f64| BANDS.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
     let mut cells = [[(0.0f64, 0.0f64, 0usize); 4]; 4];
     for (r, v) in orientations.iter().zip(values) {
-        let (tilt, yaw) = crate::math::so3::tilt_and_yaw(r);
-        let (tilt, yaw) = (tilt.to_degrees(), yaw.to_degrees());
-        let cell = &mut cells[band(tilt)][band(yaw)];
+        let (tilt, yaw) = crate::math::so3::workspace_band(r);
+        let cell = &mut cells[tilt][yaw];
         *cell = (cell.0 + v * v, cell.1.max(*v), cell.2 + 1);
     }
     let mut out = Vec::new();
@@ -217,8 +213,8 @@ fn by_region(orientations: &[nalgebra::Rotation3<f64>], values: &[f64]) -> Vec<R
         for (y, &(sum, worst, poses)) in row.iter().enumerate() {
             if poses > 0 {
                 out.push(RegionError {
-                    tilt_deg: [BANDS[t], BANDS[t + 1]],
-                    yaw_deg: [BANDS[y], BANDS[y + 1]],
+                    tilt_deg: [WORKSPACE_BANDS_DEG[t], WORKSPACE_BANDS_DEG[t + 1]],
+                    yaw_deg: [WORKSPACE_BANDS_DEG[y], WORKSPACE_BANDS_DEG[y + 1]],
                     poses,
                     rms: (sum / poses as f64).sqrt(),
                     worst,

@@ -123,14 +123,34 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     Some(Rotation3::from_matrix_unchecked(u * d * vt))
 }
 
-/// Tilt of the MP's z axis from the base's and yaw about it (rad), `R = exp(tilt a) exp(yaw z)`
-/// with `a` horizontal: how the workspace's orientations are drawn, planned and reported.
+/// `R = exp(tilt a) exp(yaw z)` with `a = (cos azimuth, sin azimuth, 0)` (rad): how the
+/// workspace's orientations are drawn, surveyed, planned and reported.
+#[cfg(feature = "full")]
+pub(crate) fn from_tilt_and_yaw(azimuth: f64, tilt: f64, yaw: f64) -> Rotation3<f64> {
+    exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt)) * exp(&(Vector3::z() * yaw))
+}
+
+/// Tilt of the MP's z axis from the base's and yaw about it (rad), the inverse of
+/// [`from_tilt_and_yaw`] (up to the azimuth).
 #[cfg(feature = "full")]
 pub(crate) fn tilt_and_yaw(r: &Rotation3<f64>) -> (f64, f64) {
     let z = r * Vector3::z();
     let tilt = z.z.clamp(-1.0, 1.0).acos();
     let tilting = Rotation3::rotation_between(&Vector3::z(), &z).unwrap_or_else(Rotation3::identity);
     (tilt, log(&(tilting.inverse() * r)).z)
+}
+
+/// The bands (deg) by which plans and predicted errors map the workspace: 0–10, 10–20, 20–30 and
+/// beyond, of tilt and of |yaw|.
+#[cfg(feature = "full")]
+pub(crate) const WORKSPACE_BANDS_DEG: [f64; 5] = [0.0, 10.0, 20.0, 30.0, f64::INFINITY];
+
+/// The bands of [`WORKSPACE_BANDS_DEG`] that `r`'s tilt and |yaw| fall in.
+#[cfg(feature = "full")]
+pub(crate) fn workspace_band(r: &Rotation3<f64>) -> (usize, usize) {
+    let (tilt, yaw) = tilt_and_yaw(r);
+    let band = |x: f64| WORKSPACE_BANDS_DEG.windows(2).position(|w| x.to_degrees().abs() < w[1]).unwrap_or(3);
+    (band(tilt), band(yaw))
 }
 
 #[cfg(test)]

@@ -97,8 +97,7 @@ impl ModelSurvey {
                 let azimuth = 2.0 * std::f64::consts::PI * a as f64 / AZIMUTHS as f64;
                 for y in 0..YAW_STEPS {
                     let yaw = self.max_yaw_deg.to_radians() * (2.0 * y as f64 / (YAW_STEPS - 1) as f64 - 1.0);
-                    let r = so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt))
-                        * so3::exp(&(Vector3::z() * yaw));
+                    let r = so3::from_tilt_and_yaw(azimuth, tilt, yaw);
                     self.orientations += 1;
                     let Ok(joints) = spm.ik(&r) else { continue };
                     let conditioning = spm.jacobians(&joints, &r).conditioning();

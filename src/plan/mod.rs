@@ -331,17 +331,15 @@ impl Plan {
     /// The predicted orientation error after calibration over the workspace, as a markdown table:
     /// the mean (and worst) over the candidates in each band of tilt and yaw.
     pub fn uncertainty_map(&self) -> String {
-        let bands = [0.0, 10.0, 20.0, 30.0, f64::INFINITY];
+        let bands = crate::math::so3::WORKSPACE_BANDS_DEG;
         let label = |k: usize| match bands[k + 1] {
             b if b.is_finite() => format!("{}–{}°", bands[k], b),
             _ => format!("> {}°", bands[k]),
         };
         let mut cells = vec![vec![(0.0, 0.0_f64, 0usize); 4]; 4];
         for (c, e) in self.candidates.iter().zip(&self.uncertainty_deg) {
-            let (tilt, yaw) = crate::math::so3::tilt_and_yaw(&c.rotation);
-            let (tilt, yaw) = (tilt.to_degrees(), yaw.to_degrees());
-            let band = |x: f64| bands.windows(2).position(|w| x.abs() < w[1]).unwrap_or(3);
-            let cell = &mut cells[band(tilt)][band(yaw)];
+            let (tilt, yaw) = crate::math::so3::workspace_band(&c.rotation);
+            let cell = &mut cells[tilt][yaw];
             *cell = (cell.0 + e, cell.1.max(*e), cell.2 + 1);
         }
         // Only the bands the workspace reaches.

@@ -396,11 +396,6 @@ fn random_rotation_vector<R: Rng + ?Sized>(sigma: f64, rng: &mut R) -> Vector3<f
     Vector3::from_fn(|_, _| normal.sample(rng))
 }
 
-/// `exp(tilt about a horizontal axis) · exp(yaw about z)`.
-fn tilt_yaw(azimuth: f64, tilt: f64, yaw: f64) -> Rotation3<f64> {
-    so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt)) * so3::exp(&(Vector3::z() * yaw))
-}
-
 impl Simulator<'_> {
     /// Why the simulation fell short, and the config key that governs it.
     fn dominant_rejection(&self, home: Option<&SessionPose>) -> (String, &'static str) {
@@ -638,11 +633,11 @@ impl Simulator<'_> {
                 let tilt = max_tilt * self.rng.random::<f64>().sqrt();
                 let azimuth = self.rng.random_range(0.0..std::f64::consts::TAU);
                 let yaw = if max_yaw > 0.0 { self.rng.random_range(-max_yaw..=max_yaw) } else { 0.0 };
-                tilt_yaw(azimuth, tilt, yaw)
+                so3::from_tilt_and_yaw(azimuth, tilt, yaw)
             }
             Trajectory::Spiral => {
                 let s = k as f64 / (n.max(2) - 1) as f64;
-                tilt_yaw(
+                so3::from_tilt_and_yaw(
                     3.0 * std::f64::consts::TAU * s,
                     max_tilt * s.sqrt(),
                     max_yaw * (5.0 * std::f64::consts::TAU * s).sin(),
