@@ -313,7 +313,7 @@ impl Parameterisation {
     fn base_pair(&self, legs: &[LegGeometry; 3]) -> (Vector3<f64>, Vector3<f64>) {
         let g = &legs[0];
         match self.offset_fixes_base_turn() {
-            true => (g.u, g.z * g.delta.cos() + g.u.cross(&g.z) * g.delta.sin()),
+            true => (g.u, g.zero_direction()),
             false => (g.u, legs[1].u),
         }
     }
@@ -404,7 +404,7 @@ impl Parameterisation {
                     // The offset is measured from this parameterisation's own z (re-orthogonalised
                     // nominal z), so compare the zero directions `cos δ z + sin δ (u × z)` themselves.
                     let g = &legs[leg];
-                    let zero = g.z * g.delta.cos() + g.u.cross(&g.z) * g.delta.sin();
+                    let zero = g.zero_direction();
                     let z = (self.initial[leg].z - g.u * self.initial[leg].z.dot(&g.u)).normalize();
                     let y = g.u.cross(&z);
                     zero.dot(&y).atan2(zero.dot(&z)) - self.initial[leg].delta

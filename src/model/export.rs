@@ -10,7 +10,7 @@
 
 use std::collections::HashMap;
 
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Vector3;
 
 use super::params::Parameters;
 use super::urdf::{Companion, Loader, ModelError, RobotModel, companion_path, read_companion};
@@ -52,11 +52,11 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
     let (mut companion, _) = read_companion(&companion_path(path))?;
     let export = |reason: String| ModelError::Export { path: path.clone(), reason };
     let spm = params.spm().map_err(|e| export(format!("the parameters make no valid manipulator: {e}")))?;
-    let home = spm.ik(&Rotation3::identity()).map_err(|e| export(format!("the parameters do not reach home: {e}")))?;
+    // A valid manipulator reaches home (`Spm::new` solves it): its readings and axes there.
+    let home = spm.home_joints();
+    let at_home = spm.intermediate_axes(&home);
     let mut axes: HashMap<&str, Vector3<f64>> = HashMap::new();
-    for (i, (leg, names)) in params.legs.iter().zip(&companion.legs).enumerate() {
-        let phi = home[i] + leg.delta;
-        let w = leg.u * leg.alpha1.cos() + (leg.z * phi.cos() + leg.u.cross(&leg.z) * phi.sin()) * leg.alpha1.sin();
+    for ((leg, names), w) in params.legs.iter().zip(&companion.legs).zip(at_home) {
         axes.insert(&names.actuated, leg.u);
         axes.insert(&names.intermediate, w);
         axes.insert(&names.platform, leg.v0);

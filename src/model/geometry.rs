@@ -134,6 +134,11 @@ impl LegGeometry {
         }
     }
 
+    /// Where the intermediate axis leans at reading 0, projected off `u`: `cos δ z + sin δ (u × z)`.
+    pub fn zero_direction(&self) -> Vector3<f64> {
+        self.z * self.delta.cos() + self.u.cross(&self.z) * self.delta.sin()
+    }
+
     /// Check leg `leg` (0-based index) and normalise its axes.
     ///
     /// # Errors
