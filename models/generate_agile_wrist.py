@@ -12,21 +12,14 @@ Run: python3 models/generate_agile_wrist.py > models/agile_wrist.urdf
 """
 import math
 
+from urdf_shapes import Urdf, add, mul, unit
+
 B = P = math.atan(math.sqrt(2.0))
 R_PROX, R_DIST, LINK_R = 0.13, 0.16, 0.012
 
 
 def v(*a):
     return list(a)
-
-
-def add(a, b): return [x + y for x, y in zip(a, b)]
-def sub(a, b): return [x - y for x, y in zip(a, b)]
-def mul(a, s): return [x * s for x in a]
-def dot(a, b): return sum(x * y for x, y in zip(a, b))
-def norm(a): return math.sqrt(dot(a, a))
-def unit(a): return mul(a, 1.0 / norm(a))
-def cross(a, b): return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
 def leg_axes(i):
@@ -37,48 +30,11 @@ def leg_axes(i):
     return u, z, v0
 
 
-def rpy_aligning_z(d):
-    """Roll-pitch-yaw whose rotation maps the local z axis onto unit vector d."""
-    d = unit(d)
-    pitch = math.atan2(math.hypot(d[0], d[1]), d[2])
-    yaw = math.atan2(d[1], d[0])
-    # R = Rz(yaw) Ry(pitch): z -> (sin p cos y, sin p sin y, cos p)
-    return 0.0, pitch, yaw
-
-
 def f(x): return f"{x:.12f}".rstrip("0").rstrip(".") if abs(x) > 1e-12 else "0"
-def fv(a): return " ".join(f(x) for x in a)
 
 
-def cylinder(a, b, radius):
-    mid, d = mul(add(a, b), 0.5), sub(b, a)
-    r, p, y = rpy_aligning_z(d)
-    geo = f'<cylinder radius="{f(radius)}" length="{f(norm(d))}"/>'
-    origin = f'<origin xyz="{fv(mid)}" rpy="{fv([r, p, y])}"/>'
-    return (f"    <visual>{origin}<geometry>{geo}</geometry></visual>\n"
-            f"    <collision>{origin}<geometry>{geo}</geometry></collision>\n")
-
-
-def arc(a, b, radius, segments=3):
-    """Chord cylinders along the great-circle arc from direction a to direction b."""
-    a, b = unit(a), unit(b)
-    n = unit(sub(b, mul(a, dot(a, b))))
-    ang = math.acos(max(-1, min(1, dot(a, b))))
-    pts = [mul(add(mul(a, math.cos(ang * k / segments)), mul(n, math.sin(ang * k / segments))), radius)
-           for k in range(segments + 1)]
-    return "".join(cylinder(pts[k], pts[k + 1], LINK_R) for k in range(segments))
-
-
-def link(name, body=""):
-    return f'  <link name="{name}">\n{body}  </link>\n'
-
-
-def joint(name, parent, child, axis, kind="revolute"):
-    limit = '<limit lower="-3.14159" upper="3.14159" effort="5" velocity="10"/>'
-    return (f'  <joint name="{name}" type="{kind}">\n'
-            f'    <parent link="{parent}"/><child link="{child}"/>\n'
-            f'    <origin xyz="0 0 0" rpy="0 0 0"/><axis xyz="{fv(axis)}"/>{limit}\n'
-            f'  </joint>\n')
+U = Urdf(f, LINK_R)
+cylinder, arc, link, joint = U.cylinder, U.arc, U.link, U.joint
 
 
 out = ['<?xml version="1.0"?>\n',
