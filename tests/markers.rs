@@ -96,6 +96,7 @@ fn standard_errors_are_honest_and_misplaced_markers_are_recovered() {
             p,
             &truth.parameters.legs,
             &truth.parameters.camera.unwrap(),
+            &truth.parameters.camera_model,
             &markers,
         );
         for (i, e) in p.entries.iter().enumerate() {

@@ -11,7 +11,7 @@ use spmcal::calib::{
 };
 use spmcal::dataset::Session;
 use spmcal::math::so3;
-use spmcal::model::{LegGeometry, RobotModel, Spm};
+use spmcal::model::{CameraModel, CameraModelKind, LegGeometry, RobotModel, Spm};
 use spmcal::sim::SimConfig;
 
 /// One session's figures: RMS orientation errors (degrees) against the truth over the test
@@ -28,6 +28,8 @@ pub struct SessionResult {
     pub cramer_rao_deg: f64,
     /// Marker observations fitted.
     pub observations: usize,
+    /// The camera model the marker-level fit ended with.
+    pub fitted_camera: CameraModel,
     /// Of the marker-level fit's parameters with a standard error, how many lie within three of
     /// them of the truth (in the fit's gauge), and how many there are: honest σ's put ~99.7% inside.
     pub within_3_sigma: (usize, usize),
@@ -79,22 +81,26 @@ fn orientation_sensitivity(p: &Parameterisation, x: &DVector<f64>, joints: &Vect
     s
 }
 
-/// The Cramér–Rao prediction of the RMS orientation error (degrees) over `tests`: the Fisher
-/// information of the session's marker observations at the true parameters, whitened by the true
-/// stereo noise, inverted and propagated through `∂ω/∂x` at each test orientation.
-pub fn cramer_rao(session: &Session, model: &RobotModel, config: &SimConfig, tests: &[Rotation3<f64>]) -> f64 {
+/// The Cramér–Rao prediction of the RMS orientation error (degrees) over `tests` of a fit with
+/// the camera model `camera_model`: the Fisher information of the session's marker observations
+/// at the true parameters, whitened by the true stereo noise, inverted and propagated through
+/// `∂ω/∂x` at each test orientation.
+pub fn cramer_rao(
+    session: &Session,
+    model: &RobotModel,
+    config: &SimConfig,
+    tests: &[Rotation3<f64>],
+    camera_model: CameraModelKind,
+) -> f64 {
     let truth = session.truth.as_ref().expect("a simulated session");
     let camera = truth.parameters.camera.expect("a simulated camera");
     let markers0: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
-    let p = Parameterisation::for_markers(
-        *model.spm.geometry(),
-        &camera,
-        &markers0,
-        &session.markers,
-        &CalibConfig::default().bounds,
-    );
+    let bounds = CalibConfig::default().bounds;
+    let p = Parameterisation::for_markers(*model.spm.geometry(), &camera, &markers0, &session.markers, &bounds)
+        .with_camera_model(CameraModel::perfect(camera_model), bounds.camera_term);
     let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
-    let gauge = TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &true_markers);
+    let gauge =
+        TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &truth.parameters.camera_model, &true_markers);
     let spm_true = truth.parameters.spm().expect("a valid truth");
     let (observations, _) = MarkerObservation::of_session(session, &spm_true);
     let noise = config.camera.stereo_noise();
@@ -132,15 +138,26 @@ pub fn calibration_error(session: &Session, calibration: &Calibration, tests: &[
     workspace_error(&calibration.parameters.legs, &spm_true, &gauge, tests)
 }
 
-/// Simulate `config` with `seed`, calibrate at both levels and score them against the truth.
+/// Simulate `config` with `seed`, calibrate at both levels (defaults) and score them against the truth.
 pub fn run_session(config: &SimConfig, model: &RobotModel, seed: u64, tests: usize) -> SessionResult {
+    run_session_with(config, model, seed, tests, &CalibConfig::default())
+}
+
+/// [`run_session`] with the marker-level fit's settings `settings` (its folds are turned off).
+pub fn run_session_with(
+    config: &SimConfig,
+    model: &RobotModel,
+    seed: u64,
+    tests: usize,
+    settings: &CalibConfig,
+) -> SessionResult {
     let mut c = config.clone();
     c.seed = seed;
     let (session, _) = c.simulate(model, &mut |_| {}).expect("the simulation succeeds");
     let truth = session.truth.as_ref().expect("a simulated session");
     let spm_true = truth.parameters.spm().expect("a valid truth");
     let tests = test_orientations(&spm_true, tests, seed ^ 0x5eed);
-    let markers = CalibConfig { folds: 0, ..CalibConfig::default() };
+    let markers = CalibConfig { folds: 0, ..settings.clone() };
     let fitted = calibrate(&session, model, &markers, &mut |_| {}).expect("the marker-level fit succeeds");
     let orientations = CalibConfig { fit: FitLevel::Orientations, holdout_every: 0, ..CalibConfig::default() };
     let by_orientation = calibrate(&session, model, &orientations, &mut |_| {}).ok();
@@ -148,12 +165,19 @@ pub fn run_session(config: &SimConfig, model: &RobotModel, seed: u64, tests: usi
     let gauge =
         TruthInGauge::new(&fitted.parameterisation, &truth.parameters.legs, &camera.rotation, &Rotation3::identity());
     let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
-    let in_gauge = TruthInGauge::for_markers(&fitted.parameterisation, &truth.parameters.legs, &camera, &true_markers);
+    let in_gauge = TruthInGauge::for_markers(
+        &fitted.parameterisation,
+        &truth.parameters.legs,
+        &camera,
+        &truth.parameters.camera_model,
+        &true_markers,
+    );
     SessionResult {
         markers_deg: calibration_error(&session, &fitted, &tests),
         orientations_deg: by_orientation.as_ref().map(|c| calibration_error(&session, c, &tests)),
         nominal_deg: workspace_error(model.spm.geometry(), &spm_true, &gauge, &tests),
-        cramer_rao_deg: cramer_rao(&session, model, &c, &tests),
+        cramer_rao_deg: cramer_rao(&session, model, &c, &tests, settings.camera_model),
+        fitted_camera: fitted.parameters.camera_model,
         observations: fitted.report.markers.as_ref().map_or(0, |m| m.observations),
         within_3_sigma: within_3_sigma(&fitted, &in_gauge.x),
     }

@@ -134,7 +134,7 @@ fn standardised_errors(calibration: &Calibration, session: &Session) -> Vec<(Gro
     let camera = truth.parameters.camera.expect("a simulated camera");
     let markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
     let p = &calibration.parameterisation;
-    let gauge = TruthInGauge::for_markers(p, &truth.parameters.legs, &camera, &markers);
+    let gauge = TruthInGauge::for_markers(p, &truth.parameters.legs, &camera, &truth.parameters.camera_model, &markers);
     let x = &calibration.calibrated.x;
     p.entries
         .iter()

@@ -6,6 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
+use crate::model::{CameraModel, CameraModelKind, CameraTerm};
 use crate::vision::Method;
 
 /// A group of parameters that can be frozen at its nominal (or initial) value.
@@ -33,6 +34,8 @@ pub enum Group {
     MarkerPositions,
     /// The camera's latency (free-motion recordings): frozen, `latency_s` is used as it is.
     Latency,
+    /// The camera model's terms (marker-level fit): frozen, `camera_terms` are used as they are.
+    CameraModel,
 }
 
 /// What the calibration fits.
@@ -111,6 +114,14 @@ pub struct CalibConfig {
     /// Free-motion recordings: a capture taken while a joint turns faster than this (deg/s) is
     /// flagged and its noise inflated in proportion (blur, interpolation error).
     pub max_joint_speed_deg_s: f64,
+    /// The camera model the marker-level fit estimates with the mechanism: `rigid` (a perfect
+    /// camera), `depth_scale` (depths read `s` times their length) or `affine` (per-axis scales
+    /// and shears); see `model/camera.rs`.
+    pub camera_model: CameraModelKind,
+    /// The camera model's terms as known before the fit: where the marker-level fit starts them
+    /// (and keeps them when `camera_model` is frozen), and the correction the orientation-level
+    /// fit applies to the measured markers. Only the terms of `camera_model` may be set.
+    pub camera_terms: CameraTerms,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
     /// Loss applied to each observation's residual.
@@ -154,11 +165,52 @@ pub struct Bounds {
     pub joint_offset_deg: f64,
     /// Departure of a marker's position from the model's, per axis (m; marker-level fit).
     pub marker_position_m: f64,
+    /// Departure of a camera model's term from `camera_terms` (a scale's from its start, a shear's).
+    pub camera_term: f64,
 }
 
 impl Default for Bounds {
     fn default() -> Self {
-        Bounds { axis_tilt_deg: 10.0, link_angle_deg: 5.0, joint_offset_deg: 30.0, marker_position_m: 0.03 }
+        Bounds {
+            axis_tilt_deg: 10.0,
+            link_angle_deg: 5.0,
+            joint_offset_deg: 30.0,
+            marker_position_m: 0.03,
+            camera_term: 0.1,
+        }
+    }
+}
+
+/// The camera model's terms as known before a fit (a perfect camera's by default).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraTerms {
+    /// Depths read this many times their length.
+    pub depth_scale: f64,
+    /// Camera y reads this many times its length relative to camera x.
+    pub scale_y: f64,
+    /// Shear between camera x and y.
+    pub shear_xy: f64,
+    /// Shear between camera x and the optical axis.
+    pub shear_xz: f64,
+    /// Shear between camera y and the optical axis.
+    pub shear_yz: f64,
+}
+
+impl Default for CameraTerms {
+    fn default() -> Self {
+        CameraTerms { depth_scale: 1.0, scale_y: 1.0, shear_xy: 0.0, shear_xz: 0.0, shear_yz: 0.0 }
+    }
+}
+
+impl CameraTerms {
+    fn values(&self) -> [f64; 5] {
+        [self.depth_scale, self.scale_y, self.shear_xy, self.shear_xz, self.shear_yz]
+    }
+
+    /// The camera model `kind` with these terms.
+    pub fn model(&self, kind: CameraModelKind) -> CameraModel {
+        CameraTerm::ALL.iter().zip(self.values()).fold(CameraModel::perfect(kind), |m, (t, v)| m.with(*t, v, None))
     }
 }
 
@@ -173,6 +225,8 @@ impl Default for CalibConfig {
             latency_s: 0.0,
             latency_bound_s: 0.2,
             max_joint_speed_deg_s: 90.0,
+            camera_model: CameraModelKind::DepthScale,
+            camera_terms: CameraTerms::default(),
             vision_method: Method::Kabsch,
             loss: Loss::Huber,
             huber_threshold: 3.0,
@@ -212,6 +266,7 @@ impl CalibConfig {
             ("bounds.link_angle_deg", self.bounds.link_angle_deg),
             ("bounds.joint_offset_deg", self.bounds.joint_offset_deg),
             ("bounds.marker_position_m", self.bounds.marker_position_m),
+            ("bounds.camera_term", self.bounds.camera_term),
             ("min_singular_ratio", self.min_singular_ratio),
             ("max_joint_speed_deg_s", self.max_joint_speed_deg_s),
         ];
@@ -276,6 +331,30 @@ impl CalibConfig {
         if self.outlier_threshold < 1.0 || self.huber_threshold < 0.5 {
             let key = if self.outlier_threshold < 1.0 { "outlier_threshold" } else { "huber_threshold" };
             return Err((key.into(), format!("`{key}` below 1 (0.5 for huber) would flag ordinary noise")));
+        }
+        for (term, value) in CameraTerm::ALL.iter().zip(self.camera_terms.values()) {
+            let key = format!("camera_terms.{}", term.name());
+            let most = crate::model::limits::MAX_CAMERA_TERM;
+            if !(value.is_finite() && (value - term.perfect()).abs() <= most) {
+                return Err((
+                    key,
+                    format!("`{}` must be within ±{most} of {} (got {value})", term.name(), term.perfect()),
+                ));
+            }
+            if value != term.perfect() && !self.camera_model.terms().contains(term) {
+                let reason = format!(
+                    "`{}` is not a term of `camera_model: {}`: set `camera_model: {}`",
+                    term.name(),
+                    self.camera_model.name(),
+                    if *term == CameraTerm::DepthScale { "depth_scale` (or `affine" } else { "affine" }
+                );
+                return Err((key, reason));
+            }
+        }
+        let camera = self.camera_terms.model(self.camera_model);
+        if camera.determinant() < CameraModel::MIN_DETERMINANT {
+            let reason = format!("the camera model is nearly singular (det K = {:.3})", camera.determinant());
+            return Err(("camera_terms".into(), reason));
         }
         let mechanism =
             [Group::ActuatedAxes, Group::PlatformAxes, Group::ProximalAngles, Group::DistalAngles, Group::JointOffsets];

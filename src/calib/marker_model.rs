@@ -1,13 +1,16 @@
 //! The marker-level model: every marker observation with the encoder reading of its own capture.
 //!
 //! A marker `k` seen at a capture with joint readings `θ` is predicted at
-//! `x̂ = R_CB R(θ) p_k + t_CB` (camera frame), `R(θ)` the working-mode FDA; the residual is
-//! `r = x_C − x̂` (metres). Nothing is estimated per pose, so a capture may see one marker or all,
+//! `x̂ = K (R_CB R(θ) p_k + t_CB)` (camera frame), `R(θ)` the working-mode FDA and `K` the camera
+//! model (`model/camera.rs`; identity for a perfect camera); the residual is `r = x_C − x̂`
+//! (metres). Nothing is estimated per pose, so a capture may see one marker or all,
 //! and the markers' positions `p_k` on the MP are parameters like the mechanism's.
 //!
-//! Derivatives (perturbations on the left, `R ← exp(ε) R` in B): `dr = R_CB [R p_k]× dω` for the
-//! mechanism (`dω = −Ã⁻¹ F_x dx`, as in the orientation-level model), `dr = [R_CB R p_k]× J_l(c) dc`
-//! for `R_CB = exp(c) R_CB⁰`, `dr = −dt` for `t_CB` and `dr = −R_CB R dp_k` for the marker.
+//! Derivatives (perturbations on the left, `R ← exp(ε) R` in B), all but the camera model's
+//! carried through `K`: `dr = K R_CB [R p_k]× dω` for the mechanism (`dω = −Ã⁻¹ F_x dx`, as in the
+//! orientation-level model), `dr = K [R_CB R p_k]× J_l(c) dc` for `R_CB = exp(c) R_CB⁰`,
+//! `dr = −K dt` for `t_CB`, `dr = −K R_CB R dp_k` for the marker and `dr = −(∂K/∂κ) y dκ` for a
+//! camera-model term `κ`, `y = R_CB R p_k + t_CB`.
 //!
 //! Noise: a stereo camera triangulates depth worse than it measures across the line of sight. A
 //! pixel subtends `d / f`, so the lateral error grows with the distance `d`; the depth error
@@ -363,6 +366,7 @@ impl Model for MarkerModel<'_> {
         let legs = p.legs(x);
         let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
         let (camera, translation) = (p.camera(x), p.translation(x));
+        let k = p.camera_model(x).matrix();
         let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
         let joints = self.joints(x)?;
         let mut orientations = Vec::with_capacity(self.poses.len());
@@ -378,7 +382,7 @@ impl Model for MarkerModel<'_> {
             .observations
             .iter()
             .zip(&self.pose_of)
-            .map(|(o, &k)| o.measured - (camera * (orientations[k] * markers[o.marker]) + translation))
+            .map(|(o, &pose)| o.measured - k * (camera * (orientations[pose] * markers[o.marker]) + translation))
             .collect();
         let mut eval = Evaluation { residuals, orientations, jacobian: None, orientation_jacobians: None };
         if with_jacobian {
@@ -433,6 +437,7 @@ impl MarkerModel<'_> {
     ) -> DMatrix<f64> {
         let p = self.p;
         let jc = so3::left_jacobian(&p.registration_vectors(x).0);
+        let (k, translation) = (p.camera_model(x).matrix(), p.translation(x));
         let mechanism = self.mechanism_needed();
         let shape = (3 * self.observations.len(), p.len());
         let mut jac = match self.spare.take() {
@@ -445,9 +450,9 @@ impl MarkerModel<'_> {
         for (j, o) in self.observations.iter().enumerate() {
             let pose = self.pose_of[j];
             let rp = orientations[pose] * markers[o.marker];
-            let mech = camera.matrix() * rp.cross_matrix();
-            let in_camera = (camera * rp).cross_matrix() * jc;
-            let rotation = camera.matrix() * orientations[pose].matrix();
+            let mech = k * camera.matrix() * rp.cross_matrix();
+            let in_camera = k * (camera * rp).cross_matrix() * jc;
+            let rotation = k * camera.matrix() * orientations[pose].matrix();
             let mut block = jac.fixed_rows_mut::<3>(3 * j);
             // The mechanism's (and the latency's) columns in one product (∂ω/∂x is zero in the
             // others), then the rest.
@@ -456,9 +461,10 @@ impl MarkerModel<'_> {
             }
             for (i, e) in p.entries.iter().enumerate().filter(|(i, _)| self.column_needed(*i)) {
                 let column: Vector3<f64> = match e.kind {
-                    Kind::Camera { k } => in_camera.column(k).into(),
-                    Kind::Translation { k } => -Vector3::ith(k, 1.0),
-                    Kind::Marker { marker, k } if marker == o.marker => -rotation.column(k),
+                    Kind::Camera { k: axis } => in_camera.column(axis).into(),
+                    Kind::Translation { k: axis } => -k.column(axis),
+                    Kind::Marker { marker, k: axis } if marker == o.marker => -rotation.column(axis),
+                    Kind::CameraTerm { term } => -term.derivative(&(camera * rp + translation)),
                     Kind::Latency if !mechanism => mech * sensitivities[pose].column(i),
                     _ => continue,
                 };

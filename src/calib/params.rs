@@ -22,7 +22,7 @@ use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::config::{Bounds, Group};
 use crate::math::so3;
-use crate::model::LegGeometry;
+use crate::model::{CameraModel, CameraTerm, LegGeometry};
 
 /// What one entry of the parameter vector is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,6 +73,11 @@ pub enum Kind {
     },
     /// The camera's latency behind the encoders, `τ − τ⁰` (s; free-motion recordings).
     Latency,
+    /// A term of the camera model, from its start (dimensionless).
+    CameraTerm {
+        /// Which term.
+        term: CameraTerm,
+    },
     /// Component `k` of marker `marker`'s position in P (m).
     Marker {
         /// Marker index (as in the session's `markers`).
@@ -96,6 +101,7 @@ impl Kind {
             Kind::Translation { .. } => Group::CameraTranslation,
             Kind::Marker { .. } => Group::MarkerPositions,
             Kind::Latency => Group::Latency,
+            Kind::CameraTerm { .. } => Group::CameraModel,
         }
     }
 
@@ -111,6 +117,7 @@ impl Kind {
             | Kind::Reference { .. }
             | Kind::Translation { .. }
             | Kind::Marker { .. }
+            | Kind::CameraTerm { .. }
             | Kind::Latency => None,
         }
     }
@@ -150,6 +157,9 @@ pub struct Parameterisation {
     pub latency0: f64,
     /// Where the fit starts the latency (s): the config's `latency_s`.
     pub latency_start: f64,
+    /// The camera model at `x = 0` (marker level; a perfect camera otherwise): its kind is the
+    /// model fitted, its values where the fit starts.
+    pub camera_model0: CameraModel,
     /// One entry per parameter.
     pub entries: Vec<Entry>,
 }
@@ -222,6 +232,7 @@ impl Parameterisation {
             markers0: Vec::new(),
             latency0: 0.0,
             latency_start: 0.0,
+            camera_model0: CameraModel::rigid(),
             entries,
         }
     }
@@ -260,6 +271,29 @@ impl Parameterisation {
         self.latency_start = start;
         self.entries.push(Entry { kind: Kind::Latency, name: "camera.latency".into(), bound: Some(bound) });
         self
+    }
+
+    /// The same parameterisation with the terms of `start`'s camera model as parameters, started
+    /// at its values and bounded by `bound` either side of them.
+    pub fn with_camera_model(mut self, start: CameraModel, bound: f64) -> Self {
+        self.camera_model0 = start;
+        for term in start.kind.terms() {
+            let entry = Entry {
+                kind: Kind::CameraTerm { term: *term },
+                name: format!("camera.{}", term.name()),
+                bound: Some(bound),
+            };
+            self.entries.push(entry);
+        }
+        self
+    }
+
+    /// The camera model at `x`.
+    pub fn camera_model(&self, x: &DVector<f64>) -> CameraModel {
+        self.entries.iter().enumerate().fold(self.camera_model0, |m, (i, e)| match e.kind {
+            Kind::CameraTerm { term } => m.with(term, self.camera_model0.value(term) + x[i], None),
+            _ => m,
+        })
     }
 
     /// Whether parameter `i` sits at its bound at `x` (within a millionth of it): the data want it
@@ -412,7 +446,7 @@ impl Parameterisation {
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
                 // `t_CB` and the markers are set by `TruthInGauge::for_markers`; the latency stays 0.
-                Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency => 0.0,
+                Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency | Kind::CameraTerm { .. } => 0.0,
             };
         }
         x
@@ -461,12 +495,15 @@ impl TruthInGauge {
         TruthInGauge { x: p.coordinates(&moved, &camera, &reference), base, platform }
     }
 
-    /// A true marker-level parameter set (legs, camera registration, marker positions in the true
-    /// P) expressed in `p`'s gauge (a [`Parameterisation::for_markers`]): `R_CB Gᵀ`, `t_CB`, `H p_k`.
+    /// A true marker-level parameter set (legs, camera registration and model, marker positions in
+    /// the true P) expressed in `p`'s gauge (a [`Parameterisation::for_markers`]): `R_CB Gᵀ`,
+    /// `t_CB`, `H p_k`, the camera model's terms as they are (a simulated camera's `K` is in the
+    /// fit's gauge: symmetric, lateral x scale 1).
     pub fn for_markers(
         p: &Parameterisation,
         legs: &[LegGeometry; 3],
         camera: &crate::model::CameraRegistration,
+        camera_model: &CameraModel,
         markers: &[Vector3<f64>],
     ) -> Self {
         let mut truth = TruthInGauge::new(p, legs, &camera.rotation, &Rotation3::identity());
@@ -476,6 +513,7 @@ impl TruthInGauge {
                 Kind::Marker { marker, k } => {
                     truth.x[i] = (truth.platform * markers[marker])[k] - p.markers0[marker][k]
                 }
+                Kind::CameraTerm { term } => truth.x[i] = camera_model.value(term) - p.camera_model0.value(term),
                 _ => {}
             }
         }

@@ -254,6 +254,18 @@ pub fn calibrate(
         None => (session, Vec::new()),
     };
     let latency_free = resampled.is_some() && range.0 < range.1;
+    // The orientation level cannot estimate the camera model: it corrects the markers by the one
+    // the config gives (the marker level fits it, starting there).
+    let corrected;
+    let session = match config.fit {
+        FitLevel::Orientations => {
+            corrected = session.undistorted(&config.camera_terms.model(config.camera_model)).ok_or_else(|| {
+                CalibError::Config { key: "camera_terms".into(), reason: "the camera model is singular".into() }
+            })?;
+            &corrected
+        }
+        FitLevel::Markers => session,
+    };
     let calibration = match config.fit {
         FitLevel::Markers => {
             run(levels::MarkerLevel::prepare(session, model, config)?, session, model, config, left_out, on_iteration)
@@ -287,7 +299,7 @@ fn run<L: Level>(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
     let p = level.parameterisation();
-    let free = level.free();
+    let mut free = level.free();
     let model = level.model();
     check_enough(&free, model.len(), if model.unit() == "mm" { "marker observations" } else { "poses" })?;
     let registration = registration_mask(p, &free);
@@ -296,7 +308,21 @@ fn run<L: Level>(
     let nominal = best_registration(&model, &x0, &registration, config).map_err(stage("nominal registration"))?;
     // Identifiability at the start of the full fit; a session that barely moves is refused with
     // what it cannot tell apart.
-    let identifiability = identifiability_at(p, &nominal, &free, config);
+    let mut identifiability = identifiability_at(p, &nominal, &free, config);
+    // A camera term the data cannot determine is held at its start and said so, not fitted into
+    // the noise (nor regularised with the mechanism).
+    let held_camera = unidentified_camera_terms(p, &identifiability);
+    if !held_camera.is_empty() {
+        held_camera.iter().for_each(|&i| free[i] = false);
+        identifiability = identifiability_at(p, &nominal, &free, config);
+    }
+    let camera_warnings = held_camera.iter().map(|&i| {
+        format!(
+            "the data cannot determine `{}` (the poses do not move the markers in the ways that tell it from the \
+             mechanism and the registration): held at its start",
+            p.entries[i].name
+        )
+    });
     let regularised: Vec<String> = identifiability.unidentifiable.iter().map(Direction::describe).collect();
     let max_deg = level.motion_deg();
     if max_deg < MIN_MOTION_DEG {
@@ -344,7 +370,7 @@ fn run<L: Level>(
     }
     let mut cross_validation =
         cross_validate(&model, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<String> = camera_warnings.collect();
     if let (Some(cv), Some(predicted)) =
         (cross_validation.as_mut(), super::uncertainty::residual_mean_squares(&calibrated, &covariance))
     {
@@ -431,6 +457,29 @@ pub(crate) fn check_enough(free: &[bool], observations: usize, what: &'static st
         });
     }
     Ok(())
+}
+
+/// A camera-model parameter weighs this much (scaled) in an unidentifiable direction: it is part
+/// of what the data cannot determine.
+const CAMERA_IN_NULL_DIRECTION: f64 = 0.3;
+
+/// The camera-model parameters that take part in an unidentifiable direction (by their share of
+/// the column-scaled direction, so that units do not decide).
+fn unidentified_camera_terms(p: &Parameterisation, identifiability: &super::identify::Identifiability) -> Vec<usize> {
+    let camera: Vec<usize> =
+        (0..p.len()).filter(|&i| matches!(p.entries[i].kind, super::params::Kind::CameraTerm { .. })).collect();
+    let mut held: Vec<usize> = identifiability
+        .null_vectors
+        .iter()
+        .flat_map(|v| {
+            let scaled = v.component_mul(&identifiability.column_norms);
+            let norm = scaled.norm().max(f64::MIN_POSITIVE);
+            camera.iter().copied().filter(move |&i| (scaled[i] / norm).abs() > CAMERA_IN_NULL_DIRECTION)
+        })
+        .collect();
+    held.sort_unstable();
+    held.dedup();
+    held
 }
 
 /// The free parameters that end at their bound.

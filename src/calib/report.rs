@@ -11,6 +11,7 @@ use super::marker_model::StereoNoise;
 use super::uncertainty::{Correlation, ParameterReport, PredictedError};
 use super::validation::CrossValidation;
 use crate::math::stats::Stats;
+use crate::model::CameraModelKind;
 use crate::vision::Method;
 
 /// FDA-vs-vision errors of one parameter set, on the fitted and on the held-out poses.
@@ -131,6 +132,39 @@ pub struct Latency {
     pub at_bound: bool,
 }
 
+/// The camera model the marker-level fit used (`camera_model`), term by term.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CameraModelReport {
+    /// The model fitted.
+    pub model: CameraModelKind,
+    /// The depth scale (1: depths read true), as fitted or held.
+    pub depth_scale: f64,
+    /// Its standard error; `None` when held.
+    pub depth_scale_std_error: Option<f64>,
+    /// Every term of the model, and for a rigid model the depth scale it holds at 1.
+    pub terms: Vec<CameraTermReport>,
+    /// What the camera model says about the camera, in words, when something is significant: a
+    /// fitted term away from a perfect camera's, or a held one the residuals want moved.
+    pub finding: Option<String>,
+}
+
+/// One term of the camera model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CameraTermReport {
+    /// Its name (`depth_scale`, `scale_y`, `shear_xy`, `shear_xz`, `shear_yz`).
+    pub name: String,
+    /// The value fitted (or held).
+    pub value: f64,
+    /// Its standard error; `None` when held.
+    pub std_error: Option<f64>,
+    /// Held, not fitted: `frozen` (the config), `rigid` (a rigid model's depth scale),
+    /// `unidentifiable` (the data cannot determine it) or `at_bound`.
+    pub held: Option<&'static str>,
+    /// For a held term: the value a fit that freed it would reach, and that value's standard
+    /// error (a score test of holding it).
+    pub released: Option<(f64, f64)>,
+}
+
 /// A capture of a free-motion recording taken while a joint turned faster than
 /// `max_joint_speed_deg_s`: down-weighted in proportion.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -150,6 +184,8 @@ pub struct FastCapture {
 pub struct MarkerFitReport {
     /// The camera latency of a free-motion recording.
     pub latency: Option<Latency>,
+    /// The camera model.
+    pub camera_model: CameraModelReport,
     /// Marker observations fitted.
     pub observations: usize,
     /// Distinct poses (encoder readings) among them.

@@ -84,6 +84,7 @@ impl<'a> Frames<'a> {
             | Kind::Reference { .. }
             | Kind::Translation { .. }
             | Kind::Marker { .. }
+            | Kind::CameraTerm { .. }
             | Kind::Latency => 0.0,
         }
     }

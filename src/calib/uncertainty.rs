@@ -84,6 +84,20 @@ pub(crate) fn covariance<N>(outcome: &FitOutcome<N>, free: &[bool], prior: Optio
     full
 }
 
+/// Releasing held parameter `i`: the change a fit with it free as well would make (one
+/// Gauss–Newton step from the solution, the `free` parameters re-adjusting with it) and the
+/// standard error it would have — a score test of holding it. `None` when the data cannot tell it
+/// from the free parameters.
+pub(crate) fn released<N>(outcome: &FitOutcome<N>, free: &[bool], i: usize) -> Option<(f64, f64)> {
+    let idx: Vec<usize> = (0..free.len()).filter(|&k| free[k] || k == i).collect();
+    let a = idx.iter().position(|&k| k == i)?;
+    let (hessian, gradient) = weighted_normal(&outcome.evaluation, &outcome.weighting, &idx);
+    let inverse = hessian.cholesky()?.inverse();
+    let change = -(inverse.row(a) * &gradient)[(0, 0)];
+    let variance = inverse[(a, a)] * residual_scale(outcome, idx.len());
+    (variance.is_finite() && variance > 0.0).then(|| (change, variance.sqrt()))
+}
+
 /// `σ̂²`: the weighted whitened residual variance per degree of freedom (`free` parameters).
 fn residual_scale<N>(outcome: &FitOutcome<N>, free: usize) -> f64 {
     let w = &outcome.weighting;

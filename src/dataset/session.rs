@@ -28,7 +28,7 @@ use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
 use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
 use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
-use crate::model::Parameters;
+use crate::model::{CameraModel, Parameters};
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
 pub(crate) const MIN_MARKERS: usize = 3;
@@ -229,6 +229,24 @@ impl Session {
             streams: None,
         };
         Ok((session, warnings))
+    }
+
+    /// The session as a perfect camera would have reported it: every marker position (the poses'
+    /// and a recording's captures') corrected by the camera model, `K⁻¹ m`. `None` when `K` is
+    /// singular (parameters files and configs refuse such a model).
+    pub fn undistorted(&self, camera: &CameraModel) -> Option<Session> {
+        if camera.is_perfect() {
+            return Some(self.clone());
+        }
+        let correction = camera.matrix().try_inverse()?;
+        let mut session = self.clone();
+        for pose in session.poses.iter_mut() {
+            pose.markers.iter_mut().flatten().for_each(|m| *m = correction * *m);
+        }
+        if let Some(streams) = session.streams.as_mut() {
+            streams.captures.iter_mut().for_each(|c| c.position = correction * c.position);
+        }
+        Some(session)
     }
 
     /// A free-motion recording's poses for camera latency `latency_s`: one pose per camera frame

@@ -29,6 +29,10 @@ pub(crate) const MAX_OFFSET_DEG: f64 = 360.0;
 /// with a larger one would drop most frames of any recording.
 pub(crate) const MAX_LATENCY_S: f64 = 0.2;
 
+/// Largest departure of a camera model's term from a perfect camera's (a scale of 1 ± this, a
+/// shear of this): a camera whose depths read half again too long is broken, not miscalibrated.
+pub(crate) const MAX_CAMERA_TERM: f64 = 0.5;
+
 /// Checks of one YAML file's values, each error at the line of the value's key.
 pub(crate) struct Ranges<'a> {
     pub(crate) path: &'a Path,

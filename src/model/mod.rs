@@ -4,6 +4,7 @@
 #[cfg(feature = "full")]
 mod agreement;
 mod assembly;
+mod camera;
 #[cfg(feature = "full")]
 mod export;
 mod geometry;
@@ -22,6 +23,7 @@ mod urdf;
 mod urdf_check;
 
 pub use assembly::AssemblyMode;
+pub use camera::{CameraModel, CameraModelKind, CameraTerm};
 #[cfg(feature = "full")]
 pub use export::{ExportedModel, export};
 pub use geometry::{GeometryError, HomeBranch, LegGeometry};

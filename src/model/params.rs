@@ -15,9 +15,12 @@
 //!     v0: [0.0, 0.816496580927726, 0.577350269189626]
 //!     delta_deg: 0.0
 //!     home_branch: negative  # sign of (u×w)·v at home; optional, negative when absent
-//! camera:                    # optional: x_C = R_CB x_B + t_CB
+//! camera:                    # optional: x_C = R_CB x_B + t_CB, reported at K x_C
 //!   r_cb_wxyz: [1.0, 0.0, 0.0, 0.0]
 //!   t_cb_m: [0.0, 0.0, 0.8]
+//!   camera_model: depth_scale  # optional: rigid (K = I, when absent) | depth_scale | affine
+//!   depth_scale: 1.0198        # the model's terms (see camera.rs), each with an optional
+//!   depth_scale_std_error: 0.0011  # `_std_error`; absent terms are a perfect camera's
 //! fit: {}                    # optional: statistics of the fit that produced the file
 //! ```
 
@@ -27,8 +30,9 @@ use std::path::Path;
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::camera::{CameraModel, CameraModelKind, CameraTerm};
 use super::geometry::{GeometryError, HomeBranch, LegGeometry};
-use super::limits::{MAX_LATENCY_S, MAX_POSITION_M, Ranges};
+use super::limits::{MAX_CAMERA_TERM, MAX_LATENCY_S, MAX_POSITION_M, Ranges};
 use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
 #[cfg(feature = "full")]
@@ -92,6 +96,9 @@ pub struct Parameters {
     pub legs: [LegGeometry; 3],
     /// The camera registration, when known.
     pub camera: Option<CameraRegistration>,
+    /// How the camera distorts what it sees (written with the registration, so only when that is
+    /// known): a perfect camera unless fitted (or simulated).
+    pub camera_model: CameraModel,
     /// The markers' positions in P, when a fit estimated them (or a simulation drew them);
     /// empty: the model's companion holds them.
     pub markers: Vec<MarkerPosition>,
@@ -141,6 +148,29 @@ struct LegRecord {
 struct CameraRecord {
     r_cb_wxyz: [f64; 4],
     t_cb_m: [f64; 3],
+    /// Absent: inferred from the terms given (none: rigid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    camera_model: Option<CameraModelKind>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    depth_scale: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    depth_scale_std_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    scale_y: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    scale_y_std_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shear_xy: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shear_xy_std_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shear_xz: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shear_xz_std_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shear_yz: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shear_yz_std_error: Option<f64>,
 }
 
 impl LegRecord {
@@ -168,6 +198,84 @@ impl CameraRecord {
             .ok_or_else(|| check.error(key, format!("`r_cb_wxyz` is not a unit quaternion (its norm is {norm})")))?;
         check.position("camera.t_cb_m", "the camera's `t_cb_m`", &self.t_cb_m)?;
         Ok(CameraRegistration { rotation, translation: Vector3::from(self.t_cb_m) })
+    }
+
+    fn term_slots(&self) -> [(CameraTerm, Option<f64>, Option<f64>); 5] {
+        [
+            (CameraTerm::DepthScale, self.depth_scale, self.depth_scale_std_error),
+            (CameraTerm::ScaleY, self.scale_y, self.scale_y_std_error),
+            (CameraTerm::ShearXy, self.shear_xy, self.shear_xy_std_error),
+            (CameraTerm::ShearXz, self.shear_xz, self.shear_xz_std_error),
+            (CameraTerm::ShearYz, self.shear_yz, self.shear_yz_std_error),
+        ]
+    }
+
+    /// The camera model, every term checked at its key's line: a term of another model, a value
+    /// beyond ±`MAX_CAMERA_TERM` of a perfect camera's or a negative standard error is refused.
+    fn camera_model(&self, check: &Ranges) -> Result<CameraModel, FileError> {
+        let slots = self.term_slots();
+        let given = |t: CameraTerm| slots.iter().any(|(s, v, e)| *s == t && (v.is_some() || e.is_some()));
+        let kind = self.camera_model.unwrap_or(if CameraTerm::ALL[1..].iter().any(|t| given(*t)) {
+            CameraModelKind::Affine
+        } else if given(CameraTerm::DepthScale) {
+            CameraModelKind::DepthScale
+        } else {
+            CameraModelKind::Rigid
+        });
+        let mut model = CameraModel::perfect(kind);
+        for (term, value, std_error) in slots {
+            let key = format!("camera.{}", term.name());
+            if !kind.terms().contains(&term) {
+                if value.is_some() || std_error.is_some() {
+                    let reason = format!("`{}` is not a term of the `{}` camera model", term.name(), kind.name());
+                    return Err(check.error(&key, reason));
+                }
+                continue;
+            }
+            let v = value.unwrap_or(term.perfect());
+            if !(v.is_finite() && (v - term.perfect()).abs() <= MAX_CAMERA_TERM) {
+                let reason = format!(
+                    "`{}` = {v} is not within ±{MAX_CAMERA_TERM} of a perfect camera's {}",
+                    term.name(),
+                    term.perfect()
+                );
+                return Err(check.error(&key, reason));
+            }
+            if let Some(e) = std_error.filter(|e| !(e.is_finite() && *e >= 0.0)) {
+                let reason = format!("`{}_std_error` = {e} must be a finite number ≥ 0", term.name());
+                return Err(check.error(&format!("{key}_std_error"), reason));
+            }
+            model = model.with(term, v, std_error);
+        }
+        if model.determinant() < CameraModel::MIN_DETERMINANT {
+            let reason = format!(
+                "the camera model is nearly singular (det K = {:.3}, below {}): its shears flatten space",
+                model.determinant(),
+                CameraModel::MIN_DETERMINANT
+            );
+            return Err(check.error("camera.camera_model", reason));
+        }
+        Ok(model)
+    }
+
+    fn of(registration: &CameraRegistration, model: &CameraModel) -> Self {
+        let term = |t: CameraTerm| model.kind.terms().contains(&t).then(|| model.value(t));
+        let error = |t: CameraTerm| model.kind.terms().contains(&t).then(|| model.std_error(t)).flatten();
+        CameraRecord {
+            r_cb_wxyz: so3::to_wxyz(&registration.rotation),
+            t_cb_m: registration.translation.into(),
+            camera_model: (model.kind != CameraModelKind::Rigid).then_some(model.kind),
+            depth_scale: term(CameraTerm::DepthScale),
+            depth_scale_std_error: error(CameraTerm::DepthScale),
+            scale_y: term(CameraTerm::ScaleY),
+            scale_y_std_error: error(CameraTerm::ScaleY),
+            shear_xy: term(CameraTerm::ShearXy),
+            shear_xy_std_error: error(CameraTerm::ShearXy),
+            shear_xz: term(CameraTerm::ShearXz),
+            shear_xz_std_error: error(CameraTerm::ShearXz),
+            shear_yz: term(CameraTerm::ShearYz),
+            shear_yz_std_error: error(CameraTerm::ShearYz),
+        }
     }
 }
 
@@ -221,6 +329,7 @@ impl Parameters {
             model,
             legs: *spm.geometry(),
             camera: None,
+            camera_model: CameraModel::rigid(),
             markers: Vec::new(),
             latency_s: None,
             fit: None,
@@ -284,9 +393,9 @@ impl Parameters {
             };
             check.error(&key, e.to_string())
         })?;
-        let camera = match record.camera {
-            None => None,
-            Some(c) => Some(c.registration(&check)?),
+        let (camera, camera_model) = match record.camera {
+            None => (None, CameraModel::rigid()),
+            Some(c) => (Some(c.registration(&check)?), c.camera_model(&check)?),
         };
         let mut markers = Vec::with_capacity(record.markers.len());
         // Each name with its entry: a repeated name is found in one pass, whatever the count.
@@ -337,6 +446,7 @@ impl Parameters {
             model: record.model,
             legs,
             camera,
+            camera_model,
             markers,
             latency_s: record.latency_s,
             fit: record.fit,
@@ -365,9 +475,7 @@ impl Parameters {
                     home_branch: g.home_branch,
                 })
                 .collect(),
-            camera: self
-                .camera
-                .map(|c| CameraRecord { r_cb_wxyz: so3::to_wxyz(&c.rotation), t_cb_m: c.translation.into() }),
+            camera: self.camera.map(|c| CameraRecord::of(&c, &self.camera_model)),
             markers: self
                 .markers
                 .iter()

@@ -5,7 +5,7 @@ use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::config::Camera;
-use crate::model::CameraRegistration;
+use crate::model::{CameraModel, CameraModelKind, CameraRegistration, CameraTerm};
 
 // The camera's settings are read with the rest of the config (`config`); what the camera does
 // with them is here.
@@ -17,8 +17,21 @@ impl Camera {
         CameraRegistration::from_centre(rotation, &Vector3::new(0.0, 0.0, self.height_m))
     }
 
+    /// The camera model the settings make: affine when a scale of y or a shear is set, a depth
+    /// scale when only that is, else a perfect camera.
+    pub fn model(&self) -> CameraModel {
+        let values = [self.depth_scale, self.scale_y, self.shear_xy, self.shear_xz, self.shear_yz];
+        let affine = CameraTerm::ALL[1..].iter().zip(&values[1..]).any(|(t, v)| *v != t.perfect());
+        let kind = match (affine, self.depth_scale != 1.0) {
+            (true, _) => CameraModelKind::Affine,
+            (false, true) => CameraModelKind::DepthScale,
+            (false, false) => CameraModelKind::Rigid,
+        };
+        CameraTerm::ALL.iter().zip(values).fold(CameraModel::perfect(kind), |m, (t, v)| m.with(*t, v, None))
+    }
+
     /// Measure a point given in B with the camera at `registration`: transform to the camera
-    /// frame, then add stereo noise — lateral noise across the line of sight growing with the
+    /// frame, distort by the camera model, then add stereo noise — lateral noise across the line of sight growing with the
     /// distance (a pixel subtends `z / f`), depth noise along it growing with the squared distance
     /// (triangulation error ∝ z² / (f · baseline)) — and, rarely, an outlier.
     ///
@@ -32,6 +45,8 @@ impl Camera {
         rng: &mut R,
     ) -> Measurement {
         let exact = registration.to_camera(point_b);
+        let model = self.model();
+        let exact = if model.is_perfect() { exact } else { model.distort(&exact) };
         let distance = exact.norm();
         let along = exact / distance;
         let across1 =

@@ -7,6 +7,7 @@ use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
+use crate::model::CameraTerm;
 
 /// The most poses a simulated session may have: a session is held in memory (about 200 bytes a
 /// pose), and 1,000,000 is far beyond any capture a person would make.
@@ -147,6 +148,16 @@ pub struct Camera {
     pub outlier_sigma_m: f64,
     /// Radius of the spherical markers (the start of the line of sight for occlusion).
     pub marker_radius_m: f64,
+    /// Depths read this many times their length (1: a perfect camera); see `model/camera.rs`.
+    pub depth_scale: f64,
+    /// Camera y reads this many times its length relative to camera x (an affine camera).
+    pub scale_y: f64,
+    /// Symmetric shear between camera x and y (an affine camera).
+    pub shear_xy: f64,
+    /// Symmetric shear between camera x and the optical axis (an affine camera).
+    pub shear_xz: f64,
+    /// Symmetric shear between camera y and the optical axis (an affine camera).
+    pub shear_yz: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -264,6 +275,11 @@ impl Default for Camera {
             outlier_probability: 0.0,
             outlier_sigma_m: 0.005,
             marker_radius_m: 0.006,
+            depth_scale: 1.0,
+            scale_y: 1.0,
+            shear_xy: 0.0,
+            shear_xz: 0.0,
+            shear_yz: 0.0,
         }
     }
 }
@@ -380,6 +396,14 @@ impl SimConfig {
         }
         if self.camera.outlier_probability.is_nan() {
             return Err(("camera.outlier_probability".into(), "`outlier_probability` is not a number".into()));
+        }
+        let model = self.camera.model();
+        for term in CameraTerm::ALL {
+            let v = model.value(term);
+            if !(v.is_finite() && (v - term.perfect()).abs() <= 0.5) {
+                let key = format!("camera.{}", term.name());
+                return Err((key, format!("`{}` must be within ±0.5 of {} (got {v})", term.name(), term.perfect())));
+            }
         }
         if self.camera.height_m <= self.camera.marker_radius_m {
             return Err(("camera.height_m".into(), "the camera must be above the markers".into()));

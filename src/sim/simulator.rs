@@ -496,6 +496,7 @@ impl Simulator<'_> {
             model: Some(crate::io::files::tidy_path(&self.model.urdf_path).display().to_string()),
             legs: *self.spm.geometry(),
             camera: Some(self.camera),
+            camera_model: self.config.camera.model(),
             markers: self
                 .model
                 .markers

@@ -14,11 +14,18 @@ use crate::calib::model::Model;
 use crate::calib::params::{Kind, Parameterisation};
 use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Origin, Results, Solution};
 use crate::calib::registration;
-use crate::calib::report::{Errors, FastCapture, Latency, MarkerFitReport, MarkerReport};
-use crate::calib::uncertainty::{parameter_reports, predicted_marker_error, predicted_orientation_error, std_error};
+use crate::calib::report::{
+    CameraModelReport, CameraTermReport, Errors, FastCapture, Latency, MarkerFitReport, MarkerReport,
+};
+use crate::calib::uncertainty::{
+    parameter_reports, predicted_marker_error, predicted_orientation_error, released, std_error,
+};
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
-use crate::model::{CameraRegistration, MarkerPosition, ParameterSource, Parameters, RobotModel};
+use crate::model::{
+    CameraModel, CameraModelKind, CameraRegistration, CameraTerm, MarkerPosition, ParameterSource, Parameters,
+    RobotModel,
+};
 use crate::vision::{Method, SessionEstimate};
 
 /// A session's marker observations, ready to fit.
@@ -30,6 +37,9 @@ pub(crate) struct MarkerLevel<'s> {
     /// Markers seen at fewer than two poses: held at the model's position.
     held_markers: Vec<usize>,
     max_joint_speed_deg_s: f64,
+    /// The camera model fitted (`camera_model`); a rigid one carries the depth scale held at its
+    /// start, for the report to test.
+    camera_model: CameraModelKind,
     freeze: Vec<Group>,
     max_deg: f64,
     excluded: Vec<String>,
@@ -67,8 +77,14 @@ impl<'s> MarkerLevel<'s> {
         let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
         let registration = registration::from_markers(&observations, &nominal_r, &markers0)
             .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
+        let camera_model = config.camera_model;
+        let carried = match camera_model {
+            CameraModelKind::Rigid => CameraModelKind::DepthScale,
+            kind => kind,
+        };
         let p =
-            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds);
+            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds)
+                .with_camera_model(config.camera_terms.model(carried), config.bounds.camera_term);
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
         let streams = session.streams.as_ref();
         let p = match streams {
@@ -84,6 +100,7 @@ impl<'s> MarkerLevel<'s> {
             names: session.markers.clone(),
             held_markers,
             max_joint_speed_deg_s: config.max_joint_speed_deg_s,
+            camera_model,
             freeze: config.freeze.clone(),
             max_deg: largest_rotation(&nominal_r),
             excluded,
@@ -120,6 +137,7 @@ impl Level for MarkerLevel<'_> {
             .map(|e| {
                 !self.freeze.contains(&e.kind.group())
                     && !matches!(e.kind, Kind::Marker { marker, .. } if self.held_markers.contains(&marker))
+                    && !matches!(e.kind, Kind::CameraTerm { term } if !self.camera_model.terms().contains(&term))
             })
             .collect()
     }
@@ -138,11 +156,18 @@ impl Level for MarkerLevel<'_> {
         let observations = r.model.observations();
         let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
         let marker_reports = marker_reports(p, x, cov, free, observations, &self.names);
+        let camera_report = self.camera_report(&r);
+        let camera_model = CameraTerm::ALL.iter().fold(CameraModel::perfect(self.camera_model), |m, term| {
+            let at = p.entries.iter().position(|e| e.kind == Kind::CameraTerm { term: *term });
+            let value = at.map_or(m.value(*term), |_| p.camera_model(x).value(*term));
+            m.with(*term, value, at.and_then(|i| std_error(cov, free, i)))
+        });
         let parameters = Parameters {
             source: ParameterSource::Calibrated,
             model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
             legs: p.legs(x),
             camera: Some(camera),
+            camera_model,
             markers: marker_reports
                 .iter()
                 .map(|m| MarkerPosition {
@@ -169,7 +194,7 @@ impl Level for MarkerLevel<'_> {
         report.parameters = parameter_reports(p, x, cov, free)
             .into_iter()
             .zip(&p.entries)
-            .filter(|(_, e)| !matches!(e.kind, Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency))
+            .filter(|(_, e)| e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. }))
             .map(|(r, _)| r)
             .collect();
         let mut pose_ids = vec![0; r.model.poses()];
@@ -195,6 +220,7 @@ impl Level for MarkerLevel<'_> {
                 std_error_s: std_error(cov, free, i),
                 at_bound: p.at_bound(x, i),
             }),
+            camera_model: camera_report,
             observations: observations.len(),
             poses: r.model.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
@@ -233,6 +259,84 @@ impl Level for MarkerLevel<'_> {
             calibrated: Solution::of(&r.calibrated),
             covariance: r.covariance,
         })
+    }
+}
+
+impl MarkerLevel<'_> {
+    /// The camera model term by term: fitted or held (and why), a held term tested against the
+    /// residuals, and what is significant said in words.
+    fn camera_report(&self, r: &Results<'_, MarkerModel<'_>>) -> CameraModelReport {
+        let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
+        let fitted = p.camera_model(x);
+        let mut findings = Vec::new();
+        let terms: Vec<CameraTermReport> = p
+            .entries
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| match e.kind {
+                Kind::CameraTerm { term } => Some((i, term)),
+                _ => None,
+            })
+            .map(|(i, term)| {
+                let held = match () {
+                    _ if free[i] => None,
+                    _ if !self.camera_model.terms().contains(&term) => Some("rigid"),
+                    _ if self.freeze.contains(&Group::CameraModel) => Some("frozen"),
+                    _ if p.at_bound(x, i) => Some("at_bound"),
+                    _ => Some("unidentifiable"),
+                };
+                let value = fitted.value(term);
+                let std_error = std_error(cov, free, i);
+                let released = held.and_then(|_| released(&r.calibrated, free, i)).map(|(d, s)| (value + d, s));
+                if let Some(finding) = camera_finding(term, value, std_error, released) {
+                    findings.push(finding);
+                }
+                CameraTermReport { name: term.name().to_string(), value, std_error, held, released }
+            })
+            .collect();
+        let depth = terms.iter().find(|t| t.name == CameraTerm::DepthScale.name());
+        CameraModelReport {
+            model: self.camera_model,
+            depth_scale: depth.map_or(1.0, |t| t.value),
+            depth_scale_std_error: depth.and_then(|t| t.std_error),
+            terms,
+            finding: (!findings.is_empty()).then(|| findings.join("; ")),
+        }
+    }
+}
+
+/// A camera term is significant beyond this many standard errors from a perfect camera's value.
+const CAMERA_SIGNIFICANCE: f64 = 3.0;
+
+/// What a camera term says in words, when it is significant: fitted away from a perfect camera,
+/// or held while the residuals want it moved.
+fn camera_finding(
+    term: CameraTerm,
+    value: f64,
+    std_error: Option<f64>,
+    released: Option<(f64, f64)>,
+) -> Option<String> {
+    let describe = |v: f64, s: f64| match term {
+        CameraTerm::DepthScale => format!(
+            "the camera's depths read {:.2}% {} ({v:.4} ± {s:.4})",
+            (v - 1.0).abs() * 100.0,
+            if v > 1.0 { "long" } else { "short" }
+        ),
+        _ => format!("the camera's {} is {v:.4} ± {s:.4} (a perfect camera's is {})", term.name(), term.perfect()),
+    };
+    match (std_error, released) {
+        (Some(s), _) if (value - term.perfect()).abs() > CAMERA_SIGNIFICANCE * s => Some(format!(
+            "{}: the camera, not the mechanism, explains that much of the error, and the fit corrected it",
+            describe(value, s)
+        )),
+        (None, Some((v, s))) if (v - term.perfect()).abs() > CAMERA_SIGNIFICANCE * s => Some(format!(
+            "the residuals follow the camera, not the mechanism: {} would explain them, {:.1} standard errors from a perfect camera, but `{}` is held — fit it (`camera_model: {}`)",
+            describe(v, s),
+            (v - term.perfect()).abs() / s,
+            term.name(),
+            if term == CameraTerm::DepthScale { "depth_scale" } else { "affine" }
+        )),
+        _ => None,
     }
 }
 

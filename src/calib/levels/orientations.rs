@@ -17,7 +17,7 @@ use crate::calib::report::Errors;
 use crate::calib::uncertainty::{parameter_reports, predicted_orientation_error};
 use crate::dataset::Session;
 use crate::math::stats::Stats;
-use crate::model::{CameraRegistration, ParameterSource, Parameters, RobotModel};
+use crate::model::{CameraModel, CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::SessionEstimate;
 
 /// A session's per-pose orientations, ready to fit.
@@ -29,10 +29,13 @@ pub(crate) struct OrientationLevel {
     freeze: Vec<Group>,
     max_deg: f64,
     excluded: Vec<String>,
+    /// The camera model the markers were corrected by (`camera_terms`), written with the result.
+    camera_model: CameraModel,
 }
 
 impl OrientationLevel {
-    /// The vision estimate of `session`, its poses on `robot`'s nominal model, registered.
+    /// The vision estimate of `session` (its markers already corrected by the camera model of
+    /// `camera_terms`), its poses on `robot`'s nominal model, registered.
     pub(crate) fn prepare(session: &Session, robot: &RobotModel, config: &CalibConfig) -> Result<Self, CalibError> {
         let vision = SessionEstimate::of(session, config.vision_method)?;
         let nominal_spm = &robot.spm;
@@ -63,7 +66,17 @@ impl OrientationLevel {
         let (camera0, reference0) =
             registration::from_rotations(&fitted, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;
         let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
-        Ok(OrientationLevel { p, fitted, held_out, vision, freeze: config.freeze.clone(), max_deg, excluded })
+        let camera_model = config.camera_terms.model(config.camera_model);
+        Ok(OrientationLevel {
+            p,
+            fitted,
+            held_out,
+            vision,
+            freeze: config.freeze.clone(),
+            max_deg,
+            excluded,
+            camera_model,
+        })
     }
 }
 
@@ -123,6 +136,7 @@ impl Level for OrientationLevel {
             legs: p.legs(x),
             camera: centre
                 .map(|c| CameraRegistration { rotation: p.camera(x), translation: Vector3::from(c.position_m) }),
+            camera_model: self.camera_model,
             fit: None,
         };
         report.parameters = parameter_reports(p, x, cov, &r.free);
