@@ -9,7 +9,7 @@
 
 use serde::Serialize;
 
-use crate::calib::{FitLevel, SetError, marker_pose_errors, pose_errors};
+use crate::calib::{FitLevel, SetError, corrected_for, marker_pose_errors, pose_errors};
 use crate::dataset::Session;
 use crate::math::stats::Stats;
 use crate::model::{Parameters, RobotModel};
@@ -61,7 +61,8 @@ pub enum CompareError {
 }
 
 /// Compare each `(label, parameters)` set with the camera on `session`, at `level`; `None`:
-/// orientations where the per-pose estimator can work, markers where no pose sees three.
+/// orientations where the per-pose estimator can work, markers where no pose sees three. Each set
+/// sees the markers corrected by its own camera model (`camera_model`).
 ///
 /// # Errors
 /// A [`CompareError`] when the vision estimate fails or a parameter set cannot be registered or predicts no pose.
@@ -84,7 +85,13 @@ pub fn compare(
     sets.iter()
         .map(|(label, params)| {
             let set_error = |reason| CompareError::Set { label: label.clone(), reason };
-            let (level, errors) = match &vision {
+            // Each set sees the markers as its own camera model corrects them.
+            let corrected = corrected_for(session, vision.as_ref(), method, params).map_err(set_error)?;
+            let (session, vision) = match &corrected {
+                Some((s, v)) => (s, v.as_ref()),
+                None => (session, vision.as_ref()),
+            };
+            let (level, errors) = match vision {
                 Some(v) => (FitLevel::Orientations, pose_errors(session, v, params).map_err(set_error)?),
                 None => (FitLevel::Markers, marker_pose_errors(session, model, params).map_err(set_error)?.0),
             };

@@ -97,6 +97,19 @@ fn predicted(report: &crate::calib::CalibrationReport) -> String {
             );
         }
     }
+    if let Some(c) = report.markers.as_ref().map(|m| &m.camera_model) {
+        let depth = match c.depth_scale_std_error {
+            Some(se) => format!("depth scale {:.4} ± {se:.4}", c.depth_scale),
+            None => format!("depth scale {:.4} (held)", c.depth_scale),
+        };
+        let _ = write!(
+            out,
+            "<p class=\"{}\">Camera model <b>{}</b>: {depth}.{}</p>",
+            if c.finding.is_some() { "warn" } else { "meta" },
+            c.model.name(),
+            c.finding.as_ref().map_or(String::new(), |f| format!(" {}.", escape(&capitalised(f))))
+        );
+    }
     if let Some(cv) = &report.cross_validation
         && let Some(expected) = cv.expected_rms
     {

@@ -5,7 +5,7 @@
 //! orientation error of the calibrated mechanism against the truth over fresh workspace
 //! orientations, the Cramér–Rao prediction of the camera-model fit, the fitted depth scale, its
 //! reported σ beside the scatter of its error, and how often the truth lies within 2σ and 3σ.
-//! Run: `cargo run --release --example camera_model [sessions]` (default 10 per row).
+//! Run: `cargo run --release --example camera_model [sessions]` (default 50 per row; the same seeds in every row, so that rows differ only by the camera).
 
 use std::path::Path;
 
@@ -19,13 +19,13 @@ mod study;
 use study::{SessionResult, pooled, run_session_with};
 
 fn main() {
-    let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(10);
+    let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(50);
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).expect("shipped model");
     let mut base = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).expect("shipped config");
     base.poses = 200;
     let fit = |kind| CalibConfig { camera_model: kind, ..CalibConfig::default() };
     let run = |c: &SimConfig, kind| -> Vec<SessionResult> {
-        (0..sessions).map(|s| run_session_with(c, &model, 20_000 + s, 60, &fit(kind))).collect()
+        (0..sessions).map(|s| run_session_with(c, &model, 10_000 + s, 60, &fit(kind))).collect()
     };
     println!(
         "| depth scale | sessions | rigid camera (°) | depth-scale model (°) | Cramér–Rao (°) | model / CRB | \

@@ -88,6 +88,35 @@ pub enum SetError {
     #[error("{0}")]
     /// The model cannot be evaluated.
     Eval(EvalError),
+    #[error("{0}")]
+    /// The vision estimate of the corrected session failed.
+    Vision(crate::vision::VisionError),
+    #[error("the camera model is singular: its markers cannot be corrected")]
+    /// The set's camera model cannot be inverted.
+    SingularCamera,
+}
+
+/// `session` as the camera model of `params` corrects it (`K⁻¹` on every marker), with its vision
+/// estimate when `vision` (the uncorrected session's) is given; `None` for a perfect camera: use
+/// `session` and `vision` as they are.
+///
+/// # Errors
+/// [`SetError::SingularCamera`]; a vision error as [`SetError::Vision`].
+pub(crate) fn corrected_for(
+    session: &Session,
+    vision: Option<&SessionEstimate>,
+    method: crate::vision::Method,
+    params: &Parameters,
+) -> Result<Option<(Session, Option<SessionEstimate>)>, SetError> {
+    if params.camera_model.is_perfect() {
+        return Ok(None);
+    }
+    let corrected = session.undistorted(&params.camera_model).ok_or(SetError::SingularCamera)?;
+    let estimate = match vision {
+        Some(_) => Some(SessionEstimate::of(&corrected, method).map_err(SetError::Vision)?),
+        None => None,
+    };
+    Ok(Some((corrected, estimate)))
 }
 
 /// The errors of one parameter set, per pose.

@@ -33,7 +33,7 @@ mod uncertainty;
 mod validation;
 
 pub use agreement::{MarkerErrors, SetError};
-pub(crate) use agreement::{PoseErrors, marker_pose_errors, pose_errors};
+pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_errors};
 pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 pub use fit::{Convergence, IterationLog};
 pub use identify::{Direction, Identifiability};

@@ -4,7 +4,7 @@ use std::fmt;
 
 use super::config::FitLevel;
 use super::fit::Convergence;
-use super::report::{CalibrationReport, MarkerFitReport};
+use super::report::{CalibrationReport, CameraModelReport, MarkerFitReport};
 use crate::math::stats::Stats;
 
 /// How many excluded or flagged items a text report lists before "… and N more".
@@ -227,6 +227,7 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
             None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
         }
     }
+    camera_model(f, &m.camera_model)?;
     if let Some(n) = &m.stereo_noise {
         writeln!(
             f,
@@ -257,6 +258,34 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
             m.fast_captures[0].line,
             m.fast_captures[0].speed_deg_s
         )?;
+    }
+    Ok(())
+}
+
+/// The camera model, term by term, and what it says in words.
+fn camera_model(f: &mut fmt::Formatter<'_>, c: &CameraModelReport) -> fmt::Result {
+    let terms: Vec<String> = c
+        .terms
+        .iter()
+        .map(|t| match (t.std_error, t.held, t.released) {
+            (Some(se), _, _) => format!("{} {:.5} ± {se:.5}", t.name, t.value),
+            (None, Some(why), Some((v, se))) => {
+                format!(
+                    "{} {:.5} (held: {}; freed it would be {v:.5} ± {se:.5})",
+                    t.name,
+                    t.value,
+                    why.replace('_', " ")
+                )
+            }
+            (None, why, None) => {
+                format!("{} {:.5} (held: {})", t.name, t.value, why.unwrap_or("frozen").replace('_', " "))
+            }
+            (None, None, Some(_)) => format!("{} {:.5}", t.name, t.value),
+        })
+        .collect();
+    writeln!(f, "camera model: {} — {}", c.model.name(), terms.join(", "))?;
+    if let Some(finding) = &c.finding {
+        writeln!(f, "  camera: {finding}")?;
     }
     Ok(())
 }

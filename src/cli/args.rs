@@ -131,6 +131,14 @@ impl SessionArgs {
         moved
     }
 
+    /// The session as the camera model of the parameters file at `params` corrects it (every
+    /// marker by `K⁻¹`): what a perfect camera would have reported.
+    pub(crate) fn corrected(session: Session, params: &std::path::Path, p: &Parameters) -> Result<Session> {
+        session.undistorted(&p.camera_model).ok_or_else(|| {
+            anyhow::anyhow!("{}: the camera model is singular: the markers cannot be corrected", params.display())
+        })
+    }
+
     pub(crate) fn load(&self) -> Result<(Session, Vec<String>)> {
         let (session, warnings) = Session::load(&self.dataset, self.model.as_deref())?;
         let warnings: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();

@@ -62,7 +62,9 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     let (session, mut warnings) = args.session.load()?;
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
-    let mut sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None))];
+    // The model's own camera model (an exported calibration carries one) corrects its markers.
+    let nominal = Parameters { camera_model: model.camera_model, ..Parameters::nominal(&model.spm, None) };
+    let mut sets = vec![("nominal".to_string(), nominal)];
     let mut session = session;
     if let Some(path) = &args.params {
         let params = Parameters::read(path)?;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Args;
 use spmcal::math::so3;
-use spmcal::model::RobotModel;
+use spmcal::model::{Parameters, RobotModel};
 use spmcal::vision::{EstimateSummary, Method, SessionEstimate};
 
 use super::args::{MethodArg, SessionArgs};
@@ -21,6 +21,10 @@ pub(crate) struct EstimateArgs {
     pub(crate) rrd: Option<PathBuf>,
     #[command(flatten)]
     pub(crate) session: SessionArgs,
+    /// A parameters file (e.g. calibrated) whose camera model corrects the markers first (and
+    /// whose latency reads a free-motion recording).
+    #[arg(long)]
+    pub(crate) params: Option<PathBuf>,
     /// `paper` (least squares + polar decomposition) or `kabsch` (optimal rotation).
     #[arg(long, value_enum, default_value = "paper")]
     pub(crate) method: MethodArg,
@@ -38,10 +42,16 @@ pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     files.output_opt("--rrd", args.rrd.as_deref());
     // The model is read only to draw the recording.
     args.session.register(&mut files, args.rrd.is_some());
+    files.input_opt("--params", args.params.as_deref());
     files.check()?;
     let mut outputs = Outputs::new();
     let (table_slot, rrd) = (reserve(&mut outputs, args.out.as_deref())?, reserve(&mut outputs, args.rrd.as_deref())?);
-    let (session, warnings) = args.session.load()?;
+    let (mut session, mut warnings) = args.session.load()?;
+    if let Some(path) = &args.params {
+        let p = Parameters::read(path)?;
+        session = SessionArgs::at_latency(session, path, p.latency_s, &mut warnings);
+        session = SessionArgs::corrected(session, path, &p)?;
+    }
     let method: Method = args.method.into();
     let result = SessionEstimate::of(&session, method)?;
     if let Some(slot) = rrd {

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 use clap::Args;
 use spmcal::dataset::Session;
+use spmcal::model::CameraModelKind;
 use spmcal::plan::{Plan, PlanSettings, PlannedPose};
 use spmcal::sim::SimConfig;
 
@@ -34,6 +35,9 @@ pub(crate) struct PlanArgs {
     /// outwards, yaw either way), degrees: how far the real mechanism and hand may be from the model.
     #[arg(long, default_value_t = 2.0)]
     pub(crate) margin_deg: f64,
+    /// The camera model the calibration will fit (as `calibrate`'s `camera_model`).
+    #[arg(long, value_enum, default_value = "depth_scale")]
+    pub(crate) camera_model: CameraModelArg,
     /// The plan to write (`step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad`).
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -72,6 +76,7 @@ pub(crate) fn run(args: PlanArgs) -> Result<()> {
         poses: args.poses,
         candidates: args.candidates,
         margin_deg: args.margin_deg,
+        camera_model: args.camera_model.into(),
         ..PlanSettings::default()
     };
     if settings.poses == 0 {
@@ -91,4 +96,22 @@ pub(crate) fn run(args: PlanArgs) -> Result<()> {
         return out(&(Envelope::new("plan", &plan.summary).input("out", args.out.display()).to_json() + "\n"));
     }
     out(&format!("{}wrote {}\n", plan.summary, args.out.display()))
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum CameraModelArg {
+    Rigid,
+    #[value(name = "depth_scale")]
+    DepthScale,
+    Affine,
+}
+
+impl From<CameraModelArg> for CameraModelKind {
+    fn from(m: CameraModelArg) -> CameraModelKind {
+        match m {
+            CameraModelArg::Rigid => CameraModelKind::Rigid,
+            CameraModelArg::DepthScale => CameraModelKind::DepthScale,
+            CameraModelArg::Affine => CameraModelKind::Affine,
+        }
+    }
 }

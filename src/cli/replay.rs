@@ -15,7 +15,8 @@ use super::output::{Outputs, out, record};
 pub(crate) struct ReplayArgs {
     #[command(flatten)]
     pub(crate) session: SessionArgs,
-    /// Parameters (e.g. calibrated) that draw the mechanism; default: the nominal model.
+    /// Parameters (e.g. calibrated) that draw the mechanism, their camera model correcting the
+    /// markers; default: the nominal model and the markers as measured.
     #[arg(long)]
     pub(crate) params: Option<PathBuf>,
     /// The recording to write.
@@ -42,6 +43,7 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     if let (Some(path), Some(p)) = (&args.params, &params) {
         warnings.extend(p.check_model(path, &model)?);
         session = SessionArgs::at_latency(session, path, p.latency_s, &mut warnings);
+        session = SessionArgs::corrected(session, path, p)?;
     }
     let summary = record(&outputs, slot, &spmcal::record::Scene::replay(&session, &model, params.as_ref())?)?;
     outputs.commit()?;

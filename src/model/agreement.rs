@@ -240,6 +240,7 @@ mod tests {
             spm: spm.clone(),
             markers: Vec::new(),
             shapes: Vec::new(),
+            camera_model: crate::model::CameraModel::rigid(),
         };
         let params = Parameters::nominal(&spm, None);
         assert!(check(&model, &params, None).unwrap().is_empty());

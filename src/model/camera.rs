@@ -146,6 +146,13 @@ impl CameraModel {
         CameraModel { kind, ..CameraModel::rigid() }
     }
 
+    /// The same values as the model `kind` (terms outside it keep their values: a perfect
+    /// camera's, wherever models are read or fitted).
+    #[must_use]
+    pub fn with_kind(self, kind: CameraModelKind) -> Self {
+        CameraModel { kind, ..self }
+    }
+
     /// A camera whose depths read `s` times their length.
     pub fn depth_scale(s: f64) -> Self {
         CameraModel::perfect(CameraModelKind::DepthScale).with(CameraTerm::DepthScale, s, None)

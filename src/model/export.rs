@@ -1,5 +1,6 @@
 //! A calibrated URDF (`spmcal export`): the calibrated joint axes written into a copy of the
-//! model's URDF, with a companion beside it (closures, markers as fitted, encoder offsets) —
+//! model's URDF, with a companion beside it (closures, markers as fitted, encoder offsets, the
+//! fitted camera model) —
 //! loading it gives the same forward kinematics as the parameters file.
 //!
 //! As in the nominal model, all joint values 0 is the home pose `R = I` and each joint axis in
@@ -12,7 +13,7 @@ use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
-use super::params::Parameters;
+use super::params::{CameraRecord, Parameters};
 use super::urdf::{Companion, Loader, ModelError, RobotModel, companion_path, read_companion};
 
 /// The two files of a calibrated model.
@@ -87,6 +88,7 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
         }
     }
     companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -home[i].to_degrees()));
+    companion.camera = (!params.camera_model.is_perfect()).then(|| CameraRecord::of(None, &params.camera_model));
     let comments: String = provenance.iter().map(|l| format!("  {l}\n")).collect();
     let body = urdf_rs::write_to_string(&robot).map_err(|e| export(format!("the URDF cannot be written: {e}")))?;
     let urdf = match body.strip_prefix("<?xml version=\"1.0\"?>") {
@@ -121,6 +123,12 @@ fn companion_text(c: &Companion, provenance: &[String]) -> String {
     }
     if let Some(o) = c.encoder_offsets_deg {
         text += &format!("encoder_offsets_deg: [{:?}, {:?}, {:?}]\n", o[0], o[1], o[2]);
+    }
+    if let Some(camera) = &c.camera {
+        text += "# The camera model the calibration fitted: the camera reports K x for x in its frame.\n";
+        let body = serde_yaml::to_string(camera).unwrap_or_default();
+        text += "camera:\n";
+        text += &body.lines().map(|l| format!("  {l}\n")).collect::<String>();
     }
     text
 }

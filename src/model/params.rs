@@ -143,11 +143,15 @@ struct LegRecord {
     home_branch: HomeBranch,
 }
 
-#[derive(Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct CameraRecord {
-    r_cb_wxyz: [f64; 4],
-    t_cb_m: [f64; 3],
+pub(super) struct CameraRecord {
+    /// Required in a parameters file; absent in a model's companion (which holds only the
+    /// camera model an export carries).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    r_cb_wxyz: Option<[f64; 4]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    t_cb_m: Option<[f64; 3]>,
     /// Absent: inferred from the terms given (none: rigid).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     camera_model: Option<CameraModelKind>,
@@ -192,12 +196,18 @@ impl CameraRecord {
     /// The registration, every number checked at its key's line.
     fn registration(&self, check: &Ranges) -> Result<CameraRegistration, FileError> {
         let key = "camera.r_cb_wxyz";
-        check.finite(key, "`r_cb_wxyz` is not a unit quaternion", &self.r_cb_wxyz)?;
-        let norm = self.r_cb_wxyz.iter().map(|c| c * c).sum::<f64>().sqrt();
-        let rotation = so3::from_wxyz(self.r_cb_wxyz)
+        let (Some(wxyz), Some(t)) = (self.r_cb_wxyz, self.t_cb_m) else {
+            let missing = if self.r_cb_wxyz.is_none() { "r_cb_wxyz" } else { "t_cb_m" };
+            return Err(
+                check.error("camera", format!("`camera` needs `r_cb_wxyz` and `t_cb_m`: `{missing}` is missing"))
+            );
+        };
+        check.finite(key, "`r_cb_wxyz` is not a unit quaternion", &wxyz)?;
+        let norm = wxyz.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let rotation = so3::from_wxyz(wxyz)
             .ok_or_else(|| check.error(key, format!("`r_cb_wxyz` is not a unit quaternion (its norm is {norm})")))?;
-        check.position("camera.t_cb_m", "the camera's `t_cb_m`", &self.t_cb_m)?;
-        Ok(CameraRegistration { rotation, translation: Vector3::from(self.t_cb_m) })
+        check.position("camera.t_cb_m", "the camera's `t_cb_m`", &t)?;
+        Ok(CameraRegistration { rotation, translation: Vector3::from(t) })
     }
 
     fn term_slots(&self) -> [(CameraTerm, Option<f64>, Option<f64>); 5] {
@@ -212,7 +222,7 @@ impl CameraRecord {
 
     /// The camera model, every term checked at its key's line: a term of another model, a value
     /// beyond ±`MAX_CAMERA_TERM` of a perfect camera's or a negative standard error is refused.
-    fn camera_model(&self, check: &Ranges) -> Result<CameraModel, FileError> {
+    pub(super) fn camera_model(&self, check: &Ranges) -> Result<CameraModel, FileError> {
         let slots = self.term_slots();
         let given = |t: CameraTerm| slots.iter().any(|(s, v, e)| *s == t && (v.is_some() || e.is_some()));
         let kind = self.camera_model.unwrap_or(if CameraTerm::ALL[1..].iter().any(|t| given(*t)) {
@@ -258,12 +268,18 @@ impl CameraRecord {
         Ok(model)
     }
 
-    fn of(registration: &CameraRegistration, model: &CameraModel) -> Self {
+    /// Whether it holds a registration (a model's companion may not).
+    pub(super) fn has_registration(&self) -> bool {
+        self.r_cb_wxyz.is_some() || self.t_cb_m.is_some()
+    }
+
+    /// The record of `model` with `registration`, when given.
+    pub(super) fn of(registration: Option<&CameraRegistration>, model: &CameraModel) -> Self {
         let term = |t: CameraTerm| model.kind.terms().contains(&t).then(|| model.value(t));
         let error = |t: CameraTerm| model.kind.terms().contains(&t).then(|| model.std_error(t)).flatten();
         CameraRecord {
-            r_cb_wxyz: so3::to_wxyz(&registration.rotation),
-            t_cb_m: registration.translation.into(),
+            r_cb_wxyz: registration.map(|r| so3::to_wxyz(&r.rotation)),
+            t_cb_m: registration.map(|r| r.translation.into()),
             camera_model: (model.kind != CameraModelKind::Rigid).then_some(model.kind),
             depth_scale: term(CameraTerm::DepthScale),
             depth_scale_std_error: error(CameraTerm::DepthScale),
@@ -475,7 +491,7 @@ impl Parameters {
                     home_branch: g.home_branch,
                 })
                 .collect(),
-            camera: self.camera.map(|c| CameraRecord::of(&c, &self.camera_model)),
+            camera: self.camera.map(|c| CameraRecord::of(Some(&c), &self.camera_model)),
             markers: self
                 .markers
                 .iter()

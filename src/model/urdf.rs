@@ -14,8 +14,10 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
+use super::camera::CameraModel;
 use super::geometry::{HomeBranch, LegGeometry};
 use super::limits::Ranges;
+use super::params::CameraRecord;
 use super::spm::{Spm, SpmError};
 use super::urdf_check::Fault;
 use crate::io::files::FileError;
@@ -103,6 +105,8 @@ pub struct RobotModel {
     pub markers: Vec<Marker>,
     /// Collision shapes.
     pub shapes: Vec<BodyShape>,
+    /// The camera model of a calibrated (exported) model's companion; a perfect camera otherwise.
+    pub camera_model: CameraModel,
 }
 
 /// Why a model could not be loaded. Every variant names the file.
@@ -193,6 +197,12 @@ pub(super) struct Companion {
     /// = reading + offset), degrees; absent: 0 (a calibrated URDF has them).
     #[serde(default)]
     pub(super) encoder_offsets_deg: Option<[f64; 3]>,
+    /// The camera model a calibration fitted (an export writes it; the model carries it).
+    #[serde(default)]
+    pub(super) camera: Option<CameraRecord>,
+    /// That camera model, as checked when the companion was read.
+    #[serde(skip)]
+    pub(super) camera_model: CameraModel,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -300,7 +310,7 @@ fn companion_error(e: FileError) -> ModelError {
 }
 
 pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
-    let (companion, keys) = crate::io::yaml::read::<Companion>(path).map_err(|e| match e.line {
+    let (mut companion, keys) = crate::io::yaml::read::<Companion>(path).map_err(|e| match e.line {
         None if e.reason.starts_with("cannot read") => ModelError::Unreadable {
             path: path.to_path_buf(),
             reason: format!("cannot read the URDF companion: {}", e.reason),
@@ -332,6 +342,13 @@ pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), Model
             let what = format!("the encoder offset of leg {}", i + 1);
             check.offset_deg(&format!("encoder_offsets_deg[{i}]"), &what, *offset).map_err(companion_error)?;
         }
+    }
+    if let Some(camera) = &companion.camera {
+        if camera.has_registration() {
+            let reason = "a model's `camera` holds its camera model only: the registration (`r_cb_wxyz`, `t_cb_m`) belongs to a parameters file";
+            return Err(companion_error(check.error("camera", reason)));
+        }
+        companion.camera_model = camera.camera_model(&check).map_err(companion_error)?;
     }
     for (name, p) in &companion.markers_m {
         let key = format!("markers_m.{name}");
@@ -485,7 +502,14 @@ impl<'a> Loader<'a> {
         let markers =
             companion.markers_m.into_iter().map(|(name, p)| Marker { name, position: Vector3::from(p) }).collect();
         let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;
-        Ok(RobotModel { name: self.robot.name.clone(), urdf_path: self.path.to_path_buf(), spm, markers, shapes })
+        Ok(RobotModel {
+            name: self.robot.name.clone(),
+            urdf_path: self.path.to_path_buf(),
+            spm,
+            markers,
+            shapes,
+            camera_model: companion.camera_model,
+        })
     }
 
     /// The three joints of a leg must form a chain from the base to the MP (leg 1) or to its closure link.

@@ -47,7 +47,7 @@ impl Information {
                 pose: c as u64,
                 marker,
                 joints: candidate.joints,
-                measured: camera.rotation * point + camera.translation,
+                measured: p.camera_model(&x0).distort(&(camera.rotation * point + camera.translation)),
                 line: 0,
                 station: None,
                 time_s: None,

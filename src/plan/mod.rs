@@ -26,9 +26,9 @@ pub use file::PlannedPose;
 pub(crate) use information::{Information, orientation_errors};
 pub(crate) use route::tour;
 
-use crate::calib::{CalibConfig, MarkerModel, MarkerObservation, Parameterisation, marker_pose_errors};
+use crate::calib::{CalibConfig, Kind, MarkerModel, MarkerObservation, Parameterisation, marker_pose_errors};
 use crate::dataset::Session;
-use crate::model::{Parameters, RobotModel};
+use crate::model::{CameraModelKind, Parameters, RobotModel};
 use crate::sim::{Candidate, SimConfig};
 
 /// What to plan.
@@ -50,6 +50,9 @@ pub struct PlanSettings {
     /// about that far from the model (a plan of the model's extreme poses loses some to
     /// collisions and occlusion otherwise).
     pub margin_deg: f64,
+    /// The camera model the calibration will fit (as `calibrate`'s `camera_model`): its terms
+    /// take their share of the information.
+    pub camera_model: CameraModelKind,
 }
 
 impl Default for PlanSettings {
@@ -61,6 +64,7 @@ impl Default for PlanSettings {
             max_iterations: 2000,
             random_draws: 50,
             margin_deg: 2.0,
+            camera_model: CameraModelKind::DepthScale,
         }
     }
 }
@@ -173,6 +177,13 @@ pub struct PlanSummary {
     pub travel_deg: f64,
     /// The session the plan adds to, with its poses.
     pub augments: Option<(String, usize)>,
+    /// The camera model planned for: the one asked for, or rigid when the candidates cannot
+    /// determine its terms.
+    pub camera_model: CameraModelKind,
+    /// The predicted standard error of each camera-model term after the plan.
+    pub camera_std_errors: Vec<(String, f64)>,
+    /// Why the plan is for another camera model than the one asked for.
+    pub camera_note: Option<String>,
 }
 
 /// A capture plan.
@@ -231,20 +242,36 @@ impl Plan {
         if let Some(&k) = information::unseen_markers(&pool, markers.len()).first() {
             return Err(PlanError::UnseenMarker(names[k].clone()));
         }
-        let p =
-            Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &CalibConfig::default().bounds);
+        let bounds = CalibConfig::default().bounds;
         let noise = config.camera.stereo_noise();
-        let info = Information::of(&p, &camera, &pool, &noise).map_err(crate::calib::SetError::Eval)?;
         let n = settings.poses;
-        let prior = match augment {
-            Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
-            None => DMatrix::zeros(p.len(), p.len()),
+        // The camera model's terms take their share of the information; candidates that cannot
+        // determine them (with every candidate taken) plan for a rigid camera, and say so.
+        let mut camera_note = None;
+        let (p, info, prior) = loop {
+            let kind = if camera_note.is_some() { CameraModelKind::Rigid } else { settings.camera_model };
+            let camera_model = params.camera_model.with_kind(kind);
+            let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &bounds)
+                .with_camera_model(camera_model, bounds.camera_term);
+            let info = Information::of(&p, &camera, &pool, &noise).map_err(crate::calib::SetError::Eval)?;
+            let prior = match augment {
+                Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
+                None => DMatrix::zeros(p.len(), p.len()),
+            };
+            let every = design::weighted_sum(&info.per_candidate, &vec![1.0; pool.len()], &prior);
+            if criterion(&every, &info.workspace).is_finite() {
+                break (p, info, prior);
+            }
+            if kind == CameraModelKind::Rigid {
+                return Err(PlanError::Singular(pool.len()));
+            }
+            camera_note = Some(format!(
+                "the candidates cannot determine the `{}` camera model's terms (the poses do not move the markers in \
+                 the ways that tell them from the mechanism): planned for a rigid camera",
+                kind.name()
+            ));
         };
         let l = &info.workspace;
-        let every = design::weighted_sum(&info.per_candidate, &vec![1.0; pool.len()], &prior);
-        if !criterion(&every, l).is_finite() {
-            return Err(PlanError::Singular(pool.len()));
-        }
         // Small fresh candidate sets: the cone program (exact to clarabel's tolerance); otherwise, or
         // should clarabel fail, the multiplicative algorithm.
         let by_cone = (augment.is_none() && pool.len() <= CONE_PROGRAM_MAX_CANDIDATES)
@@ -279,6 +306,13 @@ impl Plan {
             .collect();
         let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::SingularPlan(n))?;
         let uncertainty_deg = orientation_errors(&info, &covariance).iter().map(|e| e.to_degrees()).collect();
+        let camera_std_errors = p
+            .entries
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| matches!(e.kind, Kind::CameraTerm { .. }))
+            .map(|(i, e)| (e.name.clone(), covariance[(i, i)].max(0.0).sqrt()))
+            .collect();
         let summary = PlanSummary {
             poses: n,
             candidates: pool.len(),
@@ -295,6 +329,9 @@ impl Plan {
             random_poses_needed,
             travel_deg: travel.to_degrees(),
             augments: augment.map(|s| (s.name.clone(), s.poses.len())),
+            camera_model: p.camera_model0.kind,
+            camera_std_errors,
+            camera_note,
         };
         Ok(Plan { poses, summary, candidates: pool, uncertainty_deg })
     }
@@ -475,6 +512,12 @@ impl std::fmt::Display for PlanSummary {
             None => {
                 writeln!(f, "random poses needed for the plan's accuracy: more than all {} candidates", s.candidates)?
             }
+        }
+        if let Some(note) = &s.camera_note {
+            writeln!(f, "camera: {note}")?;
+        }
+        for (name, sigma) in &s.camera_std_errors {
+            writeln!(f, "camera model: {name} determined to ±{sigma:.5} (predicted standard error)")?;
         }
         writeln!(f, "tour from home and back: {:.0}° of joystick travel", s.travel_deg)
     }

@@ -155,7 +155,10 @@ impl Logger<'_> {
                     .markers
                     .iter()
                     .zip(&scene.session.markers)
-                    .filter_map(|(m, name)| m.map(|p| (f32x3(&reg.to_base(&p)), name.clone())))
+                    .filter_map(|(m, name)| {
+                        let corrected = scene.camera_model.undistort(&(*m)?)?;
+                        Some((f32x3(&reg.to_base(&corrected)), name.clone()))
+                    })
                     .unzip();
                 self.log(
                     "world/markers/measured",

@@ -23,7 +23,7 @@ use rerun::blueprint::{
 
 use crate::calib::IterationLog;
 use crate::dataset::Session;
-use crate::model::{CameraRegistration, RobotModel, Spm};
+use crate::model::{CameraModel, CameraRegistration, RobotModel, Spm};
 
 pub use scenes::SceneError;
 
@@ -55,6 +55,9 @@ pub struct Scene<'a> {
     pub mechanism: Spm,
     /// Camera registration, to put the measured markers in the base frame.
     pub registration: Option<CameraRegistration>,
+    /// The camera model that corrects the measured markers before (`K⁻¹`): a perfect camera
+    /// unless the scene's parameters fitted (or simulated) one.
+    pub camera_model: CameraModel,
     /// MP orientations to draw (e.g. vision, nominal, calibrated).
     pub(crate) frames: Vec<PoseFrames>,
     /// Per-pose scalars to plot.

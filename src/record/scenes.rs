@@ -11,7 +11,7 @@ use crate::calib::FitLevel as Level;
 use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms_mm, registration};
 use crate::compare::SetComparison;
 use crate::dataset::Session;
-use crate::model::{CameraRegistration, Parameters, RobotModel, Spm};
+use crate::model::{CameraModel, CameraRegistration, Parameters, RobotModel, Spm};
 use crate::vision::{MarkerError, Method, SessionEstimate, VisionError};
 
 /// Why a scene could not be built.
@@ -110,6 +110,19 @@ pub(crate) fn parameters_markdown(title: &str, p: &Parameters) -> String {
             g.delta.to_degrees()
         );
     }
+    if !p.camera_model.is_perfect() {
+        let terms: Vec<String> = p
+            .camera_model
+            .kind
+            .terms()
+            .iter()
+            .map(|t| match p.camera_model.std_error(*t) {
+                Some(se) => format!("{} {:.5} ± {se:.5}", t.name(), p.camera_model.value(*t)),
+                None => format!("{} {:.5}", t.name(), p.camera_model.value(*t)),
+            })
+            .collect();
+        let _ = write!(s, "\nCamera model ({}): {}\n", p.camera_model.kind.name(), terms.join(", "));
+    }
     if let Some(c) = &p.camera {
         let q = crate::math::so3::to_wxyz(&c.rotation);
         let _ = write!(
@@ -155,6 +168,7 @@ impl Scene<'_> {
                     frames: vec![fda_frames(label, &spm, session)],
                     mechanism: spm,
                     registration: Some(camera),
+                    camera_model: CameraModel::rigid(),
                     series: vec![Series {
                         name: "markers_mm/replayed".into(),
                         values: errors.per_pose.into_iter().collect(),
@@ -215,6 +229,7 @@ fn vision_scene<'a>(
         frames: vec![fda_frames(name, &spm, session), vision_frames(estimate, &placement.camera, &placement.reference)],
         mechanism: spm,
         registration: placement.registration,
+        camera_model: CameraModel::rigid(),
         series: vec![e_series(estimate)],
         iterations: Vec::new(),
         documents,
@@ -244,6 +259,7 @@ impl Scene<'_> {
             model,
             mechanism: spm,
             registration: truth.and_then(|t| t.parameters.camera),
+            camera_model: truth.map(|t| t.parameters.camera_model).unwrap_or_default(),
             frames,
             series: Vec::new(),
             iterations: Vec::new(),
@@ -277,6 +293,7 @@ impl Scene<'_> {
             model,
             mechanism: spm,
             registration: params.and_then(|p| p.camera),
+            camera_model: params.map(|p| p.camera_model).unwrap_or_default(),
             frames: vec![PoseFrames { name: "planned".into(), rotations }],
             series: vec![Series {
                 name: "predicted_error_deg".into(),
@@ -400,6 +417,7 @@ impl Scene<'_> {
             frames,
             mechanism: spm,
             registration: calibration.parameters.camera,
+            camera_model: calibration.parameters.camera_model,
             series,
             iterations: calibration.calibrated.log.clone(),
             documents: vec![

@@ -6,7 +6,7 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::calib::agreement::{
-    MarkerErrors, SetError, largest_rotation, model_markers, pose_errors, pose_orientations,
+    MarkerErrors, SetError, corrected_for, largest_rotation, model_markers, pose_errors, pose_orientations,
 };
 use crate::calib::config::{CalibConfig, Group};
 use crate::calib::marker_model::{MarkerModel, MarkerObservation};
@@ -156,7 +156,7 @@ impl Level for MarkerLevel<'_> {
         let observations = r.model.observations();
         let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
         let marker_reports = marker_reports(p, x, cov, free, observations, &self.names);
-        let camera_report = self.camera_report(&r);
+        let (camera_report, camera_warnings) = self.camera_report(&r);
         let camera_model = CameraTerm::ALL.iter().fold(CameraModel::perfect(self.camera_model), |m, term| {
             let at = p.entries.iter().position(|e| e.kind == Kind::CameraTerm { term: *term });
             let value = at.map_or(m.value(*term), |_| p.camera_model(x).value(*term));
@@ -183,7 +183,12 @@ impl Level for MarkerLevel<'_> {
         // model with its best-fit registration, the calibrated one with its own.
         let vision = SessionEstimate::of(r.session, Method::Kabsch).ok();
         let per_pose = |params: &Parameters| {
-            let fit = vision.as_ref().and_then(|v| pose_errors(r.session, v, params).ok());
+            let corrected = corrected_for(r.session, vision.as_ref(), Method::Kabsch, params).ok().flatten();
+            let (session, vision) = match &corrected {
+                Some((s, v)) => (s, v.as_ref()),
+                None => (r.session, vision.as_ref()),
+            };
+            let fit = vision.and_then(|v| pose_errors(session, v, params).ok());
             let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();
             Errors { fit: Stats::of_or_zero(&degrees), held_out: None }
         };
@@ -241,6 +246,7 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         });
+        report.warnings.extend(camera_warnings);
         let source = report.observations_file();
         let gross = report.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
@@ -264,11 +270,12 @@ impl Level for MarkerLevel<'_> {
 
 impl MarkerLevel<'_> {
     /// The camera model term by term: fitted or held (and why), a held term tested against the
-    /// residuals, and what is significant said in words.
-    fn camera_report(&self, r: &Results<'_, MarkerModel<'_>>) -> CameraModelReport {
+    /// residuals, and what is significant said in words; a held term the residuals want moved is
+    /// also a warning (the mechanism took the blame).
+    fn camera_report(&self, r: &Results<'_, MarkerModel<'_>>) -> (CameraModelReport, Vec<String>) {
         let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
         let fitted = p.camera_model(x);
-        let mut findings = Vec::new();
+        let (mut findings, mut warnings) = (Vec::new(), Vec::new());
         let terms: Vec<CameraTermReport> = p
             .entries
             .iter()
@@ -289,19 +296,23 @@ impl MarkerLevel<'_> {
                 let std_error = std_error(cov, free, i);
                 let released = held.and_then(|_| released(&r.calibrated, free, i)).map(|(d, s)| (value + d, s));
                 if let Some(finding) = camera_finding(term, value, std_error, released) {
+                    if held.is_some() {
+                        warnings.push(finding.clone());
+                    }
                     findings.push(finding);
                 }
                 CameraTermReport { name: term.name().to_string(), value, std_error, held, released }
             })
             .collect();
         let depth = terms.iter().find(|t| t.name == CameraTerm::DepthScale.name());
-        CameraModelReport {
+        let report = CameraModelReport {
             model: self.camera_model,
             depth_scale: depth.map_or(1.0, |t| t.value),
             depth_scale_std_error: depth.and_then(|t| t.std_error),
             terms,
             finding: (!findings.is_empty()).then(|| findings.join("; ")),
-        }
+        };
+        (report, warnings)
     }
 }
 
@@ -330,7 +341,7 @@ fn camera_finding(
             describe(value, s)
         )),
         (None, Some((v, s))) if (v - term.perfect()).abs() > CAMERA_SIGNIFICANCE * s => Some(format!(
-            "the residuals follow the camera, not the mechanism: {} would explain them, {:.1} standard errors from a perfect camera, but `{}` is held — fit it (`camera_model: {}`)",
+            "the residuals follow the camera, not the mechanism: they say {}, {:.1} standard errors from a perfect camera, but `{}` is held — fit it (`camera_model: {}`)",
             describe(v, s),
             (v - term.perfect()).abs() / s,
             term.name(),
