@@ -5,7 +5,10 @@
 //! orientation error of the calibrated mechanism against the truth over fresh workspace
 //! orientations, the Cramér–Rao prediction of the camera-model fit, the fitted depth scale, its
 //! reported σ beside the scatter of its error, and how often the truth lies within 2σ and 3σ.
-//! Run: `cargo run --release --example camera_model [sessions]` (default 50 per row; the same seeds in every row, so that rows differ only by the camera).
+//! Then ten minutes of free motion from a perfect camera and from one whose depths read 1% long.
+//! Run: `cargo run --release --example camera_model [sessions] [recordings]` (default 50 static
+//! sessions per row, the same seeds in every row so that rows differ only by the camera, and 5
+//! recordings per free-motion row).
 
 use std::path::Path;
 
@@ -20,6 +23,7 @@ use study::{SessionResult, pooled, run_session_with};
 
 fn main() {
     let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(50);
+    let recordings: u64 = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(5);
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).expect("shipped model");
     let mut base = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).expect("shipped config");
     base.poses = 200;
@@ -78,5 +82,46 @@ fn main() {
             _ => "–".to_string(),
         };
         println!("| {} | {} | {m:.4} | {crb} | {ratio} |", kind.name(), rows.len());
+    }
+    free_motion(&model, recordings);
+}
+
+/// Ten minutes of free motion (`configs/simulate_agile_wrist_free_motion.yaml`, 600 s) from a
+/// perfect camera and from one whose depths read 1% long, calibrated with the depth-scale model
+/// (and, for the long camera, with a rigid one): RMS error against the truth.
+fn free_motion(model: &RobotModel, sessions: u64) {
+    let recording =
+        SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).expect("shipped config");
+    println!();
+    println!("| 10 min free motion | sessions | error vs truth (°) | fitted scale − true (RMS) |");
+    println!("|---|---|---|---|");
+    for (label, scale, kind) in [
+        ("perfect camera, depth-scale model", 1.0, CameraModelKind::DepthScale),
+        ("depth 1% long, depth-scale model", 1.01, CameraModelKind::DepthScale),
+        ("depth 1% long, rigid camera", 1.01, CameraModelKind::Rigid),
+    ] {
+        let (mut errors, mut scales) = (Vec::new(), Vec::new());
+        for s in 0..sessions {
+            let mut c = recording.clone();
+            c.seed = 60_000 + s;
+            c.camera.depth_scale = scale;
+            c.recording.as_mut().expect("a recording config").duration_s = 600.0;
+            let (session, _) = c.simulate(model, &mut |_| {}).expect("the simulation succeeds");
+            let truth = session.truth.as_ref().expect("simulated");
+            let tests = study::test_orientations(&truth.parameters.spm().expect("valid"), 60, c.seed ^ 0x5eed);
+            let config = CalibConfig { folds: 0, camera_model: kind, ..CalibConfig::default() };
+            match spmcal::calib::calibrate(&session, model, &config, &mut |_| {}) {
+                Ok(fitted) => {
+                    errors.push(study::calibration_error(&session, &fitted, &tests));
+                    scales.push(fitted.parameters.camera_model.value(CameraTerm::DepthScale) - scale);
+                }
+                Err(e) => eprintln!("  seed {}: {e}", c.seed),
+            }
+        }
+        let scale_error = match kind {
+            CameraModelKind::Rigid => "–".to_string(),
+            _ => format!("{:.5}", pooled(scales.into_iter())),
+        };
+        println!("| {label} | {} | {:.4} | {scale_error} |", errors.len(), pooled(errors.into_iter()));
     }
 }
