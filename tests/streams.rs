@@ -95,11 +95,14 @@ fn a_recording_of_a_sessions_readings_calibrates_as_the_session_at_its_latency()
         CalibConfig { latency_s: 0.04, freeze: freeze.clone(), max_joint_speed_deg_s: 1e9, ..config.clone() };
     let streamed = calibrate(&recording, &model, &at_latency, &mut |_| {}).unwrap();
     // The same observations with the same readings (interpolation between 1 kHz samples laid on
-    // straight lines through them gives them back to rounding): the same fit.
+    // straight lines through them gives them back to rounding): the same fit, to the step at
+    // which a fit stops (`step_tolerance_deg`: no parameter moved further; the two fits take
+    // different paths, so each may stop up to that far from the other).
     let (a, b) = (&direct.calibrated.x, &streamed.calibrated.x);
     assert_eq!(a.len() + 1, b.len(), "the recording's fit has the latency besides");
     let b = b.rows(0, a.len());
-    assert!((a - b).amax() < 1e-9, "{}", (a - b).amax());
+    let stop = 2.0 * config.step_tolerance_deg.to_radians();
+    assert!((a - b).amax() < stop, "{} vs {stop}", (a - b).amax());
     // Ignoring the 40 ms latency reads the joints 40 ms late — about 1° at this hand speed, against
     // markers measured to 0.2–0.7 mm: 2.3× the marker error (measured), far beyond 1.2×.
     let ignored = calibrate(&recording, &model, &CalibConfig { freeze, ..config }, &mut |_| {}).unwrap();

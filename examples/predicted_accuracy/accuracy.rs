@@ -105,7 +105,7 @@ pub fn run(config: &SimConfig, model: &RobotModel, seed: u64, tests: usize) -> A
 }
 
 /// The calibrated model's RMS errors against the truth at `joints`: degrees (up to the common
-/// rotations) and mm (every true marker against the fitted one, camera frame).
+/// rotations) and mm (every true marker against the fitted one where each camera model reports it).
 fn achieved(calibration: &Calibration, session: &Session, joints: &[Vector3<f64>]) -> (f64, f64) {
     let truth = session.truth.as_ref().expect("a simulated session");
     let spm_true = truth.parameters.spm().expect("a valid truth");
@@ -116,8 +116,15 @@ fn achieved(calibration: &Calibration, session: &Session, joints: &[Vector3<f64>
     for theta in joints {
         let (Ok(r), Ok(f)) = (spm_true.forward(theta), spm_fit.forward(theta)) else { continue };
         for (t, m) in truth.parameters.markers.iter().zip(&calibration.parameters.markers) {
-            let x_true = true_camera.rotation * (r * t.position) + true_camera.translation;
-            let x_fit = fit_camera.rotation * (f * m.position) + fit_camera.translation;
+            // Where each camera reports the marker: through its camera model.
+            let x_true = truth
+                .parameters
+                .camera_model
+                .distort(&(true_camera.rotation * (r * t.position) + true_camera.translation));
+            let x_fit = calibration
+                .parameters
+                .camera_model
+                .distort(&(fit_camera.rotation * (f * m.position) + fit_camera.translation));
             sq_mm += (x_true - x_fit).norm_squared() * 1e6;
             n_mm += 1;
         }

@@ -281,12 +281,14 @@ fn a_coaxial_spm_leaves_free_only_its_own_gauges() {
     assert_only_the_gauges_are_free(&session, &model);
 }
 
-/// The marker-level calibration of `session` identifies all 33 parameters, and the six directions
-/// its parameterisation fixes add nothing: exactly six null directions.
+/// The marker-level calibration of `session` identifies all 34 parameters (33 of the mechanism,
+/// registration and markers, and the camera's depth scale), and the six directions its
+/// parameterisation fixes add nothing: exactly six null directions.
 fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let calibration = calibrate(session, model, &CalibConfig::default(), &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (33, 33), "{id:?}");
+    assert_eq!((id.rank, id.parameters), (34, 34), "{id:?}");
+    assert!(calibration.parameterisation.entries.iter().any(|e| e.name == "camera.depth_scale"));
     let p = &calibration.parameterisation;
     let x = &calibration.calibrated.x;
     let Fitted::Markers(obs) = &calibration.fitted else { panic!("a marker-level calibration") };
@@ -294,14 +296,15 @@ fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
     let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
     let augmented = augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
-        let q =
-            Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &CalibConfig::default().bounds);
+        let bounds = CalibConfig::default().bounds;
+        let q = Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &bounds)
+            .with_camera_model(p.camera_model(x), bounds.camera_term);
         MarkerModel::new(&q, obs).evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false).unwrap().residuals
     });
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 33, "the six gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.rank, 34, "the six gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
 

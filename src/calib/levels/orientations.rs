@@ -66,7 +66,11 @@ impl OrientationLevel {
         let (camera0, reference0) =
             registration::from_rotations(&fitted, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;
         let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
-        let camera_model = config.camera_terms.model(config.camera_model);
+        // The correction applied, written with the result (a perfect camera's is no model at all).
+        let camera_model = match config.camera_terms.model(config.camera_model) {
+            m if m.is_perfect() => CameraModel::rigid(),
+            m => m,
+        };
         Ok(OrientationLevel {
             p,
             fitted,
