@@ -346,7 +346,7 @@ impl CalibConfig {
                     "`{}` is not a term of `camera_model: {}`: set `camera_model: {}`",
                     term.name(),
                     self.camera_model.name(),
-                    if *term == CameraTerm::DepthScale { "depth_scale` (or `affine" } else { "affine" }
+                    if *term == CameraTerm::DepthScale { "depth_scale` or `camera_model: affine" } else { "affine" }
                 );
                 return Err((key, reason));
             }

@@ -381,7 +381,8 @@ fn run<L: Level>(
             warnings.push(format!(
                 "the cross-validated error ({:.4} {unit} RMS) disagrees with the {expected:.4} {unit} the fit predicts \
                  for itself (camera noise plus the predicted error) beyond their uncertainty: the noise model or the \
-                 model is wrong (e.g. an unmodelled depth scale of the camera)",
+                 model is wrong (a camera error the camera model does not cover, poses too alike to tell the \
+                 mechanism from the camera, …)",
                 cv.calibrated_rms
             ));
         }
@@ -465,7 +466,10 @@ const CAMERA_IN_NULL_DIRECTION: f64 = 0.3;
 
 /// The camera-model parameters that take part in an unidentifiable direction (by their share of
 /// the column-scaled direction, so that units do not decide).
-fn unidentified_camera_terms(p: &Parameterisation, identifiability: &super::identify::Identifiability) -> Vec<usize> {
+pub(super) fn unidentified_camera_terms(
+    p: &Parameterisation,
+    identifiability: &super::identify::Identifiability,
+) -> Vec<usize> {
     let camera: Vec<usize> =
         (0..p.len()).filter(|&i| matches!(p.entries[i].kind, super::params::Kind::CameraTerm { .. })).collect();
     let mut held: Vec<usize> = identifiability

@@ -413,3 +413,37 @@ fn augmented_with_gauge(
     }
     augmented
 }
+
+#[test]
+fn a_camera_term_in_a_direction_the_data_cannot_determine_is_held() {
+    // A Jacobian whose depth-scale column is exactly the camera's t_z column scaled (markers
+    // that never change depth: the scale moves them as t_z would), every other column generic.
+    let spm = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap().spm;
+    let camera = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::new(0.0, 0.0, 0.8) };
+    let bounds = CalibConfig::default().bounds;
+    let p = Parameterisation::for_markers(*spm.geometry(), &camera, &[Vector3::zeros()], &["m".into()], &bounds)
+        .with_camera_model(crate::model::CameraModel::perfect(crate::model::CameraModelKind::DepthScale), 0.1);
+    let index = |name: &str| p.entries.iter().position(|e| e.name == name).unwrap();
+    let (depth, t_z) = (index("camera.depth_scale"), index("camera.t_z"));
+    let generic = |rows: usize| {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        DMatrix::from_fn(rows, p.len(), |_, _| rng.random_range(-1.0..1.0))
+    };
+    let mut jacobian = generic(120);
+    let column = jacobian.column(t_z) * -0.8;
+    jacobian.set_column(depth, &column);
+    let names: Vec<String> = p.entries.iter().map(|e| e.name.clone()).collect();
+    let all: Vec<usize> = (0..p.len()).collect();
+    let analysis = Identifiability::analyse(&jacobian, &all, &names, 1e-6);
+    assert_eq!(analysis.unidentifiable.len(), 1, "{:?}", analysis.weakest);
+    assert_eq!(super::pipeline::unidentified_camera_terms(&p, &analysis), vec![depth]);
+    // A null direction among the markers alone holds no camera term.
+    let mut jacobian = generic(120);
+    let (x, y) = (index("m.x"), index("m.y"));
+    let column = jacobian.column(x) * 2.0;
+    jacobian.set_column(y, &column);
+    let analysis = Identifiability::analyse(&jacobian, &all, &names, 1e-6);
+    assert_eq!(analysis.unidentifiable.len(), 1);
+    assert!(super::pipeline::unidentified_camera_terms(&p, &analysis).is_empty());
+}

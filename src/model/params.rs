@@ -244,8 +244,9 @@ impl CameraRecord {
             }
             let v = value.unwrap_or(term.perfect());
             if !(v.is_finite() && (v - term.perfect()).abs() <= MAX_CAMERA_TERM) {
+                let hint = if term.perfect() == 1.0 { " (a scale is a ratio: 1.02 for 2% long)" } else { "" };
                 let reason = format!(
-                    "`{}` = {v} is not within ±{MAX_CAMERA_TERM} of a perfect camera's {}",
+                    "`{}` = {v} is not within ±{MAX_CAMERA_TERM} of a perfect camera's {}{hint}",
                     term.name(),
                     term.perfect()
                 );
@@ -269,6 +270,7 @@ impl CameraRecord {
     }
 
     /// Whether it holds a registration (a model's companion may not).
+    #[cfg(feature = "full")]
     pub(super) fn has_registration(&self) -> bool {
         self.r_cb_wxyz.is_some() || self.t_cb_m.is_some()
     }

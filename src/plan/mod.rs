@@ -182,7 +182,8 @@ pub struct PlanSummary {
     pub camera_model: CameraModelKind,
     /// The predicted standard error of each camera-model term after the plan.
     pub camera_std_errors: Vec<(String, f64)>,
-    /// Why the plan is for another camera model than the one asked for.
+    /// Why the plan is for another camera model than the one asked for, or which of its terms
+    /// the plan barely sees.
     pub camera_note: Option<String>,
 }
 
@@ -199,6 +200,11 @@ pub struct Plan {
     /// plan's accuracy over the workspace.
     pub(crate) uncertainty_deg: Vec<f64>,
 }
+
+/// A camera-model term is seen when the plan determines it to this (a scale to 0.5%): a depth
+/// error of 2% is then read to a quarter of itself, and what is left costs the fit little
+/// (`examples/camera_model`).
+const CAMERA_TERM_SEEN: f64 = 0.005;
 
 impl Plan {
     /// Plan `settings.poses` poses for `model` (or `params`: geometry, registration and markers
@@ -312,7 +318,19 @@ impl Plan {
             .enumerate()
             .filter(|(_, e)| matches!(e.kind, Kind::CameraTerm { .. }))
             .map(|(i, e)| (e.name.clone(), covariance[(i, i)].max(0.0).sqrt()))
+            .collect::<Vec<_>>();
+        let blind: Vec<String> = camera_std_errors
+            .iter()
+            .filter(|(_, sigma)| *sigma > CAMERA_TERM_SEEN)
+            .map(|(name, sigma)| format!("{name} (±{sigma:.4})"))
             .collect();
+        if !blind.is_empty() {
+            camera_note = Some(format!(
+                "this plan barely sees {}: beyond ±{CAMERA_TERM_SEEN} the camera model cannot correct the camera; \
+                 tilt the poses further, or plan more",
+                blind.join(", ")
+            ));
+        }
         let summary = PlanSummary {
             poses: n,
             candidates: pool.len(),

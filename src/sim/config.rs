@@ -7,7 +7,7 @@ use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
-use crate::model::CameraTerm;
+use crate::model::{CameraModel, CameraTerm};
 
 /// The most poses a simulated session may have: a session is held in memory (about 200 bytes a
 /// pose), and 1,000,000 is far beyond any capture a person would make.
@@ -404,6 +404,11 @@ impl SimConfig {
                 let key = format!("camera.{}", term.name());
                 return Err((key, format!("`{}` must be within ±0.5 of {} (got {v})", term.name(), term.perfect())));
             }
+        }
+        if model.determinant() < CameraModel::MIN_DETERMINANT {
+            let reason =
+                format!("the camera's scales and shears are nearly singular (det K = {:.3})", model.determinant());
+            return Err(("camera.depth_scale".into(), reason));
         }
         if self.camera.height_m <= self.camera.marker_radius_m {
             return Err(("camera.height_m".into(), "the camera must be above the markers".into()));
