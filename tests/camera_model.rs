@@ -68,8 +68,13 @@ fn the_default_calibration_reads_a_camera_two_percent_long_and_predicts_as_with_
     assert!(with_model < 1.10 * with_perfect, "{with_model} vs {with_perfect}");
     // The rigid camera blames the mechanism (2.6× the error over 50 sessions) — and the report
     // says that the camera, not the mechanism, is wrong.
-    let rigid = fit(&long, &model, CameraModelKind::Rigid);
+    let rigid_config = CalibConfig { camera_model: CameraModelKind::Rigid, ..CalibConfig::default() };
+    let rigid = calibrate(&long, &model, &rigid_config, &mut |_| {}).unwrap();
     assert!(error_vs_truth(&long, &rigid) > 1.5 * with_perfect);
+    // The self-check (cross-validated error against the fit's own prediction) catches the rigid
+    // camera too, and passes the camera model.
+    let consistent = |c: &Calibration| c.report.cross_validation.as_ref().unwrap().consistent;
+    assert!(!consistent(&rigid) && consistent(&calibration));
     let warning = rigid.report.warnings.iter().find(|w| w.contains("the residuals follow the camera"));
     assert!(warning.is_some_and(|w| w.contains("% long")), "{:?}", rigid.report.warnings);
     // ... and says nothing of the kind for a perfect camera.
