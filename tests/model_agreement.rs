@@ -220,8 +220,9 @@ fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
         assert_eq!(err.line, Some(expected), "{line} → {huge}: {err}");
         checked += 1;
     }
-    // 3 legs × 12, the camera's 7, 5 markers' positions and 4 standard errors, the latency.
-    assert_eq!(checked, 36 + 7 + 15 + 12 + 1);
+    // 3 legs × 12, the camera's 7 and its depth scale with its standard error, 5 markers'
+    // positions and 4 standard errors, the latency.
+    assert_eq!(checked, 36 + 7 + 2 + 15 + 12 + 1);
 }
 
 #[test]

@@ -252,8 +252,8 @@ impl CameraRecord {
                 );
                 return Err(check.error(&key, reason));
             }
-            if let Some(e) = std_error.filter(|e| !(e.is_finite() && *e >= 0.0)) {
-                let reason = format!("`{}_std_error` = {e} must be a finite number ≥ 0", term.name());
+            if let Some(e) = std_error.filter(|e| !(e.is_finite() && (0.0..=MAX_CAMERA_TERM).contains(e))) {
+                let reason = format!("`{}_std_error` = {e} must be from 0 to {MAX_CAMERA_TERM}", term.name());
                 return Err(check.error(&format!("{key}_std_error"), reason));
             }
             model = model.with(term, v, std_error);
