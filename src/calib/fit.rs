@@ -85,8 +85,13 @@ pub struct IterationLog {
     pub ratio: f64,
     /// Whether the step was taken.
     pub accepted: bool,
-    /// Interior-point iterations clarabel needed.
+    /// Interior-point iterations clarabel needed (0 for a Gauss–Newton step).
     pub solver_iterations: u32,
+    /// What found the step.
+    pub solver: Solver,
+    /// The Newton decrement before the step: the distance to the optimum of the current
+    /// weighting, in standard errors (the fit stops below 1e-3).
+    pub decrement: f64,
 }
 
 /// How a successful fit ended.
@@ -268,18 +273,43 @@ struct Problem<'a, M> {
 /// to ~1e-14 rad. A predicted reduction below this is noise.
 const PRECISION: f64 = 1e-12;
 
-/// Reweightings allowed per stage before the fit is declared not converged.
-const MAX_REWEIGHTINGS: u32 = 30;
+/// The fit has converged when the step to the optimum of the current weighting (the noise model,
+/// the robust scale and the Huber weights, all re-estimated at the current point) is shorter than
+/// this many standard errors in the metric of the parameters' covariance (the Newton decrement
+/// `Δᵀ H Δ` over the residual variance): the parameters are then within a thousandth of their
+/// uncertainty of the fixed point, and the next step would move them a millionth.
+const DECREMENT_TOLERANCE: f64 = 1e-3;
 
-/// Fit `x` from `x0` to the observations, by two-step feasible generalised least squares:
-/// stage 1 fits with unwhitened residuals; the noise the model estimates from them (per-class
-/// covariances, or the stereo σ's) then fixes the whitening for stage 2. In each stage the robust
-/// scale is fixed and an outer loop re-estimates the Huber weights (IRLS, a monotone
-/// majorise–minimise scheme) while an inner trust-region loop minimises the cost with the weights
-/// fixed; a stage ends when a reweighting moves no parameter by more than the step tolerance.
+/// A full Gauss–Newton step promising less than this many standard errors that the cost does not
+/// confirm ends the fit: the cost is rough below that scale (see `trust_region_step`).
+const ROUGH_DECREMENT: f64 = 0.3;
+
+/// The longest step along a Gauss–Newton direction the curvature test may try, in its lengths.
+const MAX_EXTRAPOLATION: f64 = 3.0;
+
+/// The unwhitened fit only has to bring the residuals near their minimum for the noise model to
+/// be estimated from them: a tenth of a standard error changes the estimated σ's by far less than
+/// their own uncertainty.
+const UNWHITENED_TOLERANCE: f64 = 0.1;
+
+/// Fit `x` from `x0` to the observations by two-step feasible generalised least squares in one
+/// trust-region loop: unwhitened until the step to the optimum is below a tenth of a standard
+/// error ([`UNWHITENED_TOLERANCE`]: the nominal model's residuals are its error, not the camera's
+/// noise), then whitened by the noise the model estimates from the residuals there (per-class
+/// covariances, or the stereo σ's), with the robust scale taken there too. The Huber weights
+/// (iteratively reweighted least squares) follow every accepted point, so that they settle while
+/// the parameters converge instead of each reweighting re-converging from the last. (Re-estimating
+/// the noise at every point — iterated FGLS — was tried: with few poses the orientation level's
+/// per-class covariances collapse onto the directions the fit makes small, and the fit drifts.) Each step is the Gauss–Newton step when it lies inside the trust region and the
+/// bounds (a Cholesky solve), else clarabel's bounded subproblem; when a step's actual decrease
+/// shows the curvature along it differs from the Gauss–Newton model's (a weak direction of a
+/// small session, where the residuals' own curvature matters), the minimum along it is tried too.
+/// The fit stops when the Newton decrement at the re-estimated weights is below
+/// [`DECREMENT_TOLERANCE`] standard errors (or the full step below the step tolerance): a stop
+/// proven by the gradient and the curvature, not by a short step alone.
 ///
 /// # Errors
-/// A [`FitError`] when the start cannot be evaluated, clarabel fails, the budget runs out while the cost still falls, the reweighting does not settle or the fit diverges.
+/// A [`FitError`] when the start cannot be evaluated, clarabel fails, the budget runs out while the cost still falls or the fit diverges.
 pub(crate) fn fit<M: Model>(
     model: &M,
     x0: &DVector<f64>,
@@ -288,61 +318,42 @@ pub(crate) fn fit<M: Model>(
 ) -> Result<FitOutcome<M::Noise>, FitError> {
     let n = model.parameterisation().len();
     let free: Vec<usize> = (0..n).filter(|&i| settings.free[i]).collect();
-    // Stage 1 only has to bring the residuals near their minimum for the noise model to be
-    // estimated from them: a thousandfold looser step tolerance; stage 2 converges fully.
-    let rough = FitSettings { step_tolerance: settings.step_tolerance * 1e3, ..settings.clone() };
+    let problem = Problem { model, settings, free };
     let mut x = x0.clone();
     let mut eval = model.evaluate(&x, None, true).map_err(FitError::Start)?;
     let mut radius = settings.initial_radius;
     let mut log: Vec<IterationLog> = Vec::new();
     let mut weighting = Weighting::isotropic(eval.residuals.len());
-    let mut status = Convergence::Converged;
-    for whitened in [false, true] {
-        if whitened {
-            weighting.estimate(model, &eval.residuals);
-        }
-        let settings = if whitened { settings } else { &rough };
-        let problem = Problem { model, settings, free: free.clone() };
-        weighting.rescale(&eval.residuals);
-        weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
-        let mut settled = None;
-        for _ in 0..MAX_REWEIGHTINGS {
-            let start = x.clone();
-            let start_cost = weighting.cost(&eval.residuals);
-            // The normal equations at the current point and weights, kept while steps are rejected.
-            let mut normal = None;
-            let stop = loop {
-                let iteration = log.len() as u32 + 1;
-                if iteration > settings.max_iterations {
-                    break iteration_limit(&log, radius)?;
-                }
-                let (entry, stop) =
-                    problem.trust_region_step(&mut x, &mut eval, &weighting, &mut normal, &mut radius, iteration)?;
-                on_iteration(&entry);
-                log.push(entry);
-                if let Some(stop) = stop {
-                    break stop;
-                }
-            };
-            let end_cost = weighting.cost(&eval.residuals);
+    weighting.rescale(&eval.residuals);
+    // The Huber weights follow every accepted point; the noise model is estimated once, where the
+    // unwhitened fit has (loosely) converged, and the robust scale there.
+    let mut whitened = false;
+    let mut weighted_at = None;
+    let status = loop {
+        let iteration = log.len() as u32 + 1;
+        if weighted_at.as_ref() != Some(&x) {
             weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
-            let moved = (&x - &start).amax();
-            let cost_settled = (start_cost - end_cost).abs() <= RELATIVE_COST_TOLERANCE * start_cost;
-            if (moved < settings.step_tolerance && stop == Convergence::Converged) || cost_settled {
-                settled = Some(Convergence::Converged);
-            } else if moved < settings.step_tolerance || log.len() as u32 >= settings.max_iterations {
-                settled = Some(Convergence::StalledAtMinimum);
-            }
-            if settled.is_some() {
-                break;
-            }
+            weighted_at = Some(x.clone());
         }
-        match settled {
-            Some(Convergence::StalledAtMinimum) => status = Convergence::StalledAtMinimum,
-            Some(Convergence::Converged) => {}
-            None => return Err(FitError::ReweightingUnsettled { cycles: MAX_REWEIGHTINGS }),
+        if iteration > settings.max_iterations {
+            break iteration_limit(&log, radius)?;
         }
-    }
+        let tolerance = if whitened { DECREMENT_TOLERANCE } else { UNWHITENED_TOLERANCE };
+        let (entry, stop) =
+            problem.trust_region_step(&mut x, &mut eval, &weighting, &mut radius, iteration, tolerance)?;
+        on_iteration(&entry);
+        log.push(entry);
+        match stop {
+            Some(Convergence::Converged) if !whitened => {
+                weighting.estimate(model, &eval.residuals);
+                weighting.rescale(&eval.residuals);
+                weighted_at = None;
+                whitened = true;
+            }
+            Some(stop) => break stop,
+            None => {}
+        }
+    };
     Ok(FitOutcome { status, x, evaluation: eval, weighting, log })
 }
 
@@ -354,84 +365,176 @@ fn iteration_limit(log: &[IterationLog], radius: f64) -> Result<Convergence, Fit
     let (first, latest) = (window.first().map_or(0.0, |l| l.cost), last.map_or(0.0, |l| l.cost));
     let relative_decrease = if first > 0.0 { (first - latest) / first / window.len().max(1) as f64 } else { 0.0 };
     // Too few iterations to judge a stall: the budget was simply too small.
-    if window.len() == STALL_WINDOW && relative_decrease <= RELATIVE_COST_TOLERANCE {
+    if window.len() == STALL_WINDOW && relative_decrease.abs() <= RELATIVE_COST_TOLERANCE {
         return Ok(Convergence::StalledAtMinimum);
     }
     let (iterations, step) = (log.len() as u32, last.map_or(0.0, |l| l.step));
     Err(FitError::IterationLimit { iterations, step, radius, relative_decrease })
 }
 
-/// One trust-region iteration with a fixed weighting; returns its log entry and whether the inner
-/// loop has stopped: converged (a tiny accepted step) or stalled at a minimum (no predicted
-/// decrease the cost can resolve, or a collapsed radius).
+/// A step and how it was found.
+struct Step {
+    /// Over the free parameters.
+    delta: DVector<f64>,
+    /// The Gauss–Newton step (inside the trust region and the bounds), or clarabel's.
+    solver: Solver,
+    /// clarabel's interior-point iterations (0 for a Gauss–Newton step).
+    solver_iterations: u32,
+    /// The step reaches no trust-region boundary: it is the minimiser of the model within the
+    /// bounds, so its predicted decrease measures the distance to the optimum.
+    interior: bool,
+}
+
+/// What found a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Solver {
+    /// The Gauss–Newton step, by a Cholesky solve of the normal equations: it lay inside the trust
+    /// region and the bounds.
+    GaussNewton,
+    /// clarabel's solution of the bounded trust-region subproblem (a cone program).
+    Clarabel,
+}
+
 impl<M: Model> Problem<'_, M> {
+    /// The step from `x`: Gauss–Newton where it is feasible, else clarabel's subproblem.
+    fn step(
+        &self,
+        x: &DVector<f64>,
+        hessian: &DMatrix<f64>,
+        gradient: &DVector<f64>,
+        radius: f64,
+        iteration: u32,
+    ) -> Result<Step, FitError> {
+        let p = self.model.parameterisation();
+        let newton = hessian.clone().cholesky().map(|c| -c.solve(gradient));
+        if let Some(delta) = newton.filter(|d| d.iter().all(|v| v.is_finite())) {
+            let inside_bounds = self
+                .free
+                .iter()
+                .zip(delta.iter())
+                .all(|(&i, d)| p.entries[i].bound.is_none_or(|b| (x[i] + d).abs() <= b * (1.0 - 1e-9)));
+            if inside_bounds && delta.norm() <= radius {
+                return Ok(Step { delta, solver: Solver::GaussNewton, solver_iterations: 0, interior: true });
+            }
+        }
+        let (delta, solver_iterations) = solve_subproblem(p, x, &self.free, hessian, gradient, radius)
+            .map_err(|status| FitError::Solver { iteration, status })?;
+        let interior = delta.norm() < 0.99 * radius;
+        Ok(Step { delta, solver: Solver::Clarabel, solver_iterations, interior })
+    }
+
+    /// One trust-region iteration with the weighting of the current point; returns its log entry
+    /// and whether the fit has stopped: converged (the Newton decrement below tolerance, the full
+    /// step below the step tolerance, or no decrease the cost can resolve) or stalled at a minimum
+    /// (a collapsed radius).
     fn trust_region_step(
         &self,
         x: &mut DVector<f64>,
         eval: &mut Evaluation,
         weighting: &Weighting<M::Noise>,
-        normal: &mut Option<(DMatrix<f64>, DVector<f64>)>,
         radius: &mut f64,
         iteration: u32,
+        tolerance: f64,
     ) -> Result<(IterationLog, Option<Convergence>), FitError> {
         let (model, settings, free) = (self.model, self.settings, &self.free);
-        let p = model.parameterisation();
-        let cost = weighting.cost(&eval.residuals) + prior_cost(settings, x);
+        let data_cost = weighting.cost(&eval.residuals);
+        let cost = data_cost + prior_cost(settings, x);
         if !cost.is_finite() {
             return Err(FitError::Diverged { iteration, reason: format!("the cost is {cost}") });
         }
-        let (hessian, gradient) =
-            normal.get_or_insert_with(|| normal_equations(eval, weighting, free, settings, x)).clone();
-        let (step, solver_iterations) = solve_subproblem(p, x, free, &hessian, &gradient, *radius)
-            .map_err(|status| FitError::Solver { iteration, status })?;
-        let predicted = -(0.5 * step.dot(&(&hessian * &step)) + gradient.dot(&step));
-        let mut trial_x = x.clone();
-        for (k, &i) in free.iter().enumerate() {
-            trial_x[i] += step[k];
-        }
-        let trial = model.evaluate(&trial_x, Some(&eval.orientations), false);
-        let actual = match &trial {
-            Ok(t) => cost - weighting.cost(&t.residuals) - prior_cost(settings, &trial_x),
-            Err(_) => f64::NEG_INFINITY,
-        };
-        let ratio = if predicted > 0.0 { actual / predicted } else { 0.0 };
-        let accepted = ratio > 0.25 && trial.is_ok();
-        let step_norm = step.norm();
+        let (hessian, gradient) = normal_equations(eval, weighting, free, settings, x);
+        let step = self.step(x, &hessian, &gradient, *radius, iteration)?;
+        let delta = &step.delta;
+        let (slope, curvature) = (gradient.dot(delta), delta.dot(&(&hessian * delta)));
+        let predicted = -(0.5 * curvature + slope);
+        // The residual variance per degree of freedom: the decrement in its units is the squared
+        // distance to the optimum in standard errors.
+        let dof = (3 * eval.residuals.len()).saturating_sub(free.len()).max(1) as f64;
+        let variance = (2.0 * data_cost / dof).max(f64::MIN_POSITIVE);
+        let decrement = (2.0 * predicted.max(0.0) / variance).sqrt();
+        let converged = step.interior && (decrement < tolerance || delta.amax() < settings.step_tolerance)
+            || predicted <= PRECISION * cost;
+        let step_norm = delta.norm();
         if !step_norm.is_finite() {
             return Err(FitError::Diverged { iteration, reason: "the step is not finite".into() });
         }
+        let trial_cost = |alpha: f64| -> Option<(DVector<f64>, Evaluation, f64)> {
+            let mut trial_x = x.clone();
+            for (k, &i) in free.iter().enumerate() {
+                trial_x[i] += alpha * delta[k];
+            }
+            let trial = model.evaluate(&trial_x, Some(&eval.orientations), false).ok()?;
+            let c = weighting.cost(&trial.residuals) + prior_cost(settings, &trial_x);
+            Some((trial_x, trial, c))
+        };
+        let mut best = trial_cost(1.0);
+        let actual = best.as_ref().map_or(f64::NEG_INFINITY, |(_, _, c)| cost - c);
+        let ratio = if predicted > 0.0 { actual / predicted } else { 0.0 };
+        let mut alpha = 1.0;
+        // The cost along the step is (nearly) quadratic: its actual decrease at the full step gives
+        // the true curvature along it, and so the minimum along it. When the Gauss–Newton model's
+        // curvature is off by more than a fifth, that minimum is tried as well — short of the step
+        // (the model too flat), or beyond it within the bounds (too steep: a large-residual
+        // direction, or Huber weights that keep moving the same way).
+        if actual.is_finite() && (ratio < 0.8 || ratio > 1.2) {
+            let true_curvature = 2.0 * (-actual - slope);
+            let minimum = -slope / true_curvature;
+            let p = model.parameterisation();
+            let feasible = |a: f64| {
+                free.iter()
+                    .zip(delta.iter())
+                    .all(|(&i, d)| p.entries[i].bound.is_none_or(|b| (x[i] + a * d).abs() <= b))
+            };
+            if true_curvature > 0.0
+                && (0.05..MAX_EXTRAPOLATION).contains(&minimum)
+                && (minimum - 1.0).abs() > 0.05
+                && feasible(minimum)
+            {
+                if let Some(other) = trial_cost(minimum).filter(|(_, _, c)| *c < cost - actual) {
+                    best = Some(other);
+                    alpha = minimum;
+                }
+            }
+        }
+        let gain = best.as_ref().map_or(f64::NEG_INFINITY, |(_, _, c)| cost - c);
+        let predicted_at = -(alpha * slope + 0.5 * alpha * alpha * curvature);
+        let accepted = predicted_at > 0.0 && gain > 0.25 * predicted_at || (converged && gain >= 0.0);
         let entry = IterationLog {
             iteration,
             cost,
             rms: model.report_rms(&eval.residuals),
-            step: step_norm,
+            step: step_norm * alpha,
             radius: *radius,
             ratio,
             accepted,
-            solver_iterations,
+            solver_iterations: step.solver_iterations,
+            solver: step.solver,
+            decrement,
         };
-        let negligible = predicted <= PRECISION * cost;
-        let done = if accepted {
-            let orientations = trial.expect("accepted steps evaluated").orientations;
+        if accepted {
+            let (trial_x, trial, _) = best.expect("an accepted step was evaluated");
             *x = trial_x;
             let new = model
-                .evaluate(x, Some(&orientations), true)
+                .evaluate(x, Some(&trial.orientations), true)
                 .map_err(|error| FitError::Evaluation { iteration, error })?;
             model.recycle(std::mem::replace(eval, new));
-            *normal = None;
             if ratio > 0.75 && step_norm > 0.9 * *radius {
                 *radius = (2.0 * *radius).min(0.5);
             }
-            (step.amax() < settings.step_tolerance || negligible).then_some(Convergence::Converged)
         } else {
-            *radius /= 4.0;
-            // No step of useful size reduces the cost, or the reduction it promises is below what the
-            // cost can resolve: x is a minimum to working precision.
-            if step.amax() < settings.step_tolerance || negligible {
-                Some(Convergence::Converged)
-            } else {
-                (*radius < settings.step_tolerance).then_some(Convergence::StalledAtMinimum)
-            }
+            // The model mispredicts beyond a quarter of this step: the next stays within it.
+            *radius = 0.25 * step_norm.min(*radius);
+        }
+        // A full Gauss–Newton step that promises less than `ROUGH_DECREMENT` standard errors and
+        // does not deliver: below that scale the cost is rougher than its model (a free-motion
+        // recording's joints interpolated between quantised encoder samples), and x is at its
+        // minimum to within it; the log's decrement says how close.
+        let rough = !accepted && step.solver == Solver::GaussNewton && decrement < ROUGH_DECREMENT;
+        let done = if converged || rough {
+            Some(Convergence::Converged)
+        } else {
+            (!accepted && *radius < settings.step_tolerance).then_some(Convergence::StalledAtMinimum)
         };
         Ok((entry, done))
     }

@@ -35,7 +35,7 @@ mod validation;
 pub use agreement::{MarkerErrors, SetError};
 pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_errors};
 pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
-pub use fit::{Convergence, IterationLog};
+pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
 pub(crate) use marker_model::per_pose_rms_mm;
 pub use marker_model::{MarkerModel, MarkerObservation, StereoNoise};

@@ -64,8 +64,15 @@ impl fmt::Display for CalibrationReport {
             }
         }
         let iterations = r.iterations.len();
+        let to = r.iterations.last().map_or(String::new(), |l| {
+            format!(
+                " ({} steps; the last {:.1e} standard errors from the optimum)",
+                solver_mix(&r.iterations),
+                l.decrement
+            )
+        });
         match r.convergence {
-            Convergence::Converged => writeln!(f, "converged in {iterations} iterations")?,
+            Convergence::Converged => writeln!(f, "converged in {iterations} iterations{to}")?,
             Convergence::StalledAtMinimum => writeln!(
                 f,
                 "stalled at a minimum after {iterations} iterations (the cost stopped changing before the steps fell below the tolerance)"
@@ -212,6 +219,12 @@ fn per_pose_lines(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Res
     writeln!(f, "FDA vs vision per pose (deg)  RMS      median   max")?;
     error_line(f, "nominal", &r.before.fit)?;
     error_line(f, "calibrated", &r.after.fit)
+}
+
+/// How many steps each solver found, e.g. `6 Gauss–Newton, 1 clarabel`.
+fn solver_mix(log: &[super::fit::IterationLog]) -> String {
+    let clarabel = log.iter().filter(|l| l.solver == super::fit::Solver::Clarabel).count();
+    format!("{} Gauss–Newton, {clarabel} clarabel", log.len() - clarabel)
 }
 
 /// Fitted markers, stereo noise and fast captures of a marker-level calibration.
