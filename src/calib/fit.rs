@@ -477,7 +477,7 @@ impl<M: Model> Problem<'_, M> {
         // curvature is off by more than a fifth, that minimum is tried as well — short of the step
         // (the model too flat), or beyond it within the bounds (too steep: a large-residual
         // direction, or Huber weights that keep moving the same way).
-        if actual.is_finite() && (ratio < 0.8 || ratio > 1.2) {
+        if actual.is_finite() && !(0.8..=1.2).contains(&ratio) {
             let true_curvature = 2.0 * (-actual - slope);
             let minimum = -slope / true_curvature;
             let p = model.parameterisation();
@@ -486,15 +486,14 @@ impl<M: Model> Problem<'_, M> {
                     .zip(delta.iter())
                     .all(|(&i, d)| p.entries[i].bound.is_none_or(|b| (x[i] + a * d).abs() <= b))
             };
-            if true_curvature > 0.0
+            let promising = true_curvature > 0.0
                 && (0.05..MAX_EXTRAPOLATION).contains(&minimum)
                 && (minimum - 1.0).abs() > 0.05
-                && feasible(minimum)
+                && feasible(minimum);
+            if let Some(other) = promising.then(|| trial_cost(minimum)).flatten().filter(|(_, _, c)| *c < cost - actual)
             {
-                if let Some(other) = trial_cost(minimum).filter(|(_, _, c)| *c < cost - actual) {
-                    best = Some(other);
-                    alpha = minimum;
-                }
+                best = Some(other);
+                alpha = minimum;
             }
         }
         let gain = best.as_ref().map_or(f64::NEG_INFINITY, |(_, _, c)| cost - c);
