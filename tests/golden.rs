@@ -204,7 +204,8 @@ impl Diffs {
         let field = if at.is_empty() { "(document)" } else { at };
         match (old, new) {
             (Value::Object(a), Value::Object(b)) => {
-                for (key, x) in a {
+                // Wall-clock times (`stages[].seconds`) differ from run to run.
+                for (key, x) in a.iter().filter(|(key, _)| *key != "seconds") {
                     let here = if at.is_empty() { key.clone() } else { format!("{at}.{key}") };
                     match b.get(key) {
                         Some(y) => self.values(&here, x, y),

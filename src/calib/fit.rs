@@ -49,6 +49,8 @@ pub(crate) struct FitSettings {
     pub free: Vec<bool>,
     /// Weak prior `½ (x − x_prior)ᵀ Λ (x − x_prior)` on unidentifiable directions.
     pub prior: Option<(DMatrix<f64>, DVector<f64>)>,
+    /// The calibration stage the fit is, as its iterations name it.
+    pub stage: &'static str,
 }
 
 impl FitSettings {
@@ -62,6 +64,7 @@ impl FitSettings {
             huber_threshold: config.huber_threshold,
             free,
             prior: None,
+            stage: "fit",
         }
     }
 }
@@ -69,7 +72,12 @@ impl FitSettings {
 /// One iteration, for the log and the recording.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct IterationLog {
-    /// Iteration number, from 1.
+    /// The calibration stage: `calibration`, or `refit without gross errors`.
+    pub stage: &'static str,
+    /// Whether the residuals were whitened by the estimated noise model (false for the first
+    /// steps, taken before the noise is estimated).
+    pub whitened: bool,
+    /// Iteration number within its stage, from 1.
     pub iteration: u32,
     /// Weighted, whitened cost `½ Σ w_j |S_j r_j|²` before the step.
     pub cost: f64,
@@ -290,7 +298,7 @@ const MAX_EXTRAPOLATION: f64 = 3.0;
 /// The unwhitened fit only has to bring the residuals near their minimum for the noise model to
 /// be estimated from them: a tenth of a standard error changes the estimated σ's by far less than
 /// their own uncertainty.
-const UNWHITENED_TOLERANCE: f64 = 0.1;
+const UNWHITENED_TOLERANCE: f64 = 0.01;
 
 /// Fit `x` from `x0` to the observations by two-step feasible generalised least squares in one
 /// trust-region loop: unwhitened until the step to the optimum is below a tenth of a standard
@@ -339,8 +347,9 @@ pub(crate) fn fit<M: Model>(
             break iteration_limit(&log, radius)?;
         }
         let tolerance = if whitened { DECREMENT_TOLERANCE } else { UNWHITENED_TOLERANCE };
-        let (entry, stop) =
+        let (mut entry, stop) =
             problem.trust_region_step(&mut x, &mut eval, &weighting, &mut radius, iteration, tolerance)?;
+        (entry.stage, entry.whitened) = (settings.stage, whitened);
         on_iteration(&entry);
         log.push(entry);
         match stop {
@@ -349,6 +358,8 @@ pub(crate) fn fit<M: Model>(
                 weighting.rescale(&eval.residuals);
                 weighted_at = None;
                 whitened = true;
+                // The whitened cost is a new function: its steps need not be as short.
+                radius = radius.max(settings.initial_radius);
             }
             Some(stop) => break stop,
             None => {}
@@ -500,6 +511,8 @@ impl<M: Model> Problem<'_, M> {
         let predicted_at = -(alpha * slope + 0.5 * alpha * alpha * curvature);
         let accepted = predicted_at > 0.0 && gain > 0.25 * predicted_at || (converged && gain >= 0.0);
         let entry = IterationLog {
+            stage: settings.stage,
+            whitened: false,
             iteration,
             cost,
             rms: model.report_rms(&eval.residuals),
@@ -521,8 +534,9 @@ impl<M: Model> Problem<'_, M> {
             if ratio > 0.75 && step_norm > 0.9 * *radius {
                 *radius = (2.0 * *radius).min(0.5);
             }
-        } else {
-            // The model mispredicts beyond a quarter of this step: the next stays within it.
+        } else if !converged {
+            // The model mispredicts beyond a quarter of this step: the next stays within it. (A
+            // converged fit's last step may be rejected for rounding alone: the radius stays.)
             *radius = 0.25 * step_norm.min(*radius);
         }
         // A full Gauss–Newton step that promises less than `ROUGH_DECREMENT` standard errors and

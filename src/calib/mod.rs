@@ -46,7 +46,8 @@ pub(crate) use orientation_model::{OrientationModel, observations};
 pub use params::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use pipeline::{CalibError, Calibration, Fitted, Solution, calibrate};
 pub use report::{
-    CalibrationReport, Errors, FastCapture, FlaggedObservation, Latency, MarkerFitReport, MarkerReport, Verdict,
+    CalibrationReport, CameraModelReport, CameraTermReport, Errors, FastCapture, FlaggedObservation, Latency,
+    MarkerFitReport, MarkerReport, StageReport, Verdict,
 };
 pub use uncertainty::{Correlation, ParameterReport, PredictedError, RegionError};
 pub use validation::CrossValidation;

@@ -298,6 +298,7 @@ fn run<L: Level>(
     left_out: Vec<String>,
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
+    let mut clock = Clock::start();
     let p = level.parameterisation();
     let mut free = level.free();
     let model = level.model();
@@ -306,6 +307,7 @@ fn run<L: Level>(
     let stage = |stage| move |error| CalibError::Fit { stage, error };
     let x0 = p.start();
     let nominal = best_registration(&model, &x0, &registration, config).map_err(stage("nominal registration"))?;
+    clock.lap("registration", nominal.log.len());
     // Identifiability at the start of the full fit; a session that barely moves is refused with
     // what it cannot tell apart.
     let mut identifiability = identifiability_at(p, &nominal, &free, config);
@@ -333,8 +335,11 @@ fn run<L: Level>(
         return Err(CalibError::Unidentifiable(regularised));
     }
     let prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
-    let settings = FitSettings { prior: prior.clone(), ..FitSettings::from_config(config, free.clone()) };
+    clock.lap("identifiability", 0);
+    let settings =
+        FitSettings { prior: prior.clone(), stage: "calibration", ..FitSettings::from_config(config, free.clone()) };
     let robust = fit(&model, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
+    clock.lap("calibration", robust.log.len());
     // Gross errors (centimetres, tens of degrees) are removed, not only down-weighted: they would
     // still pull. The baseline is refitted on the same observations as the calibration.
     let origin = |m: &L::Model<'_>, j: usize| level.origin(m, j);
@@ -347,12 +352,17 @@ fn run<L: Level>(
         gross.iter().for_each(|&j| keep[j] = false);
         let rows: Vec<usize> = (0..model.len()).filter(|&j| keep[j]).collect();
         let model = model.subset(&rows);
-        let refit =
-            fit(&model, &robust.x, &settings, &mut |_| {}).map_err(stage("calibration without the gross errors"))?;
+        let again = FitSettings { stage: "refit without gross errors", ..settings.clone() };
+        let mut refit =
+            fit(&model, &robust.x, &again, on_iteration).map_err(stage("calibration without the gross errors"))?;
+        let refit_iterations = refit.log.len();
+        // The report's iterations are every iteration of both fits, each naming its stage.
+        refit.log = robust.log.iter().chain(&refit.log).copied().collect();
         flagged.retain(|(_, f)| f.excluded);
         flagged.extend(flag(&model, &refit, config.outlier_threshold, &origin));
         let nominal =
             best_registration(&model, &nominal.x, &registration, config).map_err(stage("nominal registration"))?;
+        clock.lap("refit without gross errors", refit_iterations);
         (model, refit, nominal)
     };
     // A parameter that ends at its bound is held there: the data want it further, and a standard
@@ -360,6 +370,7 @@ fn run<L: Level>(
     let at_bound = at_bounds(p, &calibrated.x, &free);
     let determined: Vec<bool> = free.iter().zip(&at_bound).map(|(f, b)| *f && !b).collect();
     let covariance = covariance(&calibrated, &determined, prior.as_ref().map(|(l, _)| l));
+    clock.lap("uncertainty", 0);
     let groups = super::validation::groups(&model);
     if config.folds > groups {
         let reason = format!(
@@ -370,6 +381,7 @@ fn run<L: Level>(
     }
     let mut cross_validation =
         cross_validate(&model, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
+    clock.lap("cross-validation", 0);
     let mut warnings: Vec<String> = camera_warnings.collect();
     if let (Some(cv), Some(predicted)) =
         (cross_validation.as_mut(), super::uncertainty::residual_mean_squares(&calibrated, &covariance))
@@ -431,14 +443,37 @@ fn run<L: Level>(
         camera_translation_m: None,
         camera_translation_std_error_m: None,
         markers: None,
+        stages: Vec::new(),
     };
     let results = Results { session, robot, model, nominal, calibrated, free: determined, covariance, report };
     let mut calibration = level.finish(results)?;
+    clock.lap("report", 0);
     let report = &mut calibration.report;
+    report.stages = clock.stages;
     report.verdict = Verdict::of(report.cross_validation.as_ref(), &report.before, &report.after, config);
     report.not_significant = super::uncertainty::not_significant(&report.parameters);
     calibration.parameters.fit = Some(report::fit_header(report));
     Ok(calibration)
+}
+
+/// The stages' wall-clock times, lap by lap.
+struct Clock {
+    last: std::time::Instant,
+    stages: Vec<super::report::StageReport>,
+}
+
+impl Clock {
+    fn start() -> Self {
+        Clock { last: std::time::Instant::now(), stages: Vec::new() }
+    }
+
+    /// The stage `name` ends now, after `iterations` fit iterations.
+    fn lap(&mut self, name: &'static str, iterations: usize) {
+        let now = std::time::Instant::now();
+        let seconds = (now - self.last).as_secs_f64();
+        self.stages.push(super::report::StageReport { name, iterations, seconds });
+        self.last = now;
+    }
 }
 
 /// Something to fit, and enough residuals (3 per observation) for the free parameters: checked

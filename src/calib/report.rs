@@ -132,6 +132,18 @@ pub struct Latency {
     pub at_bound: bool,
 }
 
+/// One stage of a calibration: what it did, the fit iterations it took and its wall-clock time.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StageReport {
+    /// `registration` (the nominal model's), `identifiability`, `calibration`, `refit without
+    /// gross errors`, `uncertainty`, `cross-validation`, `report`.
+    pub name: &'static str,
+    /// Fit iterations (0 for stages that fit nothing).
+    pub iterations: usize,
+    /// Wall-clock time, seconds.
+    pub seconds: f64,
+}
+
 /// The camera model the marker-level fit used (`camera_model`), term by term.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CameraModelReport {
@@ -232,8 +244,11 @@ pub struct CalibrationReport {
     pub before: Errors,
     /// Calibrated mechanism with its registration.
     pub after: Errors,
-    /// The calibration fit, iteration by iteration.
+    /// The calibration fit, iteration by iteration (the refit without the gross errors, when
+    /// there is one, after it), each naming its stage.
     pub iterations: Vec<IterationLog>,
+    /// Every stage of the calibration with its fit iterations and wall-clock time.
+    pub stages: Vec<StageReport>,
     /// How the fit ended: converged, or stalled at a minimum.
     pub convergence: Convergence,
     /// Every angle parameter with its change and standard error (degrees).

@@ -57,14 +57,21 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     };
     let spinner = indicatif::ProgressBar::new_spinner();
     if args.verbose {
-        eprintln!("iteration   RMS (°|mm)  step         radius         ratio   accepted");
+        eprintln!(
+            "stage        iteration   RMS (°|mm)  step         radius        ratio  accepted  solver        decrement (σ)"
+        );
     }
     let calibration = spmcal::calib::calibrate(&session, &model, &config, &mut |it| {
         if args.verbose {
+            let stage = if it.stage == "calibration" { "calibration" } else { "refit" };
+            let solver = match it.solver {
+                spmcal::calib::Solver::GaussNewton => "Gauss–Newton",
+                spmcal::calib::Solver::Clarabel => "clarabel",
+            };
             spinner.suspend(|| {
                 eprintln!(
-                    "{:9} {:11.5} {:12.3e} {:14.3e} {:7.3} {}",
-                    it.iteration, it.rms, it.step, it.radius, it.ratio, it.accepted
+                    "{stage:<12} {:9} {:11.5} {:12.3e} {:13.3e} {:6.3}  {:<8}  {solver:<12}  {:.2e}",
+                    it.iteration, it.rms, it.step, it.radius, it.ratio, it.accepted, it.decrement
                 )
             });
         }
@@ -76,6 +83,12 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
         None => format!("calibrating {} with the built-in settings", args.session.dataset.display()),
     })?;
     spinner.finish_and_clear();
+    if args.verbose {
+        eprintln!("stage                          iterations   time (s)");
+        for stage in &calibration.report.stages {
+            eprintln!("{:<30} {:10} {:10.4}", stage.name, stage.iterations, stage.seconds);
+        }
+    }
     outputs.write(params_slot, calibration.parameters.to_yaml().as_bytes())?;
     if let Some(slot) = rrd {
         record(&outputs, slot, &spmcal::record::Scene::calibration(&session, &model, &calibration)?)?;
