@@ -158,6 +158,8 @@ pub(crate) fn best_registration<M: Model + Clone>(
     outcome.evaluation = model
         .evaluate(&outcome.x, Some(&outcome.evaluation.orientations), true)
         .map_err(|error| FitError::Evaluation { iteration, error })?;
+    // The orientations' sensitivities serve the calibrated model's predicted error only.
+    outcome.evaluation.orientation_jacobians = None;
     Ok(outcome)
 }
 

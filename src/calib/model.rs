@@ -9,7 +9,7 @@ use super::params::Parameterisation;
 use crate::model::{FdaError, SpmError};
 
 /// Residuals (and optionally their Jacobian) at a parameter vector.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub(crate) struct Evaluation {
     /// Per-observation residuals, in the model's unit (radians or metres), camera frame.
     pub(crate) residuals: Vec<Vector3<f64>>,

@@ -285,13 +285,16 @@ pub(crate) fn predicted_orientation_error(
         return None;
     }
     let n = cov.ncols();
-    let projected = project_common_rotations(sens, orientations, fda)?;
+    let common = common_rotations(sens, orientations, fda)?;
     let mut q = DMatrix::<f64>::zeros(n, n);
-    let per_pose_ms: Vec<f64> = projected
+    // One pose's projected sensitivity at a time: an hour-long recording has 54,000 of them.
+    let per_pose_ms: Vec<f64> = sens
         .iter()
-        .map(|s| {
-            q += s.transpose() * s;
-            (s * cov * s.transpose()).trace().max(0.0)
+        .zip(orientations)
+        .map(|(s, r)| {
+            let s = common.project(s, r);
+            q += s.transpose() * &s;
+            (&s * cov * s.transpose()).trace().max(0.0)
         })
         .collect();
     let per_pose: Vec<(u64, f64)> =
@@ -302,45 +305,62 @@ pub(crate) fn predicted_orientation_error(
     Some(predicted)
 }
 
-/// The orientation sensitivities `sens` (`∂ω/∂x` in B, 3 × N, one per pose at `orientations`)
-/// restricted to the columns `fda` and with the rotations common to every pose projected out:
+/// How to project out of the orientation sensitivities `sens` (`∂ω/∂x` in B, 3 × N, one per pose
+/// at `orientations`, restricted to the columns `fda`) the rotations common to every pose:
 /// `S̃_j = S_j − [I R_j] C`, `C = (Σ Bᵀ B)⁺ Σ Bᵀ S` — a base rotation ψ_B and a platform rotation
 /// ψ_P common to every pose move pose j by `ψ_B + R_j ψ_P`, and no measurement sees them (the
 /// camera registration and the markers carry them). `None` when the lengths differ or the
 /// projection fails.
-pub(crate) fn project_common_rotations(
+pub(crate) fn common_rotations<'a>(
     sens: &[DMatrix<f64>],
     orientations: &[nalgebra::Rotation3<f64>],
-    fda: &[bool],
-) -> Option<Vec<DMatrix<f64>>> {
+    fda: &'a [bool],
+) -> Option<CommonRotations<'a>> {
     if sens.is_empty() || sens.len() != orientations.len() {
         return None;
     }
     let n = sens[0].ncols();
-    let mask = |s: &DMatrix<f64>| {
-        let mut s = s.clone();
-        for (i, keep) in fda.iter().enumerate() {
-            if !keep {
-                s.column_mut(i).fill(0.0);
-            }
-        }
-        s
-    };
-    let sens: Vec<DMatrix<f64>> = sens.iter().map(mask).collect();
-    let design = |r: &nalgebra::Rotation3<f64>| {
-        let mut b = DMatrix::<f64>::zeros(3, 6);
-        b.view_mut((0, 0), (3, 3)).copy_from(&nalgebra::Matrix3::identity());
-        b.view_mut((0, 3), (3, 3)).copy_from(r.matrix());
-        b
-    };
     let (mut btb, mut bts) = (DMatrix::<f64>::zeros(6, 6), DMatrix::<f64>::zeros(6, n));
     for (s, r) in sens.iter().zip(orientations) {
-        let b = design(r);
+        let b = common_design(r);
         btb += b.transpose() * &b;
-        bts += b.transpose() * s;
+        bts += b.transpose() * masked(s, fda);
     }
     let common = btb.pseudo_inverse(1e-10).ok()? * bts;
-    Some(sens.iter().zip(orientations).map(|(s, r)| s - design(r) * &common).collect())
+    Some(CommonRotations { common, fda })
+}
+
+/// The rotations common to every pose, fitted to the sensitivities: `C` of
+/// [`common_rotations`], with the columns it keeps.
+pub(crate) struct CommonRotations<'a> {
+    common: DMatrix<f64>,
+    fda: &'a [bool],
+}
+
+impl CommonRotations<'_> {
+    /// `S̃ = S − [I R] C` of one pose (`s` its sensitivity, `r` its orientation).
+    pub(crate) fn project(&self, s: &DMatrix<f64>, r: &nalgebra::Rotation3<f64>) -> DMatrix<f64> {
+        masked(s, self.fda) - common_design(r) * &self.common
+    }
+}
+
+/// `s` with the columns `fda` does not keep zeroed.
+fn masked(s: &DMatrix<f64>, fda: &[bool]) -> DMatrix<f64> {
+    let mut s = s.clone();
+    for (i, keep) in fda.iter().enumerate() {
+        if !keep {
+            s.column_mut(i).fill(0.0);
+        }
+    }
+    s
+}
+
+/// `[I R]` (3 × 6): how a base rotation and a platform rotation move a pose at `r`.
+fn common_design(r: &nalgebra::Rotation3<f64>) -> DMatrix<f64> {
+    let mut b = DMatrix::<f64>::zeros(3, 6);
+    b.view_mut((0, 0), (3, 3)).copy_from(&nalgebra::Matrix3::identity());
+    b.view_mut((0, 3), (3, 3)).copy_from(r.matrix());
+    b
 }
 
 /// The expected squared prediction error (unit², of each residual): `tr(J_j Cov J_jᵀ)`.

@@ -87,7 +87,7 @@ pub struct Session {
     pub truth: Option<Truth>,
     /// The encoder and camera streams of a free-motion recording, from which `poses` were made
     /// (one per camera frame, joints interpolated at the frame's time less the latency).
-    pub streams: Option<Streams>,
+    pub streams: Option<std::sync::Arc<Streams>>,
 }
 
 /// A pose left out of the session, and why (a free-motion recording's camera frame that falls
@@ -194,7 +194,7 @@ impl Session {
                 reference_pose: 0,
                 poses: Vec::new(),
                 truth: read_truth(dir)?,
-                streams: Some(streams),
+                streams: Some(std::sync::Arc::new(streams)),
             };
             return Ok(session.at_latency(0.0));
         }
@@ -244,6 +244,7 @@ impl Session {
             pose.markers.iter_mut().flatten().for_each(|m| *m = correction * *m);
         }
         if let Some(streams) = session.streams.as_mut() {
+            let streams = std::sync::Arc::make_mut(streams);
             streams.captures.iter_mut().for_each(|c| c.position = correction * c.position);
         }
         Some(session)

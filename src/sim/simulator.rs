@@ -619,7 +619,7 @@ impl Simulator<'_> {
             reference_pose: 0,
             poses: Vec::new(),
             truth: Some(Truth { parameters: self.truth_parameters(Some(r.latency_s)), orientations: BTreeMap::new() }),
-            streams: Some(streams),
+            streams: Some(std::sync::Arc::new(streams)),
         };
         Ok(session.at_latency(r.latency_s).0)
     }

@@ -86,7 +86,7 @@ impl<'s> MarkerLevel<'s> {
             Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds)
                 .with_camera_model(config.camera_terms.model(carried), config.bounds.camera_term);
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
-        let streams = session.streams.as_ref();
+        let streams = session.streams.as_deref();
         let p = match streams {
             // The fit starts at `latency_s` and keeps the latency within ±`latency_bound_s`: the
             // frames were chosen for that range, and a parameters file holds no more.
@@ -183,6 +183,10 @@ impl Level for MarkerLevel<'_> {
         // model with its best-fit registration, the calibrated one with its own.
         let vision = SessionEstimate::of(r.session, Method::Kabsch).ok();
         let per_pose = |params: &Parameters| {
+            // Nothing for the per-pose estimator (one marker per capture): no corrected copy.
+            if vision.is_none() {
+                return Errors { fit: Stats::of_or_zero(&[]), held_out: None };
+            }
             let corrected = corrected_for(r.session, vision.as_ref(), Method::Kabsch, params).ok().flatten();
             let (session, vision) = match &corrected {
                 Some((s, v)) => (s, v.as_ref()),
