@@ -67,23 +67,28 @@ fn command(c: &mut Criterion) {
         });
     }
     group.finish();
-    // A ten-minute free-motion recording (600,001 encoder samples, ~8,700 captures), written once.
-    let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
-    sim.recording.as_mut().unwrap().duration_s = 600.0;
-    let model = RobotModel::load(&sim.model).unwrap();
-    let recording = dir.path().join("ten_minutes");
-    sim.simulate(&model, &mut |_| {}).unwrap().0.write(&recording).unwrap();
+    // Free-motion recordings of ten minutes (600,001 encoder samples, ~8,700 captures) and an hour
+    // (3.6 million encoder samples, ~52,000 captures), each written once: the cost is linear in
+    // the data.
     let mut group = c.benchmark_group("calibrate_command_free_motion");
-    group.sample_size(10).measurement_time(std::time::Duration::from_secs(30));
-    group.bench_function("600s", |b| {
-        b.iter(|| {
-            let run = Command::new(env!("CARGO_BIN_EXE_spmcal"))
-                .args(["calibrate", "--dataset", recording.to_str().unwrap(), "--out", out.to_str().unwrap()])
-                .output()
-                .unwrap();
-            assert!(run.status.success());
-        })
-    });
+    group.sample_size(10).measurement_time(std::time::Duration::from_secs(60));
+    for seconds in [600.0, 3600.0] {
+        let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+        sim.recording.as_mut().unwrap().duration_s = seconds;
+        let model = RobotModel::load(&sim.model).unwrap();
+        let recording = dir.path().join(format!("recording_{seconds}"));
+        sim.simulate(&model, &mut |_| {}).unwrap().0.write(&recording).unwrap();
+        group.bench_function(format!("{seconds}s"), |b| {
+            b.iter(|| {
+                let run = Command::new(env!("CARGO_BIN_EXE_spmcal"))
+                    .args(["calibrate", "--dataset", recording.to_str().unwrap(), "--out", out.to_str().unwrap()])
+                    .output()
+                    .unwrap();
+                assert!(run.status.success());
+            })
+        });
+        std::fs::remove_dir_all(&recording).unwrap();
+    }
     group.finish();
 }
 

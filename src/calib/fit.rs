@@ -332,6 +332,8 @@ pub(crate) fn fit<M: Model>(
     let mut radius = settings.initial_radius;
     let mut log: Vec<IterationLog> = Vec::new();
     let mut weighting = Weighting::isotropic(eval.residuals.len());
+    // The unwhitened phase's robust scale is the start's (the nominal model's error sets it,
+    // so that phase is nearly least squares); the whitened phase's is taken where it begins.
     weighting.rescale(&eval.residuals);
     // The Huber weights follow every accepted point; the noise model is estimated once, where the
     // unwhitened fit has (loosely) converged, and the robust scale there.

@@ -447,3 +447,31 @@ fn a_camera_term_in_a_direction_the_data_cannot_determine_is_held() {
     assert_eq!(analysis.unidentifiable.len(), 1);
     assert!(super::pipeline::unidentified_camera_terms(&p, &analysis).is_empty());
 }
+
+#[test]
+fn a_fit_restarted_at_its_solution_stays_there() {
+    // Refitted from its own solution (the unwhitened phase, the noise estimate and the Huber
+    // weights all redone from there) the calibration returns to within 0.1 of its standard
+    // errors. Not closer: the unwhitened phase's robust scale is its start's (from the nominal
+    // model nearly least squares, from the solution Huber), so the noise model is estimated at a
+    // slightly different point — 0.07 σ measured on sim_400's camera translation. (A scale that
+    // follows the residuals there brings a restart within 0.01 σ, but moves every calibration by
+    // up to 0.09 σ from the two-stage fit's answers, which the goldens keep.)
+    for name in ["agile_wrist_sim_20", "agile_wrist_sim_400"] {
+        let (session, _) = Session::load(&Path::new("datasets").join(name), None).unwrap();
+        let model = RobotModel::load(&session.model).unwrap();
+        let config = CalibConfig { folds: 0, ..CalibConfig::default() };
+        let first = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
+        let Fitted::Markers(obs) = &first.fitted else { panic!("a marker-level calibration") };
+        let p = &first.parameterisation;
+        let sigma: Vec<f64> = (0..p.len()).map(|i| first.covariance[(i, i)].sqrt()).collect();
+        let free: Vec<bool> = sigma.iter().map(|s| *s > 0.0).collect();
+        let settings = FitSettings::from_config(&config, free);
+        let again = fit(&MarkerModel::new(p, obs), &first.calibrated.x, &settings, &mut |_| {}).unwrap();
+        for i in (0..p.len()).filter(|&i| sigma[i] > 0.0) {
+            let moved = (again.x[i] - first.calibrated.x[i]).abs() / sigma[i];
+            assert!(moved < 0.1, "{name}, {}: {moved} σ", p.entries[i].name);
+        }
+        assert!(again.log.len() <= 15, "{name}: {} iterations from the solution", again.log.len());
+    }
+}
