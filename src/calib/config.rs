@@ -142,8 +142,10 @@ pub struct CalibConfig {
     /// Initial trust-region radius, as an angle (the marker-level fit's positions and latency
     /// take the same number of radians as metres or seconds).
     pub initial_radius_deg: f64,
-    /// Converged when a step changes no parameter by more than this (as an angle; positions and
-    /// the latency compare their metres or seconds with the same number of radians).
+    /// Converged when the full step changes no parameter by more than this (as an angle; positions
+    /// and the latency compare their metres or seconds with the same number of radians); the fit
+    /// usually stops first, when the Newton decrement proves the optimum within 1e-3 standard
+    /// errors.
     pub step_tolerance_deg: f64,
     /// Physical bounds on the departures from nominal.
     pub bounds: Bounds,

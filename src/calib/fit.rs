@@ -1,8 +1,8 @@
-//! The fit: a trust-region sequence of convex subproblems solved by clarabel.
+//! The fit: one trust-region loop of Gauss–Newton steps, with clarabel where bounds bind.
 //!
 //! Each iteration linearises the residuals, `r(x + Δ) ≈ r + J Δ`, weights each observation (a
 //! pose's rotation or a marker's position) by its robust (Huber) weight — iteratively reweighted
-//! least squares, whose fixed point is the Huber estimate — and solves the quadratic program
+//! least squares, whose fixed point is the Huber estimate — and minimises the model
 //!
 //! ```text
 //! minimise ½ Δᵀ (Jᵀ W J + Λ) Δ + (Jᵀ W r + Λ (x − x_prior))ᵀ Δ
@@ -10,11 +10,12 @@
 //!            ‖Δ‖ ≤ ρ                 (trust region, a second-order cone)
 //! ```
 //!
-//! (`Λ` is the weak prior on unidentifiable directions, if any; `‖Δ‖` takes each parameter in its
-//! own unit: radians for angles, metres for positions, seconds for the latency). A step is
-//! accepted when the actual reduction of the weighted cost is at least a quarter of the predicted
-//! one; the radius shrinks fourfold after a poor step and doubles after a good step that reached
-//! it.
+//! by a Cholesky solve when its unconstrained minimum (the Gauss–Newton step) satisfies both
+//! constraints, else by clarabel (`Λ` is the weak prior on unidentifiable directions, if any; `‖Δ‖`
+//! takes each parameter in its own unit: radians for angles, metres for positions, seconds for the
+//! latency). A step is accepted when the actual reduction of the weighted cost is at least a
+//! quarter of the predicted one; a rejected step shrinks the radius to a quarter of itself, a good
+//! step that reached the radius doubles it. The fit stops on the Newton decrement (see [`fit`]).
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -106,18 +107,18 @@ pub struct IterationLog {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Convergence {
-    /// The last steps moved no parameter by more than the step tolerance, or the cost stopped
-    /// changing (relative change below 1e-10 over a reweighting cycle, or
-    /// no predicted decrease the cost can resolve).
+    /// The Newton decrement at the settled weights fell below 1e-3 standard errors (or the full
+    /// step below the step tolerance, or no decrease the cost can resolve, or — a rough cost — a
+    /// full Gauss–Newton step promising under 0.3 standard errors was not confirmed).
     Converged,
     /// No step of useful size reduced the cost (the trust radius collapsed), or the iteration
     /// budget ran out with the cost flat: a minimum to working precision, not a clean convergence.
     StalledAtMinimum,
 }
 
-/// A fit whose cost changes by less than this fraction in a whole reweighting cycle, or over the
-/// last five iterations, is at its minimum whatever its steps: the cost is a sum over
-/// hundreds of residuals, so 1e-10 of it is far below anything the data can tell apart.
+/// A fit whose cost changes by less than this fraction over the last five iterations is at its
+/// minimum whatever its steps: the cost is a sum over hundreds of residuals, so 1e-10 of it is
+/// far below anything the data can tell apart.
 pub(crate) const RELATIVE_COST_TOLERANCE: f64 = 1e-10;
 /// Iterations over which a stalled cost is judged.
 const STALL_WINDOW: usize = 5;
