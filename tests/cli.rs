@@ -318,3 +318,26 @@ fn check_describes_a_model_its_home_branches_and_its_workspace() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--max-tilt-deg 120 is outside [0, 90]"));
 }
+
+#[test]
+fn completions_man_page_and_version_come_from_the_command_line_itself() {
+    // Every shell's script names the commands; the man page is roff with them; `--version`
+    // names the version and the commit it was built from.
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let run = spmcal(&["completions", shell]);
+        assert!(run.status.success(), "{shell}: {}", String::from_utf8_lossy(&run.stderr));
+        let script = String::from_utf8_lossy(&run.stdout);
+        assert!(script.contains("calibrate") && script.contains("camera-model"), "{shell}: {script}");
+    }
+    let run = spmcal(&["man"]);
+    let page = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success() && page.contains(".TH spmcal 1") && page.contains("calibrate"), "{page}");
+    let run = spmcal(&["--version"]);
+    let version = String::from_utf8_lossy(&run.stdout);
+    assert!(version.starts_with(&format!("spmcal {} (commit ", env!("CARGO_PKG_VERSION"))), "{version}");
+    let commit = version.trim().trim_end_matches(')').rsplit(' ').next().unwrap().trim_end_matches("-dirty");
+    assert!(commit == "unknown" || (commit.len() == 12 && commit.chars().all(|c| c.is_ascii_hexdigit())), "{version}");
+    // A shell that does not exist is refused with the list.
+    let run = spmcal(&["completions", "cmd.exe"]);
+    assert!(!run.status.success() && String::from_utf8_lossy(&run.stderr).contains("possible values"));
+}

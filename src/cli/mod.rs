@@ -7,6 +7,7 @@ pub(crate) mod args;
 pub(crate) mod calibrate;
 pub(crate) mod check;
 pub(crate) mod compare;
+pub(crate) mod completions;
 pub(crate) mod envelope;
 pub(crate) mod estimate;
 pub(crate) mod export;
@@ -33,9 +34,12 @@ use plan::PlanArgs;
 use replay::ReplayArgs;
 use simulate::SimulateArgs;
 
+/// The version `--version` prints: the package's and the commit it was built from.
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("SPMCAL_COMMIT"), ")");
+
 /// Calibration of spherical parallel manipulators (the Agile Wrist, Orbita3d, any SPM a URDF describes) from joints and camera markers.
 #[derive(Parser)]
-#[command(name = "spmcal", version, about)]
+#[command(name = "spmcal", version = VERSION, about)]
 pub(crate) struct Cli {
     #[command(subcommand)]
     pub(crate) command: Command,
@@ -63,6 +67,10 @@ pub(crate) enum Command {
     Plan(PlanArgs),
     /// Write a calibrated URDF and its companion from a parameters file.
     Export(ExportArgs),
+    /// Print the shell completion script for `shell` (bash, zsh, fish, elvish, powershell).
+    Completions(completions::CompletionsArgs),
+    /// Print the manual page (roff; e.g. `spmcal man > spmcal.1`).
+    Man,
 }
 
 /// The exit code of a command, its error printed on standard error.
