@@ -182,6 +182,12 @@ pub struct PlanSummary {
     pub camera_model: CameraModelKind,
     /// The predicted standard error of each camera-model term after the plan.
     pub camera_std_errors: Vec<(String, f64)>,
+    /// What the calibration's report will predict for these poses (its `predicted_error_deg`:
+    /// the RMS orientation error on unseen poses of the session's own workspace, the rotations
+    /// common to every pose — which `compare`'s registration absorbs — left out), degrees, at the
+    /// parameters planned around. Unlike `plan.rms_deg` (the whole workspace, those rotations
+    /// included: what the design minimises), it is the figure to hold the calibration to.
+    pub report_prediction_deg: Option<f64>,
     /// Why the plan is for another camera model than the one asked for, or which of its terms
     /// the plan barely sees.
     pub camera_note: Option<String>,
@@ -312,6 +318,14 @@ impl Plan {
             .collect();
         let covariance = m_plan.clone().cholesky().map(|c| c.inverse()).ok_or(PlanError::SingularPlan(n))?;
         let uncertainty_deg = orientation_errors(&info, &covariance).iter().map(|e| e.to_degrees()).collect();
+        let report_prediction_deg = {
+            let sensitivities: Vec<DMatrix<f64>> =
+                chosen.chosen.iter().map(|&c| info.sensitivities[c].clone()).collect();
+            let ids: Vec<u64> = (0..chosen.chosen.len() as u64).collect();
+            let fda = vec![true; p.len()];
+            crate::calib::predicted_orientation_error(&sensitivities, &rotations, &ids, &fda, &covariance)
+                .map(|e| e.rms)
+        };
         let camera_std_errors = p
             .entries
             .iter()
@@ -349,6 +363,7 @@ impl Plan {
             augments: augment.map(|s| (s.name.clone(), s.poses.len())),
             camera_model: p.camera_model0.kind,
             camera_std_errors,
+            report_prediction_deg,
             camera_note,
         };
         Ok(Plan { poses, summary, candidates: pool, uncertainty_deg })
@@ -515,6 +530,13 @@ impl std::fmt::Display for PlanSummary {
         row(f, "continuous optimum (bound)", &s.continuous_optimum)?;
         row(f, "this plan", &s.plan)?;
         row(f, &format!("{} random reachable poses", s.poses), &s.random)?;
+        if let Some(e) = s.report_prediction_deg {
+            writeln!(
+                f,
+                "the calibration's report will predict about {e:.4}° RMS for these poses (its `predicted_error_deg`: the \
+                 session's own poses, the rotations common to all of them — which the registration absorbs — left out)"
+            )?;
+        }
         writeln!(
             f,
             "plan efficiency {:.1}% of the continuous optimum ({} support points; {}, equivalence ratio {:.4} after {} iterations; {} exchanges)",
