@@ -39,8 +39,8 @@ pub(crate) struct FitSettings {
     /// Initial trust-region radius, in the parameters' units (radians for the angles; the same
     /// number counts as metres or seconds for a position or the latency).
     pub initial_radius: f64,
-    /// Converged when an accepted step moves no parameter by more than this (radians, or metres
-    /// or seconds alike).
+    /// Converged when the full step moves no parameter by more than this (radians, or metres or
+    /// seconds alike); the Newton decrement usually stops the fit first.
     pub step_tolerance: f64,
     /// Loss on each observation's residual.
     pub loss: Loss,
@@ -175,12 +175,6 @@ pub enum FitError {
         /// Relative cost decrease per iteration at the end.
         relative_decrease: f64,
     },
-    #[error("the robust (Huber) reweighting did not settle in {cycles} cycles: try `loss: least_squares`")]
-    /// The Huber weights kept changing.
-    ReweightingUnsettled {
-        /// Reweighting cycles done.
-        cycles: u32,
-    },
     #[error("the fit diverged at iteration {iteration}: {reason}")]
     /// The cost or the step became non-finite.
     Diverged {
@@ -192,8 +186,8 @@ pub enum FitError {
 }
 
 /// How the residuals are weighted: each observation whitened by `S = Σ^{-1/2}` of the model's
-/// noise (estimated from the residuals after the first stage), then weighted by its Huber weight
-/// on the whitened norm, at a robust scale `σ` fixed for the stage.
+/// noise (estimated from the residuals once the unwhitened phase has converged), then weighted by
+/// its Huber weight on the whitened norm, at a robust scale `σ` fixed for the phase.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Weighting<N> {
     /// Per observation.
