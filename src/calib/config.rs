@@ -212,7 +212,7 @@ impl CameraTerms {
 
     /// The camera model `kind` with these terms.
     pub fn model(&self, kind: CameraModelKind) -> CameraModel {
-        CameraTerm::ALL.iter().zip(self.values()).fold(CameraModel::perfect(kind), |m, (t, v)| m.with(*t, v, None))
+        CameraModel::of(kind, self.values())
     }
 }
 

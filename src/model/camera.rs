@@ -42,6 +42,18 @@ impl CameraModelKind {
         }
     }
 
+    /// The smallest model that has every term `needed` picks: affine when a term beyond the depth
+    /// scale is picked, the depth-scale model when only that is, else rigid.
+    pub fn smallest(needed: impl Fn(CameraTerm) -> bool) -> Self {
+        if CameraTerm::ALL[1..].iter().any(|t| needed(*t)) {
+            CameraModelKind::Affine
+        } else if needed(CameraTerm::DepthScale) {
+            CameraModelKind::DepthScale
+        } else {
+            CameraModelKind::Rigid
+        }
+    }
+
     /// The terms this model has.
     pub fn terms(self) -> &'static [CameraTerm] {
         match self {
@@ -151,6 +163,12 @@ impl CameraModel {
     #[must_use]
     pub fn with_kind(self, kind: CameraModelKind) -> Self {
         CameraModel { kind, ..self }
+    }
+
+    /// The model `kind` with the terms' `values` in the order of [`CameraTerm::ALL`], no standard
+    /// errors.
+    pub fn of(kind: CameraModelKind, values: [f64; 5]) -> Self {
+        CameraModel { kind, values, std_errors: [None; 5] }
     }
 
     /// A camera whose depths read `s` times their length.

@@ -225,13 +225,7 @@ impl CameraRecord {
     pub(super) fn camera_model(&self, check: &Ranges) -> Result<CameraModel, FileError> {
         let slots = self.term_slots();
         let given = |t: CameraTerm| slots.iter().any(|(s, v, e)| *s == t && (v.is_some() || e.is_some()));
-        let kind = self.camera_model.unwrap_or(if CameraTerm::ALL[1..].iter().any(|t| given(*t)) {
-            CameraModelKind::Affine
-        } else if given(CameraTerm::DepthScale) {
-            CameraModelKind::DepthScale
-        } else {
-            CameraModelKind::Rigid
-        });
+        let kind = self.camera_model.unwrap_or_else(|| CameraModelKind::smallest(given));
         let mut model = CameraModel::perfect(kind);
         for (term, value, std_error) in slots {
             let key = format!("camera.{}", term.name());

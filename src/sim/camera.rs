@@ -5,7 +5,7 @@ use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::config::Camera;
-use crate::model::{CameraModel, CameraModelKind, CameraRegistration, CameraTerm};
+use crate::model::{CameraModel, CameraModelKind, CameraRegistration};
 
 // The camera's settings are read with the rest of the config (`config`); what the camera does
 // with them is here.
@@ -21,13 +21,8 @@ impl Camera {
     /// scale when only that is, else a perfect camera.
     pub fn model(&self) -> CameraModel {
         let values = [self.depth_scale, self.scale_y, self.shear_xy, self.shear_xz, self.shear_yz];
-        let affine = CameraTerm::ALL[1..].iter().zip(&values[1..]).any(|(t, v)| *v != t.perfect());
-        let kind = match (affine, self.depth_scale != 1.0) {
-            (true, _) => CameraModelKind::Affine,
-            (false, true) => CameraModelKind::DepthScale,
-            (false, false) => CameraModelKind::Rigid,
-        };
-        CameraTerm::ALL.iter().zip(values).fold(CameraModel::perfect(kind), |m, (t, v)| m.with(*t, v, None))
+        let set = CameraModel::of(CameraModelKind::Affine, values);
+        set.with_kind(CameraModelKind::smallest(|t| set.value(t) != t.perfect()))
     }
 
     /// Measure a point given in B with the camera at `registration`: transform to the camera
