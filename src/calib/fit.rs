@@ -276,8 +276,8 @@ struct Problem<'a, M> {
 /// to ~1e-14 rad. A predicted reduction below this is noise.
 const PRECISION: f64 = 1e-12;
 
-/// The fit has converged when the step to the optimum of the current weighting (the noise model,
-/// the robust scale and the Huber weights, all re-estimated at the current point) is shorter than
+/// The fit has converged when the step to the optimum of the current weighting (the estimated
+/// noise model and robust scale, the Huber weights of the current point) is shorter than
 /// this many standard errors in the metric of the parameters' covariance (the Newton decrement
 /// `Δᵀ H Δ` over the residual variance): the parameters are then within a thousandth of their
 /// uncertainty of the fixed point, and the next step would move them a millionth.
@@ -291,12 +291,12 @@ const ROUGH_DECREMENT: f64 = 0.3;
 const MAX_EXTRAPOLATION: f64 = 3.0;
 
 /// The unwhitened fit only has to bring the residuals near their minimum for the noise model to
-/// be estimated from them: a tenth of a standard error changes the estimated σ's by far less than
-/// their own uncertainty.
+/// be estimated from them: a hundredth of a standard error changes the estimated σ's by far less
+/// than their own uncertainty (a tenth moved the nominal registration's whitened fixed point).
 const UNWHITENED_TOLERANCE: f64 = 0.01;
 
 /// Fit `x` from `x0` to the observations by two-step feasible generalised least squares in one
-/// trust-region loop: unwhitened until the step to the optimum is below a tenth of a standard
+/// trust-region loop: unwhitened until the step to the optimum is below a hundredth of a standard
 /// error ([`UNWHITENED_TOLERANCE`]: the nominal model's residuals are its error, not the camera's
 /// noise), then whitened by the noise the model estimates from the residuals there (per-class
 /// covariances, or the stereo σ's), with the robust scale taken there too. The Huber weights
@@ -324,7 +324,7 @@ pub(crate) fn fit<M: Model>(
     let problem = Problem { model, settings, free };
     let mut x = x0.clone();
     let mut eval = model.evaluate(&x, None, true).map_err(FitError::Start)?;
-    let mut radius = settings.initial_radius;
+    let mut region = Region { radius: settings.initial_radius, normal: None };
     let mut log: Vec<IterationLog> = Vec::new();
     let mut weighting = Weighting::isotropic(eval.residuals.len());
     // The unwhitened phase's robust scale is the start's (the nominal model's error sets it,
@@ -339,13 +339,14 @@ pub(crate) fn fit<M: Model>(
         if weighted_at.as_ref() != Some(&x) {
             weighting.reweight(&eval.residuals, settings.loss, settings.huber_threshold);
             weighted_at = Some(x.clone());
+            region.normal = None;
         }
         if iteration > settings.max_iterations {
-            break iteration_limit(&log, radius)?;
+            break iteration_limit(&log, region.radius)?;
         }
         let tolerance = if whitened { DECREMENT_TOLERANCE } else { UNWHITENED_TOLERANCE };
         let (mut entry, stop) =
-            problem.trust_region_step(&mut x, &mut eval, &weighting, &mut radius, iteration, tolerance)?;
+            problem.trust_region_step(&mut x, &mut eval, &weighting, &mut region, iteration, tolerance)?;
         (entry.stage, entry.whitened) = (settings.stage, whitened);
         on_iteration(&entry);
         log.push(entry);
@@ -356,7 +357,7 @@ pub(crate) fn fit<M: Model>(
                 weighted_at = None;
                 whitened = true;
                 // The whitened cost is a new function: its steps need not be as short.
-                radius = radius.max(settings.initial_radius);
+                region.radius = region.radius.max(settings.initial_radius);
             }
             Some(stop) => break stop,
             None => {}
@@ -378,6 +379,13 @@ fn iteration_limit(log: &[IterationLog], radius: f64) -> Result<Convergence, Fit
     }
     let (iterations, step) = (log.len() as u32, last.map_or(0.0, |l| l.step));
     Err(FitError::IterationLimit { iterations, step, radius, relative_decrease })
+}
+
+/// The trust region between iterations: its radius, and the normal equations of the current
+/// point and weighting (kept while steps are rejected: neither has changed).
+struct Region {
+    radius: f64,
+    normal: Option<(DMatrix<f64>, DVector<f64>)>,
 }
 
 /// A step and how it was found.
@@ -441,7 +449,7 @@ impl<M: Model> Problem<'_, M> {
         x: &mut DVector<f64>,
         eval: &mut Evaluation,
         weighting: &Weighting<M::Noise>,
-        radius: &mut f64,
+        region: &mut Region,
         iteration: u32,
         tolerance: f64,
     ) -> Result<(IterationLog, Option<Convergence>), FitError> {
@@ -451,10 +459,11 @@ impl<M: Model> Problem<'_, M> {
         if !cost.is_finite() {
             return Err(FitError::Diverged { iteration, reason: format!("the cost is {cost}") });
         }
-        let (hessian, gradient) = normal_equations(eval, weighting, free, settings, x);
-        let step = self.step(x, &hessian, &gradient, *radius, iteration)?;
+        let Region { radius, normal } = region;
+        let (hessian, gradient) = &*normal.get_or_insert_with(|| normal_equations(eval, weighting, free, settings, x));
+        let step = self.step(x, hessian, gradient, *radius, iteration)?;
         let delta = &step.delta;
-        let (slope, curvature) = (gradient.dot(delta), delta.dot(&(&hessian * delta)));
+        let (slope, curvature) = (gradient.dot(delta), delta.dot(&(hessian * delta)));
         let predicted = -(0.5 * curvature + slope);
         // The residual variance per degree of freedom: the decrement in its units is the squared
         // distance to the optimum in standard errors.

@@ -223,6 +223,9 @@ pub(crate) struct Results<'a, M: Model> {
     pub(crate) calibrated: FitOutcome<M::Noise>,
     pub(crate) free: Vec<bool>,
     pub(crate) covariance: DMatrix<f64>,
+    /// Each residual's expected squared prediction error `tr(J_j Cov J_jᵀ)` (unit²), when the
+    /// calibrated evaluation has its Jacobian.
+    pub(crate) predicted_ms: Option<Vec<f64>>,
     /// The report, with every field that does not depend on the level filled in.
     pub(crate) report: CalibrationReport,
 }
@@ -383,11 +386,11 @@ fn run<L: Level>(
         cross_validate(&model, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
     let mut warnings: Vec<String> = camera_warnings.collect();
-    if let (Some(cv), Some(predicted)) =
-        (cross_validation.as_mut(), super::uncertainty::residual_mean_squares(&calibrated, &covariance))
-    {
+    // Each residual's expected squared prediction error: the self-check's and the level's report's.
+    let predicted_ms = super::uncertainty::residual_mean_squares(&calibrated, &covariance);
+    if let (Some(cv), Some(predicted)) = (cross_validation.as_mut(), predicted_ms.as_ref()) {
         let noise = super::uncertainty::noise_mean_squares(&calibrated, determined.iter().filter(|f| **f).count());
-        cv.check(&noise, &predicted, model.unit_scale());
+        cv.check(&noise, predicted, model.unit_scale());
         if let (false, Some(expected)) = (cv.consistent, cv.expected_rms) {
             let unit = model.unit();
             warnings.push(format!(
@@ -445,7 +448,8 @@ fn run<L: Level>(
         markers: None,
         stages: Vec::new(),
     };
-    let results = Results { session, robot, model, nominal, calibrated, free: determined, covariance, report };
+    let results =
+        Results { session, robot, model, nominal, calibrated, free: determined, covariance, predicted_ms, report };
     let mut calibration = level.finish(results)?;
     clock.lap("report", 0);
     let report = &mut calibration.report;

@@ -384,21 +384,21 @@ pub(crate) fn residual_mean_squares<N>(outcome: &FitOutcome<N>, cov: &DMatrix<f6
     Some(out)
 }
 
-/// The predicted marker error (mm) of a marker-level fit: per observation `tr(J_j Cov J_jᵀ)`,
-/// grouped by the pose ids `poses` (one per observation).
+/// The predicted marker error (mm) of a marker-level fit: per observation `ms[j] = tr(J_j Cov
+/// J_jᵀ)` ([`residual_mean_squares`]), grouped by the pose ids `poses` (one per observation).
 pub(crate) fn predicted_marker_error<N>(
     outcome: &FitOutcome<N>,
+    ms: &[f64],
     cov: &DMatrix<f64>,
     poses: &[u64],
     orientation_of: impl Fn(usize) -> nalgebra::Rotation3<f64>,
 ) -> Option<PredictedError> {
-    let ms = residual_mean_squares(outcome, cov)?;
     if ms.is_empty() || ms.len() != poses.len() {
         return None;
     }
     let (mut order, mut rotations) = (Vec::new(), Vec::new());
     let mut sums: std::collections::HashMap<u64, (f64, usize)> = std::collections::HashMap::new();
-    for (j, (&p, &v)) in poses.iter().zip(&ms).enumerate() {
+    for (j, (&p, &v)) in poses.iter().zip(ms).enumerate() {
         let e = sums.entry(p).or_insert_with(|| {
             order.push(p);
             rotations.push(orientation_of(j));

@@ -23,8 +23,7 @@ use crate::calib::uncertainty::{
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{
-    CameraModel, CameraModelKind, CameraRegistration, CameraTerm, MarkerPosition, ParameterSource, Parameters,
-    RobotModel,
+    CameraModelKind, CameraRegistration, CameraTerm, MarkerPosition, ParameterSource, Parameters, RobotModel,
 };
 use crate::vision::{Method, SessionEstimate};
 
@@ -157,11 +156,15 @@ impl Level for MarkerLevel<'_> {
         let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
         let marker_reports = marker_reports(p, x, cov, free, observations, &self.names);
         let (camera_report, camera_warnings) = self.camera_report(&r);
-        let camera_model = CameraTerm::ALL.iter().fold(CameraModel::perfect(self.camera_model), |m, term| {
-            let at = p.entries.iter().position(|e| e.kind == Kind::CameraTerm { term: *term });
-            let value = at.map_or(m.value(*term), |_| p.camera_model(x).value(*term));
-            m.with(*term, value, at.and_then(|i| std_error(cov, free, i)))
-        });
+        // The fitted model under the kind asked for (a rigid fit's carried depth scale is held at 1),
+        // each fitted term with its standard error.
+        let camera_model =
+            p.entries.iter().enumerate().fold(p.camera_model(x).with_kind(self.camera_model), |m, (i, e)| {
+                match e.kind {
+                    Kind::CameraTerm { term } => m.with(term, m.value(term), std_error(cov, free, i)),
+                    _ => m,
+                }
+            });
         let parameters = Parameters {
             source: ParameterSource::Calibrated,
             model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
@@ -217,8 +220,11 @@ impl Level for MarkerLevel<'_> {
             .as_ref()
             .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
-        report.predicted_error_mm =
-            predicted_marker_error(&r.calibrated, cov, &observation_poses, |j| eval.orientations[r.model.pose_of(j)]);
+        report.predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
+            predicted_marker_error(&r.calibrated, ms, cov, &observation_poses, |j| {
+                eval.orientations[r.model.pose_of(j)]
+            })
+        });
         report.camera_translation_m = Some(camera.translation.into());
         report.camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
             Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
