@@ -10,6 +10,7 @@ use std::path::Path;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
+#[allow(dead_code)] // shared with the other studies, each using part of it
 mod study;
 use study::{SessionResult, pooled, run_session};
 

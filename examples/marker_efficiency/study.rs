@@ -4,7 +4,7 @@
 //! orientation variance that the Fisher information at the true parameters, under the true noise
 //! model, implies.
 
-use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use spmcal::calib::{
     CalibConfig, Calibration, FitLevel, MarkerModel, MarkerObservation, Parameterisation, TruthInGauge, calibrate,
@@ -136,6 +136,52 @@ pub fn calibration_error(session: &Session, calibration: &Calibration, tests: &[
     );
     let spm_true = truth.parameters.spm().expect("a valid truth");
     workspace_error(&calibration.parameters.legs, &spm_true, &gauge, tests)
+}
+
+/// The RMS angle (degrees) between `fit` and `truth` after the least-squares rotations `G`, `H`
+/// common to every pose (`truth ≈ G fit H`), by Gauss–Newton.
+pub fn up_to_common_rotations(fit: &[Rotation3<f64>], truth: &[Rotation3<f64>]) -> f64 {
+    let (mut g, mut h) = (Rotation3::identity(), Rotation3::identity());
+    let residuals = |g: &Rotation3<f64>, h: &Rotation3<f64>| -> Vec<Vector3<f64>> {
+        fit.iter().zip(truth).map(|(f, t)| so3::log(&(g * f * h * t.inverse()))).collect()
+    };
+    for _ in 0..10 {
+        let e = residuals(&g, &h);
+        let (mut btb, mut bte) = (DMatrix::<f64>::zeros(6, 6), DVector::<f64>::zeros(6));
+        for (ej, t) in e.iter().zip(truth) {
+            let mut b = DMatrix::<f64>::zeros(3, 6);
+            b.view_mut((0, 0), (3, 3)).copy_from(&Matrix3::identity());
+            b.view_mut((0, 3), (3, 3)).copy_from(t.matrix());
+            btb += b.transpose() * &b;
+            bte += b.transpose() * ej;
+        }
+        let Ok(step) = btb.pseudo_inverse(1e-12).map(|inv| -(inv * bte)) else { break };
+        g = so3::exp(&Vector3::new(step[0], step[1], step[2])) * g;
+        h *= so3::exp(&Vector3::new(step[3], step[4], step[5]));
+    }
+    let e = residuals(&g, &h);
+    (e.iter().map(|v| v.norm_squared()).sum::<f64>() / e.len() as f64).sqrt().to_degrees()
+}
+
+/// The calibrated mechanism's RMS orientation error (degrees) against the truth at the test
+/// orientations, measured as `compare` and the report's `predicted_error_deg` measure it: up to
+/// the rotations common to every pose, which no measurement sees.
+pub fn calibration_error_up_to_common_rotations(
+    session: &Session,
+    calibration: &Calibration,
+    tests: &[Rotation3<f64>],
+) -> f64 {
+    let truth = session.truth.as_ref().expect("a simulated session");
+    let spm_true = truth.parameters.spm().expect("a valid truth");
+    let Ok(spm) = Spm::new(calibration.parameters.legs) else { return f64::INFINITY };
+    let (mut fitted, mut true_r) = (Vec::new(), Vec::new());
+    for r in tests {
+        let joints = spm_true.ik(r).expect("test orientations are reachable");
+        let Ok(f) = spm.forward(&joints) else { return f64::INFINITY };
+        fitted.push(f);
+        true_r.push(*r);
+    }
+    up_to_common_rotations(&fitted, &true_r)
 }
 
 /// Simulate `config` with `seed`, calibrate at both levels (defaults) and score them against the truth.

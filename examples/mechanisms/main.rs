@@ -12,6 +12,7 @@ use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
 #[path = "../marker_efficiency/study.rs"]
+#[allow(dead_code)] // shared with the other studies, each using part of it
 mod study;
 use study::{pooled, run_session};
 

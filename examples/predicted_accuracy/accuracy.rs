@@ -5,10 +5,9 @@
 //! the base and one of the platform common to every pose (fitted by least squares), the markers in
 //! the camera frame as they are — and each fitted parameter's error in standard errors.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use nalgebra::Vector3;
 use spmcal::calib::{CalibConfig, Calibration, Group, Kind, MarkerObservation, TruthInGauge, calibrate};
 use spmcal::dataset::Session;
-use spmcal::math::so3;
 use spmcal::model::{RobotModel, Spm};
 use spmcal::sim::SimConfig;
 
@@ -35,31 +34,6 @@ pub struct Accuracy {
     pub fresh_mm: f64,
     /// `(group, |error| / standard error)` of every parameter with a standard error.
     pub z: Vec<(Group, f64)>,
-}
-
-/// The RMS angle (degrees) between `fit` and `truth` after the least-squares rotations `G`, `H`
-/// common to every pose (`truth ≈ G fit H`), by Gauss–Newton.
-pub fn up_to_common_rotations(fit: &[Rotation3<f64>], truth: &[Rotation3<f64>]) -> f64 {
-    let (mut g, mut h) = (Rotation3::identity(), Rotation3::identity());
-    let residuals = |g: &Rotation3<f64>, h: &Rotation3<f64>| -> Vec<Vector3<f64>> {
-        fit.iter().zip(truth).map(|(f, t)| so3::log(&(g * f * h * t.inverse()))).collect()
-    };
-    for _ in 0..10 {
-        let e = residuals(&g, &h);
-        let (mut btb, mut bte) = (DMatrix::<f64>::zeros(6, 6), DVector::<f64>::zeros(6));
-        for (ej, t) in e.iter().zip(truth) {
-            let mut b = DMatrix::<f64>::zeros(3, 6);
-            b.view_mut((0, 0), (3, 3)).copy_from(&Matrix3::identity());
-            b.view_mut((0, 3), (3, 3)).copy_from(t.matrix());
-            btb += b.transpose() * &b;
-            bte += b.transpose() * ej;
-        }
-        let Ok(step) = btb.pseudo_inverse(1e-12).map(|inv| -(inv * bte)) else { break };
-        g = so3::exp(&Vector3::new(step[0], step[1], step[2])) * g;
-        h *= so3::exp(&Vector3::new(step[3], step[4], step[5]));
-    }
-    let e = residuals(&g, &h);
-    (e.iter().map(|v| v.norm_squared()).sum::<f64>() / e.len() as f64).sqrt().to_degrees()
 }
 
 /// Simulate `config` with `seed`, calibrate at the marker level, score the prediction on `tests`
@@ -131,7 +105,7 @@ fn achieved(calibration: &Calibration, session: &Session, joints: &[Vector3<f64>
         fitted.push(f);
         true_r.push(r);
     }
-    (up_to_common_rotations(&fitted, &true_r), (sq_mm / n_mm.max(1) as f64).sqrt())
+    (crate::study::up_to_common_rotations(&fitted, &true_r), (sq_mm / n_mm.max(1) as f64).sqrt())
 }
 
 /// `(group, |fitted − true| / σ)` of every parameter with a standard error, the truth in the
@@ -177,4 +151,15 @@ pub fn pooled_ratio(rows: &[Accuracy], a: impl Fn(&Accuracy) -> f64, b: impl Fn(
     let rms =
         |f: &dyn Fn(&Accuracy) -> f64| (rows.iter().map(|r| f(r).powi(2)).sum::<f64>() / rows.len() as f64).sqrt();
     rms(&a) / rms(&b)
+}
+
+/// The standard error of [`pooled_ratio`] over sessions (delta method): each session's achieved
+/// square is one draw around its prediction, `u = achieved² / predicted²`, and the pooled ratio
+/// moves as `−½ δ(mean u) / mean u`.
+pub fn pooled_ratio_std_error(rows: &[Accuracy], a: impl Fn(&Accuracy) -> f64, b: impl Fn(&Accuracy) -> f64) -> f64 {
+    let u: Vec<f64> = rows.iter().map(|r| (b(r) / a(r)).powi(2)).collect();
+    let n = u.len() as f64;
+    let mean = u.iter().sum::<f64>() / n;
+    let sd = (u.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+    0.5 * pooled_ratio(rows, a, b) * sd / (mean * n.sqrt())
 }

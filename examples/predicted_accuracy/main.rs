@@ -2,7 +2,9 @@
 //! each kind (a new true geometry and misplaced markers per seed): the report's predicted RMS error
 //! of the calibrated model against the error it achieves against the truth on fresh workspace
 //! poses, measured as `compare` measures it; then the standard errors' coverage per parameter group.
-//! Run: `cargo run --release --example predicted_accuracy [sessions]` (default 20 per kind).
+//! Run: `cargo run --release --example predicted_accuracy [sessions] [kind]` (default 60 per kind: 20 sessions
+//! estimate a pooled ratio to about ±0.06, 60 to about ±0.035;
+//! `kind` keeps the kinds whose label contains it, e.g. `free`).
 
 use std::path::Path;
 
@@ -16,7 +18,8 @@ mod accuracy;
 mod study;
 
 fn main() {
-    let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(20);
+    let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(60);
+    let only = std::env::args().nth(2).unwrap_or_default();
     let kinds: [(&str, &str, Option<usize>); 4] = [
         ("static, 200 poses", "configs/simulate_agile_wrist.yaml", Some(200)),
         ("static, 20 poses", "configs/simulate_agile_wrist.yaml", Some(20)),
@@ -24,11 +27,11 @@ fn main() {
         ("free motion, 2 min", "configs/simulate_agile_wrist_free_motion.yaml", None),
     ];
     println!(
-        "| session | sessions | predicted (°) | achieved (°) | pooled ratio | per-session ratio mean [min, max] | effective dof | achieved inside the 90% interval | fresh uniform poses (°) | predicted (mm) | achieved (mm) | pooled ratio | per-session ratio mean [min, max] | inside the 90% interval |"
+        "| session | sessions | predicted (°) | achieved (°) | pooled ratio ± s.e. | per-session ratio mean [min, max] | effective dof | achieved inside the 90% interval | fresh uniform poses (°) | predicted (mm) | achieved (mm) | pooled ratio ± s.e. | per-session ratio mean [min, max] | inside the 90% interval |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut z: Vec<(Group, f64)> = Vec::new();
-    for (label, file, poses) in kinds {
+    for (label, file, poses) in kinds.into_iter().filter(|(label, ..)| label.contains(only.as_str())) {
         let mut config = SimConfig::read(Path::new(file)).expect("shipped config");
         if let Some(n) = poses {
             config.poses = n;
@@ -44,11 +47,12 @@ fn main() {
             format!("{mean:.2} [{lo:.2}, {hi:.2}]")
         };
         println!(
-            "| {label} | {} | {:.4} | {:.4} | {:.2} | {} | {:.1} | {} of {} | {:.4} | {:.4} | {:.4} | {:.2} | {} | {} of {} |",
+            "| {label} | {} | {:.4} | {:.4} | {:.2} ± {:.2} | {} | {:.1} | {} of {} | {:.4} | {:.4} | {:.4} | {:.2} ± {:.2} | {} | {} of {} |",
             rows.len(),
             rms(rows.iter().map(|r| r.predicted_deg).collect()),
             rms(rows.iter().map(|r| r.achieved_deg).collect()),
             accuracy::pooled_ratio(&rows, |r| r.predicted_deg, |r| r.achieved_deg),
+            accuracy::pooled_ratio_std_error(&rows, |r| r.predicted_deg, |r| r.achieved_deg),
             ratios(&|r| r.predicted_deg / r.achieved_deg),
             rows.iter().map(|r| r.dof_deg).sum::<f64>() / rows.len() as f64,
             rows.iter().filter(|r| r.inside_deg()).count(),
@@ -57,6 +61,7 @@ fn main() {
             rms(rows.iter().map(|r| r.predicted_mm).collect()),
             rms(rows.iter().map(|r| r.achieved_mm).collect()),
             accuracy::pooled_ratio(&rows, |r| r.predicted_mm, |r| r.achieved_mm),
+            accuracy::pooled_ratio_std_error(&rows, |r| r.predicted_mm, |r| r.achieved_mm),
             ratios(&|r| r.predicted_mm / r.achieved_mm),
             rows.iter().filter(|r| r.inside_mm()).count(),
             rows.len(),

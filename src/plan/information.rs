@@ -3,15 +3,17 @@
 //! A candidate's information is the Fisher information of its marker observations,
 //! `M_c = Σ_k J_kᵀ Σ_k⁻¹ J_k`, at the parameters planned around and under the config's stereo
 //! noise (`J_k` the Jacobian of marker `k`'s predicted camera position, `Σ_k` its stereo
-//! covariance). What the user wants is the mechanism's orientation over the workspace, so the
-//! design criterion weighs the parameters' covariance by `L = mean_e G_eᵀ G_e`, `G_e = ∂ω_e/∂x`
-//! the sensitivity of the orientation the model predicts at workspace pose `e` (the candidates
-//! themselves sample the workspace): `tr(L M⁻¹)` is the mean squared orientation error the
-//! calibration leaves (I-optimality).
+//! covariance). What the user wants is the mechanism's orientation over the workspace, measured as
+//! the calibration's report and `compare` measure it — up to a rotation of the base and one of the
+//! platform common to every pose, which no measurement sees — so the design criterion weighs the
+//! parameters' covariance by `L = mean_e G̃_eᵀ G̃_e`, `G̃_e` the sensitivity `∂ω_e/∂x` of the
+//! orientation the model predicts at workspace pose `e` with those common rotations (fitted over
+//! the workspace) projected out; the candidates themselves sample the workspace. `tr(L M⁻¹)` is
+//! then the report's `predicted_error_deg`, squared, over the workspace (I-optimality).
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::calib::{EvalError, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
+use crate::calib::{EvalError, common_rotations, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
 use crate::model::CameraRegistration;
 use crate::sim::{Camera, Candidate};
 
@@ -22,7 +24,9 @@ pub(crate) struct Information {
     pub(crate) per_candidate: Vec<DMatrix<f64>>,
     /// `G_c` per candidate (3 × p): the orientation's sensitivity to the parameters there.
     pub(crate) sensitivities: Vec<DMatrix<f64>>,
-    /// `L = mean_c G_cᵀ G_c` (p × p).
+    /// `G̃_c` per candidate: `G_c` less the rotations common to the workspace.
+    pub(crate) projected: Vec<DMatrix<f64>>,
+    /// `L = mean_c G̃_cᵀ G̃_c` (p × p).
     pub(crate) workspace: DMatrix<f64>,
 }
 
@@ -65,12 +69,18 @@ impl Information {
         let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();
         let sensitivities =
             MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default(); // always there when the Jacobian is asked for
+        let rotations: Vec<_> = candidates.iter().map(|c| c.rotation).collect();
+        let every_column = vec![true; p.len()];
+        let projected: Vec<DMatrix<f64>> = match common_rotations(&sensitivities, &rotations, &every_column) {
+            Some(common) => sensitivities.iter().zip(&rotations).map(|(g, r)| common.project(g, r)).collect(),
+            None => sensitivities.clone(),
+        };
         let mut workspace = DMatrix::zeros(p.len(), p.len());
-        for g in &sensitivities {
+        for g in &projected {
             workspace += g.transpose() * g;
         }
         workspace /= candidates.len().max(1) as f64;
-        Ok(Information { per_candidate, sensitivities, workspace })
+        Ok(Information { per_candidate, sensitivities, projected, workspace })
     }
 }
 
@@ -89,10 +99,10 @@ impl Camera {
     }
 }
 
-/// The predicted RMS orientation error (rad, the norm of the error vector) at each of the
-/// candidates' poses, for parameter covariance `covariance`.
+/// The predicted RMS orientation error (rad, the norm of the error vector, the common rotations
+/// left out) at each of the candidates' poses, for parameter covariance `covariance`.
 pub(crate) fn orientation_errors(info: &Information, covariance: &DMatrix<f64>) -> Vec<f64> {
-    info.sensitivities.iter().map(|g| (g * covariance * g.transpose()).trace().max(0.0).sqrt()).collect()
+    info.projected.iter().map(|g| (g * covariance * g.transpose()).trace().max(0.0).sqrt()).collect()
 }
 
 /// The markers no candidate shows (their positions cannot be calibrated).

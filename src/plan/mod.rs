@@ -6,7 +6,8 @@
 //! the camera sees (`Candidate::draw`). Each candidate's Fisher information for the
 //! marker-level fit and the workspace weighting are in `information`; the I-optimal design —
 //! the poses that minimise the mean predicted orientation variance over the workspace after
-//! calibration — continuous by the cone program for small fresh candidate sets, else by the
+//! calibration, on the report's definition (the rotations common to every pose left out) —
+//! continuous by the cone program for small fresh candidate sets, else by the
 //! multiplicative algorithm (`design`), rounded and improved by exchanges (`design::exact`); the
 //! capture order by `route::tour`.
 
@@ -132,7 +133,9 @@ pub enum PlanError {
     SingularPlan(usize),
 }
 
-/// Predicted orientation error after calibration over the workspace (degrees): RMS and worst.
+/// Predicted orientation error after calibration over the workspace (degrees): RMS and worst, on
+/// the calibration report's definition (`predicted_error_deg`: up to the rotations common to every
+/// pose, which no measurement sees and `compare` fits).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Predicted {
     /// RMS over the workspace of the orientation error's norm, `√(tr(L M⁻¹))`.
@@ -182,11 +185,10 @@ pub struct PlanSummary {
     pub camera_model: CameraModelKind,
     /// The predicted standard error of each camera-model term after the plan.
     pub camera_std_errors: Vec<(String, f64)>,
-    /// What the calibration's report will predict for these poses (its `predicted_error_deg`:
-    /// the RMS orientation error on unseen poses of the session's own workspace, the rotations
-    /// common to every pose — which `compare`'s registration absorbs — left out), degrees, at the
-    /// parameters planned around. Unlike `plan.rms_deg` (the whole workspace, those rotations
-    /// included: what the design minimises), it is the figure to hold the calibration to.
+    /// What the calibration's report will predict for these poses (its `predicted_error_deg`, whose
+    /// workspace is the session's own poses), degrees, at the parameters planned around: the
+    /// same definition as `plan.rms_deg`, over the planned poses instead of the whole workspace
+    /// (a plan puts its poses where they teach most, often where the error is largest).
     pub report_prediction_deg: Option<f64>,
     /// Why the plan is for another camera model than the one asked for, or which of its terms
     /// the plan barely sees.
@@ -522,7 +524,11 @@ impl std::fmt::Display for PlanSummary {
             "plan: {} poses chosen from {} candidates for {} parameters (marker-level fit)",
             s.poses, s.candidates, s.parameters
         )?;
-        writeln!(f, "predicted orientation error after calibration, over the workspace:")?;
+        writeln!(
+            f,
+            "predicted orientation error after calibration, over the workspace (as the report's \
+             `predicted_error_deg` and `compare` measure it: up to the rotations common to every pose):"
+        )?;
         writeln!(f, "  {:<34} {:>9} {:>9} {:>10}", "", "RMS (°)", "worst (°)", "log det M")?;
         let row = |f: &mut std::fmt::Formatter<'_>, label: &str, p: &Predicted| {
             writeln!(f, "  {label:<34} {:>9.4} {:>9.4} {:>10.2}", p.rms_deg, p.worst_deg, p.log_det)
@@ -533,8 +539,8 @@ impl std::fmt::Display for PlanSummary {
         if let Some(e) = s.report_prediction_deg {
             writeln!(
                 f,
-                "the calibration's report will predict about {e:.4}° RMS for these poses (its `predicted_error_deg`: the \
-                 session's own poses, the rotations common to all of them — which the registration absorbs — left out)"
+                "the calibration's report will predict about {e:.4}° RMS at these poses (its `predicted_error_deg` \
+                 takes the session's own poses as the workspace)"
             )?;
         }
         writeln!(
