@@ -20,6 +20,7 @@ fn main() -> ExitCode {
         Command::Replay(args) => cli::replay::run(args),
         Command::Plan(args) => cli::plan::run(args),
         Command::Export(args) => cli::export::run(args),
+        Command::Convert(args) => cli::convert::run(args),
         Command::Completions(args) => cli::completions::completions(args),
         Command::Man => cli::completions::man(),
     })

@@ -49,6 +49,6 @@ pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, Errors, FastCapture, FlaggedObservation, Latency,
     MarkerFitReport, MarkerReport, StageReport, Verdict,
 };
-pub(crate) use uncertainty::{common_rotations, predicted_orientation_error};
 pub use uncertainty::{Correlation, ParameterReport, PredictedError, RegionError};
+pub(crate) use uncertainty::{common_rotations, predicted_orientation_error};
 pub use validation::CrossValidation;

@@ -82,7 +82,7 @@ impl GeometryArgs {
 /// Which session, and optionally which model instead of the session's.
 #[derive(Args)]
 pub(crate) struct SessionArgs {
-    /// The session folder.
+    /// The session folder, or a ROS 2 bag (an `.mcap` file or a bag folder).
     #[arg(long)]
     pub(crate) dataset: PathBuf,
     /// The URDF model (overrides the session's).
@@ -140,7 +140,7 @@ impl SessionArgs {
     }
 
     pub(crate) fn load(&self) -> Result<(Session, Vec<String>)> {
-        let (session, warnings) = Session::load(&self.dataset, self.model.as_deref())?;
+        let (session, warnings) = load_session(&self.dataset, self.model.as_deref())?;
         let warnings: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
         for w in &warnings {
             eprintln!("warning: {w}");
@@ -162,4 +162,18 @@ impl From<MethodArg> for Method {
             MethodArg::Kabsch => Method::Kabsch,
         }
     }
+}
+
+/// Load a session folder or a bag, a bag with a progress bar (by bytes).
+pub(crate) fn load_session(
+    path: &std::path::Path,
+    model: Option<&std::path::Path>,
+) -> Result<(Session, Vec<spmcal::dataset::Warning>)> {
+    let bar = super::output::progress_bar(0, "reading");
+    let loaded = Session::load_with_progress(path, model, &mut |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    Ok(loaded?)
 }

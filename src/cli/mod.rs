@@ -8,6 +8,7 @@ pub(crate) mod calibrate;
 pub(crate) mod check;
 pub(crate) mod compare;
 pub(crate) mod completions;
+pub(crate) mod convert;
 pub(crate) mod envelope;
 pub(crate) mod estimate;
 pub(crate) mod export;
@@ -67,6 +68,8 @@ pub(crate) enum Command {
     Plan(PlanArgs),
     /// Write a calibrated URDF and its companion from a parameters file.
     Export(ExportArgs),
+    /// Convert a ROS 2 bag (MCAP) to a session folder (`--bag B --out DIR`), or a session to a bag (`--dataset D --to-bag B.mcap`).
+    Convert(convert::ConvertArgs),
     /// Print the shell completion script for `shell` (bash, zsh, fish, elvish, powershell).
     Completions(completions::CompletionsArgs),
     /// Print the manual page (roff; e.g. `spmcal man > spmcal.1`).

@@ -1,5 +1,6 @@
 //! Session files: loading, validation, writing (formats in DESIGN.md).
 
+mod bag;
 mod joints;
 mod markers;
 mod orientations;

@@ -179,6 +179,16 @@ impl Streams {
         Ok(Streams { captures_path, encoders, captures })
     }
 
+    /// How many encoder samples the recording holds.
+    pub fn encoder_count(&self) -> usize {
+        self.encoders.len()
+    }
+
+    /// How many marker captures the recording holds.
+    pub fn capture_count(&self) -> usize {
+        self.captures.len()
+    }
+
     /// The joints at `time_s` on the encoders' clock, interpolated linearly; `None` outside the
     /// stream.
     pub fn joints_at(&self, time_s: f64) -> Option<Vector3<f64>> {

@@ -13,7 +13,9 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::calib::{EvalError, common_rotations, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise};
+use crate::calib::{
+    EvalError, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise, common_rotations,
+};
 use crate::model::CameraRegistration;
 use crate::sim::{Camera, Candidate};
 

@@ -1,0 +1,183 @@
+//! What maps to what in a bag: `spmcal.yaml` beside the `.mcap` file (or inside the bag folder).
+//! Every key is optional; a bag recorded with the default names needs no file at all.
+//!
+//! ```yaml
+//! model: ../models/agile_wrist.urdf   # relative to this file (or --model)
+//! joints:
+//!   topic: /joint_states              # sensor_msgs/msg/JointState
+//!   names: [theta1, theta2, theta3]   # the actuated joints, in `name`
+//!   units: rad                        # rad | deg
+//! markers:                            # geometry_msgs/msg/PointStamped, in the camera frame
+//!   topic: /markers                   # one topic whose header.frame_id names the marker ...
+//!   frame_ids: {tracker/m1: m1}       # ... by these names (default: the marker's own)
+//!   topics: {/tracker/m1: m1}         # or a topic per marker (default: /markers/<name>)
+//!   camera_frame: camera              # a topic per marker: header.frame_id must be this
+//! clock: header                       # header (header.stamp, the sensors' time) | receive
+//! still_rad: 0.0005                   # joints resting within this while markers are captured: a static session
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::io::files::FileError;
+
+/// The mapping file's name.
+pub(crate) const MAPPING_FILE: &str = "spmcal.yaml";
+
+/// Which time a message is placed at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub(crate) enum Clock {
+    /// `header.stamp`: when the sensor measured.
+    #[default]
+    Header,
+    /// The bag's receive (log) time: when the recorder got the message.
+    Receive,
+}
+
+/// Joint position units.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub(crate) enum Units {
+    /// Radians (the ROS convention).
+    #[default]
+    Rad,
+    /// Degrees.
+    Deg,
+}
+
+/// The joint-state topic.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct Joints {
+    pub(crate) topic: String,
+    pub(crate) names: [String; 3],
+    pub(crate) units: Units,
+}
+
+impl Default for Joints {
+    fn default() -> Self {
+        Joints {
+            topic: "/joint_states".into(),
+            names: ["theta1".into(), "theta2".into(), "theta3".into()],
+            units: Units::Rad,
+        }
+    }
+}
+
+/// The marker topics.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct Markers {
+    /// The one topic whose `header.frame_id` names the marker.
+    pub(crate) topic: String,
+    /// `frame_id` → marker, on that topic (default: the marker's own name).
+    pub(crate) frame_ids: BTreeMap<String, String>,
+    /// Topic → marker, a topic per marker (default: `/markers/<name>`).
+    pub(crate) topics: BTreeMap<String, String>,
+    /// On a topic per marker, the frame every point must be in.
+    pub(crate) camera_frame: Option<String>,
+}
+
+impl Default for Markers {
+    fn default() -> Self {
+        Markers { topic: "/markers".into(), frame_ids: BTreeMap::new(), topics: BTreeMap::new(), camera_frame: None }
+    }
+}
+
+/// The whole mapping.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct Mapping {
+    pub(crate) model: Option<PathBuf>,
+    pub(crate) joints: Joints,
+    pub(crate) markers: Markers,
+    pub(crate) clock: Clock,
+    /// Joints resting within this (rad, each joint) around the captures make a static pose.
+    pub(crate) still_rad: f64,
+    /// Where it was read from (`None`: the defaults).
+    #[serde(skip)]
+    pub(crate) path: Option<PathBuf>,
+}
+
+impl Default for Mapping {
+    fn default() -> Self {
+        Mapping {
+            model: None,
+            joints: Joints::default(),
+            markers: Markers::default(),
+            clock: Clock::Header,
+            still_rad: 5e-4,
+            path: None,
+        }
+    }
+}
+
+impl Mapping {
+    /// The mapping for the bag at `bag` (a `.mcap` file or a bag folder): `spmcal.yaml` in the
+    /// folder, else the defaults.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the key of an unreadable or out-of-range value.
+    pub(crate) fn beside(bag: &Path) -> Result<Mapping, FileError> {
+        let folder = if bag.is_dir() { bag } else { crate::io::files::parent_folder(bag) };
+        let path = folder.join(MAPPING_FILE);
+        if !path.exists() {
+            return Ok(Mapping::default());
+        }
+        let (mut mapping, keys) = crate::io::yaml::read::<Mapping>(&path)?;
+        if !(mapping.still_rad.is_finite() && mapping.still_rad > 0.0 && mapping.still_rad < 0.1) {
+            let reason = format!("`still_rad` must be above 0 and below 0.1 rad (got {})", mapping.still_rad);
+            return Err(keys.error(&path, "still_rad", reason));
+        }
+        let names = &mapping.joints.names;
+        if names[0] == names[1] || names[1] == names[2] || names[0] == names[2] {
+            return Err(keys.error(&path, "joints", format!("`names` lists a joint twice: {names:?}")));
+        }
+        mapping.model = mapping.model.map(|m| folder.join(m));
+        mapping.path = Some(path);
+        Ok(mapping)
+    }
+
+    /// The marker (index into `names`) a point on `topic` with `frame_id` is, `Ok(None)` when the
+    /// topic carries no markers.
+    ///
+    /// # Errors
+    /// Why the point cannot be placed: an unknown `frame_id`, or one other than the camera frame.
+    pub(crate) fn marker_of(&self, topic: &str, frame_id: &str, names: &[String]) -> Result<Option<usize>, String> {
+        let index = |name: &str| names.iter().position(|n| n == name);
+        let m = &self.markers;
+        if topic == m.topic {
+            let name = m.frame_ids.get(frame_id).map_or(frame_id, String::as_str);
+            return index(name).map(Some).ok_or_else(|| {
+                format!(
+                    "header.frame_id `{frame_id}` names no marker of the model ({}): name the marker, or map it under `markers: frame_ids` in {MAPPING_FILE}",
+                    names.join(", ")
+                )
+            });
+        }
+        let by_topic = match m.topics.get(topic) {
+            Some(name) => Some(index(name).ok_or_else(|| {
+                format!("{MAPPING_FILE} maps topic `{topic}` to marker `{name}`, which the model does not have")
+            })?),
+            None if m.topics.is_empty() => topic.strip_prefix("/markers/").and_then(index),
+            None => None,
+        };
+        if let (Some(_), Some(frame)) = (by_topic, &m.camera_frame)
+            && frame != frame_id
+        {
+            return Err(format!("header.frame_id is `{frame_id}`, not the camera frame `{frame}`"));
+        }
+        Ok(by_topic)
+    }
+
+    /// A joint position in radians.
+    pub(crate) fn radians(&self, value: f64) -> f64 {
+        match self.joints.units {
+            Units::Rad => value,
+            Units::Deg => value.to_radians(),
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! The two ROS 2 message types a bag holds for spmcal, as serde structs decoded from (and encoded
+//! to) CDR by `re_cdr`, and the schemas they are checked against.
+//!
+//! A CDR message starts with a 4-byte encapsulation header: the representation identifier
+//! (`00 00` plain CDR big-endian, `00 01` little-endian; `00 06`/`00 07` XCDR2, which lays these
+//! two types out identically) and two option bytes; alignment counts from after it.
+
+use re_cdr::{BigEndian, LittleEndian};
+use serde::{Deserialize, Serialize};
+
+/// `builtin_interfaces/msg/Time`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Time {
+    pub(crate) sec: i32,
+    pub(crate) nanosec: u32,
+}
+
+impl Time {
+    /// The time `seconds` after the epoch, to the nanosecond; `None` outside `int32` seconds.
+    pub(crate) fn of_seconds(seconds: f64) -> Option<Time> {
+        let ns = (seconds * 1e9).round();
+        if !ns.is_finite() || ns < 0.0 || ns >= f64::from(i32::MAX) * 1e9 {
+            return None;
+        }
+        let ns = ns as u64;
+        Some(Time { sec: (ns / 1_000_000_000) as i32, nanosec: (ns % 1_000_000_000) as u32 })
+    }
+
+    /// Nanoseconds since the epoch (an MCAP log time).
+    pub(crate) fn nanoseconds(self) -> u64 {
+        self.sec.max(0) as u64 * 1_000_000_000 + u64::from(self.nanosec)
+    }
+}
+
+/// `std_msgs/msg/Header`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Header {
+    pub(crate) stamp: Time,
+    pub(crate) frame_id: String,
+}
+
+/// `sensor_msgs/msg/JointState`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct JointState {
+    pub(crate) header: Header,
+    pub(crate) name: Vec<String>,
+    pub(crate) position: Vec<f64>,
+    pub(crate) velocity: Vec<f64>,
+    pub(crate) effort: Vec<f64>,
+}
+
+/// `geometry_msgs/msg/Point`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Point {
+    pub(crate) x: f64,
+    pub(crate) y: f64,
+    pub(crate) z: f64,
+}
+
+/// `geometry_msgs/msg/PointStamped`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct PointStamped {
+    pub(crate) header: Header,
+    pub(crate) point: Point,
+}
+
+/// A message type spmcal reads: its ROS name and the `ros2msg` schema a bag records for it.
+pub(crate) struct MessageType {
+    /// e.g. `sensor_msgs/msg/JointState`.
+    pub(crate) name: &'static str,
+    /// The top-level field declarations (type and name) the schema must hold, in order.
+    pub(crate) fields: &'static [&'static str],
+    /// The full `ros2msg` schema, as `ros2 bag record` writes it.
+    pub(crate) schema: &'static str,
+}
+
+/// The definitions a `ros2msg` schema appends for the header (as `ros2 bag record` writes them).
+macro_rules! header_definitions {
+    () => {
+        "================================================================================\n\
+         MSG: std_msgs/Header\n\
+         builtin_interfaces/Time stamp\n\
+         string frame_id\n\
+         ================================================================================\n\
+         MSG: builtin_interfaces/Time\n\
+         int32 sec\n\
+         uint32 nanosec\n"
+    };
+}
+
+/// `sensor_msgs/msg/JointState`.
+pub(crate) const JOINT_STATE: MessageType = MessageType {
+    name: "sensor_msgs/msg/JointState",
+    fields: &[
+        "std_msgs/Header header",
+        "string[] name",
+        "float64[] position",
+        "float64[] velocity",
+        "float64[] effort",
+    ],
+    schema: concat!(
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n",
+        header_definitions!()
+    ),
+};
+
+/// `geometry_msgs/msg/PointStamped`.
+pub(crate) const POINT_STAMPED: MessageType = MessageType {
+    name: "geometry_msgs/msg/PointStamped",
+    fields: &["std_msgs/Header header", "Point point"],
+    schema: concat!(
+        "std_msgs/Header header\nPoint point\n",
+        "================================================================================\n\
+         MSG: geometry_msgs/Point\n\
+         float64 x\n\
+         float64 y\n\
+         float64 z\n",
+        header_definitions!()
+    ),
+};
+
+impl MessageType {
+    /// Why a recorded schema (`name`, `encoding`, `data`) is not this type's, or `None`: the name
+    /// must match (`pkg/msg/Type`, or the older `pkg/Type`), the encoding be `ros2msg` and the
+    /// top-level declarations (comments, blank lines and constants aside) be this type's fields.
+    pub(crate) fn mismatch(&self, name: &str, encoding: &str, data: &[u8]) -> Option<String> {
+        if name != self.name && name != self.name.replace("/msg/", "/") {
+            return Some(format!("the schema is `{name}`, not `{}`", self.name));
+        }
+        if encoding != "ros2msg" {
+            return Some(format!("the schema of `{}` is encoded as `{encoding}`; spmcal reads `ros2msg`", self.name));
+        }
+        let Ok(text) = std::str::from_utf8(data) else {
+            return Some(format!("the schema of `{}` is not UTF-8 text", self.name));
+        };
+        let top = text.split("\n===").next().unwrap_or("");
+        let declared: Vec<String> = top
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or("").split_whitespace().collect::<Vec<_>>().join(" "))
+            .filter(|l| !l.is_empty() && !l.contains('='))
+            .collect();
+        let normal = |f: &str| f.replace("std_msgs/Header", "Header").replace("geometry_msgs/Point", "Point");
+        let expected: Vec<String> = self.fields.iter().map(|f| normal(f)).collect();
+        let declared: Vec<String> = declared.iter().map(|f| normal(f)).collect();
+        (declared != expected).then(|| {
+            format!(
+                "the recorded schema of `{}` declares [{}], not [{}]: another version of the message",
+                self.name,
+                declared.join("; "),
+                expected.join("; ")
+            )
+        })
+    }
+}
+
+/// Decode a CDR message (with its encapsulation header) as `T`.
+///
+/// # Errors
+/// The reason, in words: too short, an encapsulation that is not plain CDR, or a body that does
+/// not decode as `T`.
+pub(crate) fn decode<T: for<'de> Deserialize<'de>>(data: &[u8]) -> Result<T, String> {
+    if data.len() < 4 {
+        return Err(format!("{} bytes: shorter than a CDR encapsulation header", data.len()));
+    }
+    let body = &data[4..];
+    let decoded = match (data[0], data[1]) {
+        (0, 0 | 6) => re_cdr::from_bytes::<T, BigEndian>(body),
+        (0, 1 | 7) => re_cdr::from_bytes::<T, LittleEndian>(body),
+        (a, b) => return Err(format!("encapsulation {a:02x} {b:02x} is not plain CDR (00 00 or 00 01)")),
+    };
+    decoded.map(|(value, _)| value).map_err(|e| format!("does not decode: {e}"))
+}
+
+/// Encode `value` as a little-endian CDR message (with its encapsulation header).
+pub(crate) fn encode<T: Serialize>(value: &T) -> Vec<u8> {
+    let mut out = vec![0, 1, 0, 0];
+    // Serialising these plain structs into a Vec cannot fail.
+    out.extend(re_cdr::to_vec::<T, LittleEndian>(value).expect("plain structs encode"));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_schemas_spmcal_writes_are_the_ones_it_accepts() {
+        for t in [&JOINT_STATE, &POINT_STAMPED] {
+            assert_eq!(t.mismatch(t.name, "ros2msg", t.schema.as_bytes()), None);
+            assert!(t.mismatch(t.name, "ros2idl", t.schema.as_bytes()).is_some());
+        }
+        let other = "std_msgs/Header header\nstring[] name\nfloat32[] position\n";
+        assert!(JOINT_STATE.mismatch(JOINT_STATE.name, "ros2msg", other.as_bytes()).unwrap().contains("float32[]"));
+        assert!(JOINT_STATE.mismatch("sensor_msgs/msg/Imu", "ros2msg", b"").unwrap().contains("Imu"));
+    }
+
+    #[test]
+    fn a_joint_state_survives_cdr_and_its_layout_is_the_standard_one() {
+        let m = JointState {
+            header: Header { stamp: Time { sec: 1, nanosec: 2 }, frame_id: "f".into() },
+            name: vec!["theta1".into()],
+            position: vec![0.5],
+            velocity: vec![],
+            effort: vec![],
+        };
+        let bytes = encode(&m);
+        // header 4 | sec 4 | nanosec 4 | frame_id: len 4 + "f\0" 2 | pad 2 | names: 4, len 4 +
+        // "theta1\0" 7 | pad 1 | positions: 4 (at 32, then 8-aligned: pad 4) + 8 | two empty 4 + 4.
+        assert_eq!(&bytes[..12], &[0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0]);
+        assert_eq!(bytes.len(), 4 + 4 + 4 + 4 + 2 + 2 + 4 + 4 + 7 + 1 + 4 + 4 + 8 + 4 + 4);
+        assert_eq!(decode::<JointState>(&bytes).unwrap(), m);
+        assert!(decode::<JointState>(&bytes[..20]).unwrap_err().contains("does not decode"));
+        assert!(decode::<JointState>(&[0, 2, 0, 0]).unwrap_err().contains("not plain CDR"));
+    }
+
+    #[test]
+    fn times_convert_to_the_nanosecond() {
+        let t = Time::of_seconds(12.345_678_901).unwrap();
+        assert_eq!((t.sec, t.nanosec), (12, 345_678_901));
+        assert_eq!(t.nanoseconds(), 12_345_678_901);
+        assert!(Time::of_seconds(-1.0).is_none() && Time::of_seconds(f64::NAN).is_none());
+    }
+}

@@ -1,0 +1,230 @@
+//! ROS 2 bags (rosbag2, MCAP storage) as sessions: joint encoders as `sensor_msgs/msg/JointState`,
+//! markers as `geometry_msgs/msg/PointStamped` in the camera frame (format in DESIGN.md; mapping
+//! in [`mapping`]). A bag is a free-motion recording, or a static session when the joints rest
+//! around every capture; [`write`] makes a bag of a session, both ways exact to the nanosecond.
+
+mod mapping;
+mod messages;
+mod read;
+mod write;
+
+use std::path::Path;
+
+use nalgebra::Vector3;
+
+pub(crate) use mapping::MAPPING_FILE;
+pub(crate) use write::write;
+
+use super::session::{Session, SessionPose, Warning};
+use super::streams::{Capture, EncoderSample, MIN_FRAMES, StreamLimits, Streams};
+use crate::io::files::FileError;
+
+/// `path` is a bag: an `.mcap` file, or a folder with `metadata.yaml` or `.mcap` files and no
+/// `session.yaml`.
+pub(crate) fn is_bag(path: &Path) -> bool {
+    if path.is_dir() {
+        let has_mcap = || {
+            std::fs::read_dir(path)
+                .map(|d| d.filter_map(Result::ok).any(|e| e.path().extension().is_some_and(|x| x == "mcap")))
+                .unwrap_or(false)
+        };
+        !path.join("session.yaml").exists() && (path.join("metadata.yaml").exists() || has_mcap())
+    } else {
+        path.extension().is_some_and(|x| x == "mcap")
+    }
+}
+
+/// Load the bag at `bag` as a session of the model at `model` (else the mapping's); `progress`
+/// gets the bytes read so far and the bag's total.
+///
+/// # Errors
+/// A [`FileError`] naming the file, and the topic and message or the mapping key, of the first
+/// problem; a bag without a model to read it with.
+pub(crate) fn load(
+    bag: &Path,
+    model: Option<&Path>,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(Session, Vec<Warning>), FileError> {
+    let mapping = mapping::Mapping::beside(bag)?;
+    let model = match (model, &mapping.model) {
+        (Some(m), _) => m.to_path_buf(),
+        (None, Some(m)) => m.clone(),
+        (None, None) => {
+            return Err(FileError::new(
+                bag,
+                format!("a bag names no model: pass --model, or give `model` in {MAPPING_FILE} beside it"),
+            ));
+        }
+    };
+    let markers: Vec<String> = crate::model::RobotModel::load(&model)
+        .map_err(|e| FileError::new(&model, e.to_string()))?
+        .markers
+        .iter()
+        .map(|m| m.name.clone())
+        .collect();
+    let files = read::bag_files(bag)?;
+    let total: u64 = files.iter().filter_map(|f| std::fs::metadata(f).ok()).map(|m| m.len()).sum();
+    let data = read::read_bag(&files, &mapping, &markers, &mut |done| progress(done, total))?;
+    let name = bag.file_stem().map_or_else(|| "bag".to_string(), |s| s.to_string_lossy().into_owned());
+    let description = Some(format!(
+        "ROS 2 bag {}; times in s from {} s after the epoch ({} clock){}",
+        bag.display(),
+        data.epoch_s.unwrap_or(0),
+        match mapping.clock {
+            mapping::Clock::Header => "header.stamp",
+            mapping::Clock::Receive => "receive",
+        },
+        mapping.path.as_ref().map_or(String::new(), |p| format!("; mapping {}", p.display()))
+    ));
+    let session =
+        Session { name, description, model, markers, reference_pose: 0, poses: Vec::new(), truth: None, streams: None };
+    let mut captures = data.captures;
+    // Topics interleave by receive time: order the captures by their own time (stable).
+    captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    check_captures(bag, &captures, &session.markers)?;
+    match still_poses(&data.encoders, &captures, mapping.still_rad) {
+        Some(poses) => Ok((static_session(session, poses), Vec::new())),
+        None => {
+            let streams = streams(bag, data.encoders, captures)?;
+            Ok(Session { streams: Some(std::sync::Arc::new(streams)), ..session }.at_latency(0.0))
+        }
+    }
+}
+
+/// Enough camera frames, and no marker twice in one frame.
+fn check_captures(bag: &Path, captures: &[Capture], names: &[String]) -> Result<(), FileError> {
+    for frame in captures.chunk_by(|a, b| a.time_s == b.time_s) {
+        for (k, c) in frame.iter().enumerate() {
+            if frame[..k].iter().any(|d| d.marker == c.marker) {
+                let reason = format!("marker `{}` is captured twice at {} s", names[c.marker], c.time_s);
+                return Err(FileError::new(bag, reason).at_line(c.line));
+            }
+        }
+    }
+    let frames = captures.chunk_by(|a, b| a.time_s == b.time_s).count();
+    if frames < MIN_FRAMES {
+        let reason = format!(
+            "holds markers in {frames} camera frame(s) ({} points): a session needs at least {MIN_FRAMES}, and a calibration many more",
+            captures.len()
+        );
+        return Err(FileError::new(bag, reason));
+    }
+    Ok(())
+}
+
+/// A free-motion recording's streams, checked as `encoders.csv` is (the gap limit) and every
+/// capture placeable for some latency within the bound.
+fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> Result<Streams, FileError> {
+    let limits = StreamLimits::default();
+    if encoders.len() < 2 {
+        return Err(FileError::new(bag, format!("{} joint states: a recording needs at least two", encoders.len())));
+    }
+    if let Some(w) = encoders.windows(2).find(|w| w[1].time_s - w[0].time_s > limits.max_encoder_gap_s) {
+        let reason = format!(
+            "a gap of {:.4} s in the joint states (from {} s), longer than the limit of {} s",
+            w[1].time_s - w[0].time_s,
+            w[0].time_s,
+            limits.max_encoder_gap_s
+        );
+        return Err(FileError::new(bag, reason));
+    }
+    let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
+    let bound = limits.latency_bound_s;
+    if let Some(c) = captures.iter().find(|c| c.time_s + bound < first || c.time_s - bound > last) {
+        let reason = format!(
+            "the marker point at {} s lies outside the joint states ({first} s to {last} s) for every latency within ±{bound} s",
+            c.time_s
+        );
+        return Err(FileError::new(bag, reason).at_line(c.line));
+    }
+    Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures })
+}
+
+/// A static pose read from a bag: its first capture's time, the joints' median over the rest,
+/// each marker's captures (indexed like the session's markers).
+type RestingPose = (f64, Vector3<f64>, Vec<Vec<Vector3<f64>>>);
+
+/// A run of joint states that rest within `still` of each other, without a gap.
+struct Rest {
+    from: usize,
+    to: usize,
+}
+
+/// The poses of a static bag — each run of resting joints with captures in it: the joints'
+/// median, each marker's median — or `None` when some capture falls where the joints move (a
+/// free-motion recording).
+fn still_poses(encoders: &[EncoderSample], captures: &[Capture], still: f64) -> Option<Vec<RestingPose>> {
+    let limits = StreamLimits::default();
+    let mut rests: Vec<Rest> = Vec::new();
+    let mut from = 0;
+    for k in 1..=encoders.len() {
+        let ends = k == encoders.len()
+            || encoders[k].time_s - encoders[k - 1].time_s > limits.max_encoder_gap_s
+            || (encoders[k].joints - encoders[from].joints).amax() > still;
+        if ends {
+            rests.push(Rest { from, to: k - 1 });
+            from = k;
+        }
+    }
+    let mut poses: Vec<RestingPose> = Vec::new();
+    let mut rest = 0;
+    let mut last_rest = usize::MAX;
+    for c in captures {
+        while rest < rests.len() && encoders[rests[rest].to].time_s < c.time_s {
+            rest += 1;
+        }
+        let r = rests.get(rest)?;
+        // A rest of one sample is no rest: the joints may be passing through.
+        if encoders[r.from].time_s > c.time_s || r.to == r.from {
+            return None;
+        }
+        if rest != last_rest {
+            let samples = &encoders[r.from..=r.to];
+            let joints = Vector3::from_fn(|i, _| median(samples.iter().map(|s| s.joints[i]).collect()));
+            poses.push((c.time_s, joints, Vec::new()));
+            last_rest = rest;
+        }
+        let markers = &mut poses.last_mut().expect("pushed above").2;
+        if markers.len() <= c.marker {
+            markers.resize(c.marker + 1, Vec::new());
+        }
+        markers[c.marker].push(c.position);
+    }
+    Some(poses)
+}
+
+/// The median (the mean of the middle two for an even count) — exact for equal values.
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 || v[n / 2 - 1] == v[n / 2] { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+/// The static session of `poses` (time, joints, each marker's captures), numbered from 0.
+fn static_session(session: Session, poses: Vec<RestingPose>) -> Session {
+    let count = session.markers.len();
+    let poses: Vec<SessionPose> = poses
+        .into_iter()
+        .enumerate()
+        .map(|(id, (time_s, joints, seen))| {
+            let markers = (0..count)
+                .map(|k| {
+                    seen.get(k)
+                        .filter(|v| !v.is_empty())
+                        .map(|v| Vector3::from_fn(|i, _| median(v.iter().map(|p| p[i]).collect())))
+                })
+                .collect();
+            SessionPose {
+                id: id as u64,
+                joints,
+                time_s: Some(time_s),
+                markers,
+                line: 0,
+                marker_lines: vec![0; count],
+                station: None,
+            }
+        })
+        .collect();
+    let reference_pose = poses.iter().find(|p| p.seen() >= crate::dataset::MIN_MARKERS).unwrap_or(&poses[0]).id;
+    Session { poses, reference_pose, ..session }
+}

@@ -1,0 +1,314 @@
+//! Reading a bag in one pass: MCAP records streamed through `mcap`'s sans-io reader (the file is
+//! never held in memory, only the samples spmcal keeps), the two message types decoded from CDR,
+//! each message checked where it stands (topic, message number, reason).
+
+use std::collections::HashMap;
+use std::io::Read as _;
+use std::path::{Path, PathBuf};
+
+use mcap::records::Record;
+use mcap::sans_io::{LinearReadEvent, LinearReader};
+use nalgebra::Vector3;
+
+use super::mapping::{Clock, Mapping};
+use super::messages::{JOINT_STATE, JointState, POINT_STAMPED, PointStamped, decode};
+use crate::dataset::{Capture, EncoderSample};
+use crate::io::files::FileError;
+
+/// What a bag holds for spmcal, times in seconds from the whole second of its first message.
+#[derive(Debug, Default)]
+pub(crate) struct BagData {
+    /// Joint samples, time strictly increasing.
+    pub(crate) encoders: Vec<EncoderSample>,
+    /// Marker captures in the order read (`line`: the message's number in the bag).
+    pub(crate) captures: Vec<Capture>,
+    /// The whole second (since the epoch) the times count from.
+    pub(crate) epoch_s: Option<i64>,
+}
+
+/// One channel of the bag and what it carries for spmcal.
+struct Channel {
+    topic: String,
+    role: Role,
+    /// Messages read on it so far.
+    count: usize,
+    /// The last time on it (s), for the clock check.
+    last_s: Option<f64>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Role {
+    Joints,
+    Markers,
+    Ignored,
+}
+
+/// The bag files to read: the `.mcap` file itself, or a bag folder's files in the order its
+/// `metadata.yaml` lists them (else by name).
+///
+/// # Errors
+/// A folder without MCAP files, or recorded with the sqlite3 storage (to be converted first).
+pub(crate) fn bag_files(bag: &Path) -> Result<Vec<PathBuf>, FileError> {
+    if !bag.is_dir() {
+        return Ok(vec![bag.to_path_buf()]);
+    }
+    let metadata = bag.join("metadata.yaml");
+    if let Ok(text) = std::fs::read_to_string(&metadata) {
+        let value: serde_yaml::Value = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(&metadata, &e))?;
+        let info = &value["rosbag2_bagfile_information"];
+        if let Some(storage) = info["storage_identifier"].as_str().filter(|s| *s != "mcap") {
+            return Err(FileError::new(
+                &metadata,
+                format!(
+                    "the bag is stored as `{storage}`; spmcal reads MCAP: convert it with `ros2 bag convert -i {} -o out.yaml` (out.yaml: `output_bags: [{{uri: converted, storage_id: mcap}}]`)",
+                    bag.display()
+                ),
+            ));
+        }
+        if let Some(files) = info["relative_file_paths"].as_sequence() {
+            return Ok(files.iter().filter_map(|f| f.as_str()).map(|f| bag.join(f)).collect());
+        }
+    }
+    let mut files: Vec<PathBuf> = std::fs::read_dir(bag)
+        .map_err(|e| FileError::new(bag, format!("cannot read the bag folder: {e}")))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(FileError::new(bag, "a bag folder without `.mcap` files (and no session.yaml)"));
+    }
+    Ok(files)
+}
+
+/// Read the joint states and marker points of `files` under `mapping`, the markers named
+/// `markers`; `progress` gets the bytes read so far.
+///
+/// # Errors
+/// A [`FileError`] naming the file, and the topic and message number, of the first problem.
+pub(crate) fn read_bag(
+    files: &[PathBuf],
+    mapping: &Mapping,
+    markers: &[String],
+    progress: &mut dyn FnMut(u64),
+) -> Result<BagData, FileError> {
+    let mut data = BagData::default();
+    let mut done = 0u64;
+    for file in files {
+        let mut reader = Reader { mapping, markers, file, schemas: HashMap::new(), channels: HashMap::new(), data };
+        reader.stream(&mut |bytes| progress(done + bytes))?;
+        done += std::fs::metadata(file).map_or(0, |m| m.len());
+        reader.check_topics()?;
+        data = reader.data;
+    }
+    Ok(data)
+}
+
+/// The state of reading one file.
+struct Reader<'a> {
+    mapping: &'a Mapping,
+    markers: &'a [String],
+    file: &'a Path,
+    /// Schema id → (name, encoding, text).
+    schemas: HashMap<u16, (String, String, Vec<u8>)>,
+    channels: HashMap<u16, Channel>,
+    data: BagData,
+}
+
+/// Bytes read from the file at a time.
+const READ_SIZE: usize = 1 << 20;
+
+impl Reader<'_> {
+    fn error(&self, reason: impl Into<String>) -> FileError {
+        FileError::new(self.file, reason)
+    }
+
+    /// Feed the file to the MCAP reader, one record at a time.
+    fn stream(&mut self, progress: &mut dyn FnMut(u64)) -> Result<(), FileError> {
+        let mut file = std::fs::File::open(self.file).map_err(|e| self.error(format!("cannot open: {e}")))?;
+        let mut mcap = LinearReader::new();
+        let mut read = 0u64;
+        while let Some(event) = mcap.next_event() {
+            let event = event.map_err(|e| {
+                self.error(format!("not a readable MCAP file (truncated or corrupt near byte {read}): {e}"))
+            })?;
+            match event {
+                LinearReadEvent::ReadRequest(wanted) => {
+                    let buffer = mcap.insert(wanted.clamp(1, READ_SIZE));
+                    let n = file.read(buffer).map_err(|e| self.error(format!("cannot read: {e}")))?;
+                    mcap.notify_read(n);
+                    read += n as u64;
+                    progress(read);
+                }
+                LinearReadEvent::Record { data, opcode } => {
+                    let record = mcap::parse_record(opcode, data)
+                        .map_err(|e| self.error(format!("a corrupt MCAP record near byte {read}: {e}")))?;
+                    self.record(record)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn record(&mut self, record: Record<'_>) -> Result<(), FileError> {
+        match record {
+            Record::Schema { header, data } => {
+                self.schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
+            }
+            Record::Channel(c) => {
+                let role = self.role(&c.topic);
+                if role != Role::Ignored {
+                    self.check_channel(&c.topic, role, c.schema_id, &c.message_encoding)?;
+                }
+                self.channels.insert(c.id, Channel { topic: c.topic, role, count: 0, last_s: None });
+            }
+            Record::Message { header, data } => {
+                let Some(channel) = self.channels.get_mut(&header.channel_id) else {
+                    return Err(
+                        self.error(format!("a message on channel {} that the bag never declared", header.channel_id))
+                    );
+                };
+                channel.count += 1;
+                match channel.role {
+                    Role::Joints => self.joint_state(header.channel_id, header.log_time, &data)?,
+                    Role::Markers => self.point(header.channel_id, header.log_time, &data)?,
+                    Role::Ignored => {}
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn role(&self, topic: &str) -> Role {
+        let m = &self.mapping.markers;
+        if topic == self.mapping.joints.topic {
+            Role::Joints
+        } else if topic == m.topic
+            || m.topics.contains_key(topic)
+            || (m.topics.is_empty()
+                && topic.strip_prefix("/markers/").is_some_and(|n| self.markers.iter().any(|k| k == n)))
+        {
+            Role::Markers
+        } else {
+            Role::Ignored
+        }
+    }
+
+    /// The channel's message encoding and schema are the expected type's.
+    fn check_channel(&self, topic: &str, role: Role, schema_id: u16, encoding: &str) -> Result<(), FileError> {
+        let expected = if role == Role::Joints { &JOINT_STATE } else { &POINT_STAMPED };
+        if encoding != "cdr" {
+            return Err(self.error(format!("topic `{topic}`: message encoding `{encoding}`; spmcal reads ROS 2 `cdr`")));
+        }
+        let Some((name, schema_encoding, text)) = self.schemas.get(&schema_id) else {
+            return Err(self.error(format!("topic `{topic}`: no schema recorded; expected `{}`", expected.name)));
+        };
+        match expected.mismatch(name, schema_encoding, text) {
+            Some(reason) => Err(self.error(format!("topic `{topic}`: {reason}"))),
+            None => Ok(()),
+        }
+    }
+
+    /// The message's time (s from the first message's whole second) on the mapping's clock, and a
+    /// clock check on its channel (`strict`: strictly increasing).
+    fn time(&mut self, channel: u16, stamp: super::messages::Time, log_ns: u64, strict: bool) -> Result<f64, String> {
+        let (sec, nanosec) = match self.mapping.clock {
+            Clock::Header => (i64::from(stamp.sec), i64::from(stamp.nanosec)),
+            Clock::Receive => ((log_ns / 1_000_000_000) as i64, (log_ns % 1_000_000_000) as i64),
+        };
+        let epoch = *self.data.epoch_s.get_or_insert(sec);
+        let t = (sec - epoch) as f64 + nanosec as f64 * 1e-9;
+        let c = self.channels.get_mut(&channel).expect("known channel");
+        if let Some(last) = c.last_s
+            && (t < last || (strict && t == last))
+        {
+            let what = if t == last { "repeats" } else { "goes back from" };
+            return Err(format!("the clock {what} the previous message's ({t} s after {last} s)"));
+        }
+        c.last_s = Some(t);
+        Ok(t)
+    }
+
+    fn at(&self, channel: u16, reason: &str) -> FileError {
+        let c = &self.channels[&channel];
+        self.error(format!("topic `{}`, message {}: {reason}", c.topic, c.count))
+    }
+
+    fn joint_state(&mut self, channel: u16, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
+        let m: JointState = decode(data).map_err(|r| self.at(channel, &format!("sensor_msgs/msg/JointState {r}")))?;
+        if m.position.len() != m.name.len() {
+            let reason = format!("{} names but {} positions", m.name.len(), m.position.len());
+            return Err(self.at(channel, &reason));
+        }
+        let mut joints = Vector3::zeros();
+        for (k, wanted) in self.mapping.joints.names.iter().enumerate() {
+            let Some(i) = m.name.iter().position(|n| n == wanted) else {
+                let reason = format!(
+                    "joint `{wanted}` is not in `name` {:?} (map the actuated joints under `joints: names`)",
+                    m.name
+                );
+                return Err(self.at(channel, &reason));
+            };
+            let value = m.position[i];
+            if !value.is_finite() {
+                return Err(self.at(channel, &format!("joint `{wanted}` is at {value}: not a number")));
+            }
+            joints[k] = self.mapping.radians(value);
+        }
+        let time_s = self.time(channel, m.header.stamp, log_ns, true).map_err(|r| self.at(channel, &r))?;
+        self.data.encoders.push(EncoderSample { time_s, joints });
+        Ok(())
+    }
+
+    fn point(&mut self, channel: u16, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
+        let m: PointStamped =
+            decode(data).map_err(|r| self.at(channel, &format!("geometry_msgs/msg/PointStamped {r}")))?;
+        let topic = self.channels[&channel].topic.clone();
+        let marker = match self.mapping.marker_of(&topic, &m.header.frame_id, self.markers) {
+            Ok(Some(marker)) => marker,
+            Ok(None) => return Ok(()),
+            Err(reason) => return Err(self.at(channel, &reason)),
+        };
+        let position = Vector3::new(m.point.x, m.point.y, m.point.z);
+        if !position.iter().all(|v| v.is_finite()) {
+            return Err(self.at(channel, &format!("the point {position:?} is not finite")));
+        }
+        // One topic carries several markers of a frame at one stamp: only strictly per marker topic.
+        let strict = false;
+        let time_s = self.time(channel, m.header.stamp, log_ns, strict).map_err(|r| self.at(channel, &r))?;
+        let line = self.channels[&channel].count;
+        self.data.captures.push(Capture { time_s, marker, position, line });
+        Ok(())
+    }
+
+    /// The joint topic and some marker topic were in the bag.
+    fn check_topics(&self) -> Result<(), FileError> {
+        let topics: Vec<&str> = self.channels.values().map(|c| c.topic.as_str()).collect();
+        let has = |role: Role| self.channels.values().any(|c| c.role == role);
+        let listed = || {
+            let mut t = topics.clone();
+            t.sort_unstable();
+            t.join(", ")
+        };
+        if !has(Role::Joints) {
+            let reason = format!(
+                "no topic `{}` (sensor_msgs/msg/JointState) in the bag; its topics: {} — name the joint topic under `joints: topic` in {}",
+                self.mapping.joints.topic,
+                listed(),
+                super::mapping::MAPPING_FILE
+            );
+            return Err(self.error(reason));
+        }
+        if !has(Role::Markers) {
+            let reason = format!(
+                "no marker topic (`{}` or `/markers/<name>`, geometry_msgs/msg/PointStamped) in the bag; its topics: {} — map them under `markers` in {}",
+                self.mapping.markers.topic,
+                listed(),
+                super::mapping::MAPPING_FILE
+            );
+            return Err(self.error(reason));
+        }
+        Ok(())
+    }
+}

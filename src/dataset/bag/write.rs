@@ -1,0 +1,108 @@
+//! A session as a ROS 2 bag (one `.mcap` file, zstd-compressed chunks): joint states on
+//! `/joint_states` (`theta1..3`, rad), marker points on `/markers` with `header.frame_id` the
+//! marker's name — the defaults [`super::load`] reads without a mapping file. A free-motion
+//! recording's streams go as they are; a static session's pose becomes the joints resting for
+//! 0.1 s (eleven states, 10 ms apart) with its markers at the first of them.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::messages::{Header, JOINT_STATE, JointState, POINT_STAMPED, Point, PointStamped, Time, encode};
+use crate::dataset::Session;
+use crate::io::files::{FileError, StagedFile};
+
+/// One message to write: time (s), channel, CDR bytes.
+type Message = (f64, u16, Vec<u8>);
+
+/// Write `session` as an MCAP bag at `path` (atomically).
+///
+/// # Errors
+/// A [`FileError`] when a time falls outside what a ROS stamp holds (negative, or beyond 2038), or
+/// the file cannot be written.
+pub(crate) fn write(session: &Session, path: &Path) -> Result<(), FileError> {
+    let messages = messages(session).map_err(|reason| FileError::new(path, reason))?;
+    let staged = StagedFile::create(path)?;
+    let fail = |e: mcap::McapError| FileError::new(path, format!("cannot write the bag: {e}"));
+    {
+        let file = std::fs::File::create(staged.temp_path())
+            .map_err(|e| FileError::new(path, format!("cannot write: {e}")))?;
+        let mut writer =
+            mcap::WriteOptions::new().profile("ros2").create(std::io::BufWriter::new(file)).map_err(fail)?;
+        let joints = writer.add_schema(JOINT_STATE.name, "ros2msg", JOINT_STATE.schema.as_bytes()).map_err(fail)?;
+        let points = writer.add_schema(POINT_STAMPED.name, "ros2msg", POINT_STAMPED.schema.as_bytes()).map_err(fail)?;
+        let none = BTreeMap::new();
+        let channels = [
+            writer.add_channel(joints, "/joint_states", "cdr", &none).map_err(fail)?,
+            writer.add_channel(points, "/markers", "cdr", &none).map_err(fail)?,
+        ];
+        let mut sequence = [0u32; 2];
+        for (time_s, channel, data) in &messages {
+            let ns = Time::of_seconds(*time_s).expect("checked in `messages`").nanoseconds();
+            let k = *channel as usize;
+            sequence[k] += 1;
+            let header = mcap::records::MessageHeader {
+                channel_id: channels[k],
+                sequence: sequence[k],
+                log_time: ns,
+                publish_time: ns,
+            };
+            writer.write_to_known_channel(&header, data).map_err(fail)?;
+        }
+        writer.finish().map_err(fail)?;
+    }
+    staged.commit()
+}
+
+/// Every message of the session, in time order (joint states first at equal times).
+fn messages(session: &Session) -> Result<Vec<Message>, String> {
+    let stamp = |t: f64| {
+        Time::of_seconds(t).ok_or_else(|| format!("time {t} s cannot be a ROS stamp (0 to 2^31 s after the epoch)"))
+    };
+    let joint_state = |t: f64, joints: &nalgebra::Vector3<f64>| -> Result<Message, String> {
+        let m = JointState {
+            header: Header { stamp: stamp(t)?, frame_id: String::new() },
+            name: vec!["theta1".into(), "theta2".into(), "theta3".into()],
+            position: joints.iter().copied().collect(),
+            velocity: Vec::new(),
+            effort: Vec::new(),
+        };
+        Ok((t, 0, encode(&m)))
+    };
+    let point = |t: f64, marker: usize, p: &nalgebra::Vector3<f64>| -> Result<Message, String> {
+        let m = PointStamped {
+            header: Header { stamp: stamp(t)?, frame_id: session.markers[marker].clone() },
+            point: Point { x: p.x, y: p.y, z: p.z },
+        };
+        Ok((t, 1, encode(&m)))
+    };
+    let mut out = Vec::new();
+    match &session.streams {
+        Some(streams) => {
+            for s in &streams.encoders {
+                out.push(joint_state(s.time_s, &s.joints)?);
+            }
+            for c in &streams.captures {
+                out.push(point(c.time_s, c.marker, &c.position)?);
+            }
+        }
+        None => {
+            // The poses' own times when they leave room for the rest (0.1 s) and a gap after it.
+            let times: Vec<Option<f64>> = session.poses.iter().map(|p| p.time_s).collect();
+            let spaced = times.windows(2).all(|w| matches!(w, [Some(a), Some(b)] if b - a >= 0.2))
+                && times.first().is_some_and(Option::is_some);
+            for (k, pose) in session.poses.iter().enumerate() {
+                let t = if spaced { pose.time_s.unwrap_or_default() } else { k as f64 };
+                for step in 0..=10 {
+                    out.push(joint_state(t + 0.01 * f64::from(step), &pose.joints)?);
+                }
+                for (marker, p) in pose.markers.iter().enumerate() {
+                    if let Some(p) = p {
+                        out.push(point(t, marker, p)?);
+                    }
+                }
+            }
+        }
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    Ok(out)
+}
