@@ -179,7 +179,7 @@ fn outliers_are_flagged_and_down_weighted() {
     let held_out = poses(&calibration).1;
     let fitted: Vec<_> = held_out.iter().map(|o| spm.forward(&o.joints).unwrap()).collect();
     let truth: Vec<_> = held_out.iter().map(|o| t.orientations[&o.pose]).collect();
-    let achieved = accuracy::up_to_common_rotations(&fitted, &truth);
+    let achieved = study::up_to_common_rotations(&fitted, &truth);
     eprintln!(
         "nominal {nominal:.4}°, calibrated {calibrated:.4}°, predicted {predicted:.4}°, achieved up to the common rotations {achieved:.4}°"
     );

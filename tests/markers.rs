@@ -23,6 +23,7 @@ fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel)
 
 /// The efficiency study of the README (`examples/marker_efficiency`), here on one noise level.
 #[path = "../examples/marker_efficiency/study.rs"]
+#[allow(dead_code)] // shared by the studies, each using part of it
 mod study;
 
 fn config(poses: usize) -> SimConfig {

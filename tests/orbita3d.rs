@@ -187,6 +187,7 @@ fn the_geometry_of_the_reference_readme_written_in_code_is_the_loaded_model() {
 
 /// The efficiency study of the README (`examples/marker_efficiency`, `examples/mechanisms`).
 #[path = "../examples/marker_efficiency/study.rs"]
+#[allow(dead_code)] // shared by the studies, each using part of it
 mod study;
 
 #[test]
