@@ -92,5 +92,26 @@ fn command(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, calibration, command);
+/// Reading an hour-long recording (3.6 million joint states, ~52,000 marker points) as a CSV
+/// session and as the equivalent ROS 2 bag (issue 23: the bag within 2x the CSV's time).
+fn reading(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+    sim.recording.as_mut().unwrap().duration_s = 3600.0;
+    let model = RobotModel::load(&sim.model).unwrap();
+    let (session, _) = sim.simulate(&model, &mut |_| {}).unwrap();
+    let (csv, bag) = (dir.path().join("hour"), dir.path().join("hour.mcap"));
+    session.write(&csv).unwrap();
+    session.write_bag(&bag).unwrap();
+    let mut group = c.benchmark_group("read_hour_long_recording");
+    group.sample_size(10).measurement_time(std::time::Duration::from_secs(40));
+    for (name, path) in [("csv", &csv), ("bag", &bag)] {
+        group.bench_function(name, |b| {
+            b.iter(|| Session::load(path, Some(&sim.model)).unwrap());
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, calibration, command, reading);
 criterion_main!(benches);
