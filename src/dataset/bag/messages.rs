@@ -32,18 +32,21 @@ impl Time {
     }
 }
 
-/// `std_msgs/msg/Header`.
+/// `std_msgs/msg/Header` (strings borrowed from the message: an hour's 3.6 million joint states
+/// decode without allocating them).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub(crate) struct Header {
+pub(crate) struct Header<'a> {
     pub(crate) stamp: Time,
-    pub(crate) frame_id: String,
+    pub(crate) frame_id: &'a str,
 }
 
 /// `sensor_msgs/msg/JointState`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub(crate) struct JointState {
-    pub(crate) header: Header,
-    pub(crate) name: Vec<String>,
+pub(crate) struct JointState<'a> {
+    #[serde(borrow)]
+    pub(crate) header: Header<'a>,
+    #[serde(borrow)]
+    pub(crate) name: Vec<&'a str>,
     pub(crate) position: Vec<f64>,
     pub(crate) velocity: Vec<f64>,
     pub(crate) effort: Vec<f64>,
@@ -59,8 +62,9 @@ pub(crate) struct Point {
 
 /// `geometry_msgs/msg/PointStamped`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub(crate) struct PointStamped {
-    pub(crate) header: Header,
+pub(crate) struct PointStamped<'a> {
+    #[serde(borrow)]
+    pub(crate) header: Header<'a>,
     pub(crate) point: Point,
 }
 
@@ -158,7 +162,7 @@ impl MessageType {
 /// # Errors
 /// The reason, in words: too short, an encapsulation that is not plain CDR, or a body that does
 /// not decode as `T`.
-pub(crate) fn decode<T: for<'de> Deserialize<'de>>(data: &[u8]) -> Result<T, String> {
+pub(crate) fn decode<'a, T: Deserialize<'a>>(data: &'a [u8]) -> Result<T, String> {
     if data.len() < 4 {
         return Err(format!("{} bytes: shorter than a CDR encapsulation header", data.len()));
     }
@@ -197,8 +201,8 @@ mod tests {
     #[test]
     fn a_joint_state_survives_cdr_and_its_layout_is_the_standard_one() {
         let m = JointState {
-            header: Header { stamp: Time { sec: 1, nanosec: 2 }, frame_id: "f".into() },
-            name: vec!["theta1".into()],
+            header: Header { stamp: Time { sec: 1, nanosec: 2 }, frame_id: "f" },
+            name: vec!["theta1"],
             position: vec![0.5],
             velocity: vec![],
             effort: vec![],

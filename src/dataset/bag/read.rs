@@ -36,7 +36,7 @@ struct Channel {
     last_s: Option<f64>,
 }
 
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq, Debug)]
 enum Role {
     Joints,
     Markers,
@@ -82,7 +82,8 @@ pub(crate) fn bag_files(bag: &Path) -> Result<Vec<PathBuf>, FileError> {
 }
 
 /// Read the joint states and marker points of `files` under `mapping`, the markers named
-/// `markers`; `progress` gets the bytes read so far.
+/// `markers`; `progress` gets the bytes read so far. Two threads: one reads and decompresses the
+/// MCAP records, the other decodes the messages (an hour at 1 kHz is 3.6 million of them).
 ///
 /// # Errors
 /// A [`FileError`] naming the file, and the topic and message number, of the first problem.
@@ -95,88 +96,129 @@ pub(crate) fn read_bag(
     let mut data = BagData::default();
     let mut done = 0u64;
     for file in files {
-        let mut reader = Reader { mapping, markers, file, schemas: HashMap::new(), channels: HashMap::new(), data };
-        reader.stream(&mut |bytes| progress(done + bytes))?;
+        let container = Container { mapping, markers, file };
+        let mut decoder = Decoder { mapping, markers, file, channels: Vec::new(), slots: vec![NONE; 1 << 16], data };
+        std::thread::scope(|scope| {
+            let (send, receive) = std::sync::mpsc::sync_channel::<Event>(4);
+            let reading = scope.spawn(move || container.stream(&send));
+            let decoded = decoder.consume(&receive, &mut |bytes| progress(done + bytes));
+            // A decoding error drops the receiver, which stops the reader: its own error comes first
+            // only when it ended the stream.
+            drop(receive);
+            let read = reading.join().expect("the reader does not panic");
+            decoded.and(read)
+        })?;
         done += std::fs::metadata(file).map_or(0, |m| m.len());
-        reader.check_topics()?;
-        data = reader.data;
+        decoder.check_topics()?;
+        data = decoder.data;
     }
     Ok(data)
 }
 
-/// The state of reading one file.
-struct Reader<'a> {
-    mapping: &'a Mapping,
-    markers: &'a [String],
-    file: &'a Path,
-    /// Schema id → (name, encoding, text).
-    schemas: HashMap<u16, (String, String, Vec<u8>)>,
-    channels: HashMap<u16, Channel>,
-    data: BagData,
+/// What the reading thread hands the decoding one.
+enum Event {
+    /// A channel of the bag (checked when it carries joints or markers).
+    Channel { id: u16, topic: String, role: Role },
+    /// Messages on joint or marker channels, their bytes back to back.
+    Messages(Batch),
+    /// Bytes of the file read so far.
+    Progress(u64),
 }
+
+/// Messages handed over at once.
+#[derive(Default)]
+struct Batch {
+    bytes: Vec<u8>,
+    /// Channel, log time (ns) and bytes of each message.
+    items: Vec<(u16, u64, std::ops::Range<usize>)>,
+}
+
+/// Messages per batch.
+const BATCH: usize = 4096;
 
 /// Bytes read from the file at a time.
 const READ_SIZE: usize = 1 << 20;
 
-impl Reader<'_> {
+/// No channel in a slot.
+const NONE: u32 = u32::MAX;
+
+/// The reading side: MCAP records, schemas checked, messages of interest passed on.
+struct Container<'a> {
+    mapping: &'a Mapping,
+    markers: &'a [String],
+    file: &'a Path,
+}
+
+impl Container<'_> {
     fn error(&self, reason: impl Into<String>) -> FileError {
         FileError::new(self.file, reason)
     }
 
-    /// Feed the file to the MCAP reader, one record at a time.
-    fn stream(&mut self, progress: &mut dyn FnMut(u64)) -> Result<(), FileError> {
+    /// Feed the file to the MCAP reader and pass on what the decoder needs; stops quietly when the
+    /// decoder has stopped listening.
+    fn stream(&self, send: &std::sync::mpsc::SyncSender<Event>) -> Result<(), FileError> {
         let mut file = std::fs::File::open(self.file).map_err(|e| self.error(format!("cannot open: {e}")))?;
         let mut mcap = LinearReader::new();
+        let mut schemas: HashMap<u16, (String, String, Vec<u8>)> = HashMap::new();
+        let mut roles = vec![None; 1 << 16];
+        let mut batch = Batch::default();
         let mut read = 0u64;
         while let Some(event) = mcap.next_event() {
             let event = event.map_err(|e| {
                 self.error(format!("not a readable MCAP file (truncated or corrupt near byte {read}): {e}"))
             })?;
-            match event {
+            let handed = match event {
                 LinearReadEvent::ReadRequest(wanted) => {
                     let buffer = mcap.insert(wanted.clamp(1, READ_SIZE));
                     let n = file.read(buffer).map_err(|e| self.error(format!("cannot read: {e}")))?;
                     mcap.notify_read(n);
                     read += n as u64;
-                    progress(read);
+                    send.send(Event::Progress(read))
                 }
                 LinearReadEvent::Record { data, opcode } => {
                     let record = mcap::parse_record(opcode, data)
                         .map_err(|e| self.error(format!("a corrupt MCAP record near byte {read}: {e}")))?;
-                    self.record(record)?;
+                    match record {
+                        Record::Schema { header, data } => {
+                            schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
+                            Ok(())
+                        }
+                        Record::Channel(c) => {
+                            let role = self.role(&c.topic);
+                            if role != Role::Ignored {
+                                self.check_channel(&schemas, &c.topic, role, c.schema_id, &c.message_encoding)?;
+                            }
+                            roles[usize::from(c.id)] = Some(role);
+                            send.send(Event::Channel { id: c.id, topic: c.topic, role })
+                        }
+                        Record::Message { header, data } => match roles[usize::from(header.channel_id)] {
+                            None => {
+                                let reason =
+                                    format!("a message on channel {} that the bag never declared", header.channel_id);
+                                return Err(self.error(reason));
+                            }
+                            Some(Role::Ignored) => Ok(()),
+                            Some(_) => {
+                                let from = batch.bytes.len();
+                                batch.bytes.extend_from_slice(&data);
+                                batch.items.push((header.channel_id, header.log_time, from..batch.bytes.len()));
+                                if batch.items.len() < BATCH {
+                                    Ok(())
+                                } else {
+                                    send.send(Event::Messages(std::mem::take(&mut batch)))
+                                }
+                            }
+                        },
+                        _ => Ok(()),
+                    }
                 }
+            };
+            if handed.is_err() {
+                return Ok(());
             }
         }
-        Ok(())
-    }
-
-    fn record(&mut self, record: Record<'_>) -> Result<(), FileError> {
-        match record {
-            Record::Schema { header, data } => {
-                self.schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
-            }
-            Record::Channel(c) => {
-                let role = self.role(&c.topic);
-                if role != Role::Ignored {
-                    self.check_channel(&c.topic, role, c.schema_id, &c.message_encoding)?;
-                }
-                self.channels.insert(c.id, Channel { topic: c.topic, role, count: 0, last_s: None });
-            }
-            Record::Message { header, data } => {
-                let Some(channel) = self.channels.get_mut(&header.channel_id) else {
-                    return Err(
-                        self.error(format!("a message on channel {} that the bag never declared", header.channel_id))
-                    );
-                };
-                channel.count += 1;
-                match channel.role {
-                    Role::Joints => self.joint_state(header.channel_id, header.log_time, &data)?,
-                    Role::Markers => self.point(header.channel_id, header.log_time, &data)?,
-                    Role::Ignored => {}
-                }
-            }
-            _ => {}
-        }
+        // The decoder may have stopped already: then its error is the one to report.
+        let _ = send.send(Event::Messages(batch));
         Ok(())
     }
 
@@ -196,12 +238,19 @@ impl Reader<'_> {
     }
 
     /// The channel's message encoding and schema are the expected type's.
-    fn check_channel(&self, topic: &str, role: Role, schema_id: u16, encoding: &str) -> Result<(), FileError> {
+    fn check_channel(
+        &self,
+        schemas: &HashMap<u16, (String, String, Vec<u8>)>,
+        topic: &str,
+        role: Role,
+        schema_id: u16,
+        encoding: &str,
+    ) -> Result<(), FileError> {
         let expected = if role == Role::Joints { &JOINT_STATE } else { &POINT_STAMPED };
         if encoding != "cdr" {
             return Err(self.error(format!("topic `{topic}`: message encoding `{encoding}`; spmcal reads ROS 2 `cdr`")));
         }
-        let Some((name, schema_encoding, text)) = self.schemas.get(&schema_id) else {
+        let Some((name, schema_encoding, text)) = schemas.get(&schema_id) else {
             return Err(self.error(format!("topic `{topic}`: no schema recorded; expected `{}`", expected.name)));
         };
         match expected.mismatch(name, schema_encoding, text) {
@@ -209,17 +258,64 @@ impl Reader<'_> {
             None => Ok(()),
         }
     }
+}
+
+/// The decoding side: each message checked where it stands, the samples kept.
+struct Decoder<'a> {
+    mapping: &'a Mapping,
+    markers: &'a [String],
+    file: &'a Path,
+    channels: Vec<Channel>,
+    /// Channel id → index in `channels` (`NONE`: not declared).
+    slots: Vec<u32>,
+    data: BagData,
+}
+
+impl Decoder<'_> {
+    fn error(&self, reason: impl Into<String>) -> FileError {
+        FileError::new(self.file, reason)
+    }
+
+    /// Decode every event until the reader ends.
+    fn consume(
+        &mut self,
+        receive: &std::sync::mpsc::Receiver<Event>,
+        progress: &mut dyn FnMut(u64),
+    ) -> Result<(), FileError> {
+        for event in receive {
+            match event {
+                Event::Channel { id, topic, role } => {
+                    self.slots[usize::from(id)] = self.channels.len() as u32;
+                    self.channels.push(Channel { topic, role, count: 0, last_s: None });
+                }
+                Event::Messages(batch) => {
+                    for (id, log_ns, range) in &batch.items {
+                        let c = self.slots[usize::from(*id)] as usize;
+                        self.channels[c].count += 1;
+                        let data = &batch.bytes[range.clone()];
+                        match self.channels[c].role {
+                            Role::Joints => self.joint_state(c, *log_ns, data)?,
+                            Role::Markers => self.point(c, *log_ns, data)?,
+                            Role::Ignored => {}
+                        }
+                    }
+                }
+                Event::Progress(bytes) => progress(bytes),
+            }
+        }
+        Ok(())
+    }
 
     /// The message's time (s from the first message's whole second) on the mapping's clock, and a
     /// clock check on its channel (`strict`: strictly increasing).
-    fn time(&mut self, channel: u16, stamp: super::messages::Time, log_ns: u64, strict: bool) -> Result<f64, String> {
+    fn time(&mut self, channel: usize, stamp: super::messages::Time, log_ns: u64, strict: bool) -> Result<f64, String> {
         let (sec, nanosec) = match self.mapping.clock {
             Clock::Header => (i64::from(stamp.sec), i64::from(stamp.nanosec)),
             Clock::Receive => ((log_ns / 1_000_000_000) as i64, (log_ns % 1_000_000_000) as i64),
         };
         let epoch = *self.data.epoch_s.get_or_insert(sec);
         let t = (sec - epoch) as f64 + nanosec as f64 * 1e-9;
-        let c = self.channels.get_mut(&channel).expect("known channel");
+        let c = &mut self.channels[channel];
         if let Some(last) = c.last_s
             && (t < last || (strict && t == last))
         {
@@ -230,12 +326,12 @@ impl Reader<'_> {
         Ok(t)
     }
 
-    fn at(&self, channel: u16, reason: &str) -> FileError {
-        let c = &self.channels[&channel];
+    fn at(&self, channel: usize, reason: &str) -> FileError {
+        let c = &self.channels[channel];
         self.error(format!("topic `{}`, message {}: {reason}", c.topic, c.count))
     }
 
-    fn joint_state(&mut self, channel: u16, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
+    fn joint_state(&mut self, channel: usize, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
         let m: JointState = decode(data).map_err(|r| self.at(channel, &format!("sensor_msgs/msg/JointState {r}")))?;
         if m.position.len() != m.name.len() {
             let reason = format!("{} names but {} positions", m.name.len(), m.position.len());
@@ -243,7 +339,7 @@ impl Reader<'_> {
         }
         let mut joints = Vector3::zeros();
         for (k, wanted) in self.mapping.joints.names.iter().enumerate() {
-            let Some(i) = m.name.iter().position(|n| n == wanted) else {
+            let Some(i) = m.name.iter().position(|n| *n == wanted) else {
                 let reason = format!(
                     "joint `{wanted}` is not in `name` {:?} (map the actuated joints under `joints: names`)",
                     m.name
@@ -261,11 +357,10 @@ impl Reader<'_> {
         Ok(())
     }
 
-    fn point(&mut self, channel: u16, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
+    fn point(&mut self, channel: usize, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
         let m: PointStamped =
             decode(data).map_err(|r| self.at(channel, &format!("geometry_msgs/msg/PointStamped {r}")))?;
-        let topic = self.channels[&channel].topic.clone();
-        let marker = match self.mapping.marker_of(&topic, &m.header.frame_id, self.markers) {
+        let marker = match self.mapping.marker_of(&self.channels[channel].topic, m.header.frame_id, self.markers) {
             Ok(Some(marker)) => marker,
             Ok(None) => return Ok(()),
             Err(reason) => return Err(self.at(channel, &reason)),
@@ -274,18 +369,17 @@ impl Reader<'_> {
         if !position.iter().all(|v| v.is_finite()) {
             return Err(self.at(channel, &format!("the point {position:?} is not finite")));
         }
-        // One topic carries several markers of a frame at one stamp: only strictly per marker topic.
-        let strict = false;
-        let time_s = self.time(channel, m.header.stamp, log_ns, strict).map_err(|r| self.at(channel, &r))?;
-        let line = self.channels[&channel].count;
+        // One topic carries the markers of a frame at one stamp: time may repeat there.
+        let time_s = self.time(channel, m.header.stamp, log_ns, false).map_err(|r| self.at(channel, &r))?;
+        let line = self.channels[channel].count;
         self.data.captures.push(Capture { time_s, marker, position, line });
         Ok(())
     }
 
     /// The joint topic and some marker topic were in the bag.
     fn check_topics(&self) -> Result<(), FileError> {
-        let topics: Vec<&str> = self.channels.values().map(|c| c.topic.as_str()).collect();
-        let has = |role: Role| self.channels.values().any(|c| c.role == role);
+        let topics: Vec<&str> = self.channels.iter().map(|c| c.topic.as_str()).collect();
+        let has = |role: Role| self.channels.iter().any(|c| c.role == role);
         let listed = || {
             let mut t = topics.clone();
             t.sort_unstable();

@@ -60,8 +60,8 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
     };
     let joint_state = |t: f64, joints: &nalgebra::Vector3<f64>| -> Result<Message, String> {
         let m = JointState {
-            header: Header { stamp: stamp(t)?, frame_id: String::new() },
-            name: vec!["theta1".into(), "theta2".into(), "theta3".into()],
+            header: Header { stamp: stamp(t)?, frame_id: "" },
+            name: vec!["theta1", "theta2", "theta3"],
             position: joints.iter().copied().collect(),
             velocity: Vec::new(),
             effort: Vec::new(),
@@ -70,7 +70,7 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
     };
     let point = |t: f64, marker: usize, p: &nalgebra::Vector3<f64>| -> Result<Message, String> {
         let m = PointStamped {
-            header: Header { stamp: stamp(t)?, frame_id: session.markers[marker].clone() },
+            header: Header { stamp: stamp(t)?, frame_id: &session.markers[marker] },
             point: Point { x: p.x, y: p.y, z: p.z },
         };
         Ok((t, 1, encode(&m)))
