@@ -193,6 +193,9 @@ fn a_free_motion_bag_calibrates_exactly_as_the_csv_recording_of_the_same_numbers
     };
     assert_eq!(from_bag.poses.len(), from_csv.poses.len());
     assert!(from_bag.poses.iter().zip(&from_csv.poses).all(|(a, b)| same(a, b)), "the same poses");
+    // Warnings name a capture by its message number on the marker topic (its CSV line less the
+    // header), across the bag's many chunks (each repeats the channel).
+    assert!(from_bag.poses.iter().zip(&from_csv.poses).all(|(a, b)| a.line + 1 == b.line), "message numbers");
     assert_eq!(parameters(&from_bag), parameters(&from_csv));
     // And `convert` both ways gives the bag's numbers back.
     let back = dir.join("back.mcap");

@@ -34,8 +34,12 @@ pub(crate) fn is_bag(path: &Path) -> bool {
     }
 }
 
-/// Load the bag at `bag` as a session of the model at `model` (else the mapping's); `progress`
-/// gets the bytes read so far and the bag's total.
+/// The model a bag is read with when neither `--model` nor the mapping names one: the command
+/// line's default, relative to the working directory.
+const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
+
+/// Load the bag at `bag` as a session of the model at `model`, else the mapping's, else
+/// [`DEFAULT_MODEL`] where it exists; `progress` gets the bytes read so far and the bag's total.
 ///
 /// # Errors
 /// A [`FileError`] naming the file, and the topic and message or the mapping key, of the first
@@ -49,6 +53,8 @@ pub(crate) fn load(
     let model = match (model, &mapping.model) {
         (Some(m), _) => m.to_path_buf(),
         (None, Some(m)) => m.clone(),
+        // The command line's default model, where it is (the repository's own).
+        (None, None) if Path::new(DEFAULT_MODEL).exists() => Path::new(DEFAULT_MODEL).to_path_buf(),
         (None, None) => {
             return Err(FileError::new(
                 bag,

@@ -183,6 +183,8 @@ impl Container<'_> {
                             schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
                             Ok(())
                         }
+                        // Chunked files repeat a channel in every chunk that uses it (and in the summary).
+                        Record::Channel(c) if roles[usize::from(c.id)].is_some() => Ok(()),
                         Record::Channel(c) => {
                             let role = self.role(&c.topic);
                             if role != Role::Ignored {
