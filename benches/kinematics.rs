@@ -24,6 +24,22 @@ fn kinematics(c: &mut Criterion) {
     c.bench_function("fda_track", |b| b.iter(|| spm.track(black_box(&joints), black_box(&previous)).unwrap()));
     c.bench_function("fda_forward_from_home", |b| b.iter(|| spm.forward(black_box(&joints)).unwrap()));
     c.bench_function("fda_all_modes", |b| b.iter(|| spm.all_modes(black_box(&joints))));
+    // The batch the Python module's `model.forward` wraps (python/benchmarks/forward_batch.py
+    // times the same call from Python): 100,000 readings of random orientations, each rotation
+    // vector component uniform in ±0.3 rad.
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
+    let batch: Vec<Vector3<f64>> = (0..100_000)
+        .map(|_| {
+            let v = Vector3::from_fn(|_, _| rand::Rng::random_range(&mut rng, -0.3..0.3));
+            spm.ik(&so3::exp(&v)).unwrap()
+        })
+        .collect();
+    let mut group = c.benchmark_group("forward_batch");
+    group.sample_size(10);
+    group.bench_function("100k", |b| {
+        b.iter(|| batch.iter().map(|j| spm.forward(black_box(j)).unwrap()).collect::<Vec<_>>())
+    });
+    group.finish();
 }
 
 criterion_group!(benches, kinematics);

@@ -251,6 +251,50 @@ impl Session {
         Ok((session, warnings))
     }
 
+    /// A static session from poses already in memory (named `name`, read with the URDF `model`),
+    /// checked as a session folder is: the marker names, one marker slot per name in every pose,
+    /// distinct pose ids, finite joints; the reference pose the first that sees three markers.
+    ///
+    /// # Errors
+    /// A [`FileError`] on `name`, at the pose's row (from 1), saying what is wrong.
+    pub fn from_poses(
+        name: &str,
+        model: &Path,
+        markers: Vec<String>,
+        poses: Vec<SessionPose>,
+    ) -> Result<Session, FileError> {
+        let at = |row: usize, reason: String| FileError::new(Path::new(name), reason).at_line(row + 1);
+        check_marker_names(&markers).map_err(|(_, reason)| FileError::new(Path::new(name), reason))?;
+        if poses.is_empty() {
+            return Err(FileError::new(Path::new(name), "empty session: no poses"));
+        }
+        let mut ids = std::collections::HashSet::new();
+        for (row, p) in poses.iter().enumerate() {
+            if !ids.insert(p.id) {
+                return Err(at(row, format!("pose {} appears twice", p.id)));
+            }
+            if !p.joints.iter().all(|j| j.is_finite()) {
+                return Err(at(row, format!("pose {}: joint readings {:?} are not finite", p.id, p.joints.as_slice())));
+            }
+            if p.markers.len() != markers.len() {
+                let reason =
+                    format!("pose {}: {} marker slots for {} marker names", p.id, p.markers.len(), markers.len());
+                return Err(at(row, reason));
+            }
+        }
+        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
+        Ok(Session {
+            name: name.to_string(),
+            description: None,
+            model: model.to_path_buf(),
+            markers,
+            reference_pose,
+            poses,
+            truth: None,
+            streams: None,
+        })
+    }
+
     /// Write the session as a ROS 2 bag (one MCAP file at `path`, written atomically): joint
     /// states on `/joint_states` (`theta1..3`, rad), marker points on `/markers` named by
     /// `header.frame_id` — what [`Session::load`] reads back without a mapping file, to the

@@ -1,0 +1,820 @@
+//! `spmcal._spmcal`: the native half of the `spmcal` Python package (pyo3 + rust-numpy, stable
+//! ABI). Arrays in and out (`(n, 3)` joints in rad, `(n, 4)` quaternions `qw, qx, qy, qz`,
+//! `(n, 3, 3)` matrices); every error a Python exception under `SpmcalError` whose message is the
+//! command line's. `spmcal/__init__.py` re-exports it with its types (`_spmcal.pyi`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArrayDyn};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use spmcal::calib::CalibConfig;
+use spmcal::model::{Parameters, RobotModel, Spm};
+use spmcal::vision::Method;
+
+create_exception!(_spmcal, SpmcalError, PyException, "Base class of every spmcal error.");
+create_exception!(
+    _spmcal,
+    FileError,
+    SpmcalError,
+    "A file (or array) that cannot be used: the message names the file, line and reason."
+);
+create_exception!(_spmcal, ModelError, SpmcalError, "A model (URDF, companion, parameters) that cannot be used.");
+create_exception!(
+    _spmcal,
+    KinematicsError,
+    SpmcalError,
+    "IK or FDA without a solution (outside the workspace, at a singularity)."
+);
+create_exception!(_spmcal, ConfigError, SpmcalError, "A setting out of its range or unknown.");
+create_exception!(_spmcal, CalibrationError, SpmcalError, "A calibration that cannot be made from the session.");
+create_exception!(_spmcal, CompareError, SpmcalError, "A comparison that cannot be made.");
+create_exception!(_spmcal, PlanError, SpmcalError, "A plan that cannot be made.");
+create_exception!(_spmcal, SimulationError, SpmcalError, "A simulation that cannot be run.");
+
+/// The error and its causes, as the command line prints them (a cause only where the message
+/// does not already say it).
+fn message(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        let cause_text = cause.to_string();
+        if !text.contains(&cause_text) {
+            text = format!("{text}: {cause_text}");
+        }
+        source = cause.source();
+    }
+    text
+}
+
+macro_rules! raise {
+    ($kind:ident) => {
+        |e| $kind::new_err(message(&e))
+    };
+}
+
+/// Rows of three from a `(n, 3)` or `(3,)` array (`single`: the latter).
+fn rows3(a: &PyReadonlyArrayDyn<'_, f64>, what: &str) -> PyResult<(Vec<Vector3<f64>>, bool)> {
+    let v = a.as_array();
+    match v.shape() {
+        [3] => Ok((vec![Vector3::new(v[[0]], v[[1]], v[[2]])], true)),
+        [_, 3] => Ok((v.outer_iter().map(|r| Vector3::new(r[0], r[1], r[2])).collect(), false)),
+        shape => Err(FileError::new_err(format!("{what}: expected shape (n, 3) or (3,), got {shape:?}"))),
+    }
+}
+
+/// Rotations from a `(n, 4)` or `(4,)` array of unit quaternions `qw, qx, qy, qz`.
+fn rotations(a: &PyReadonlyArrayDyn<'_, f64>, what: &str) -> PyResult<(Vec<Rotation3<f64>>, bool)> {
+    let v = a.as_array();
+    let one = |q: [f64; 4], row: usize| -> PyResult<Rotation3<f64>> {
+        let q = Quaternion::new(q[0], q[1], q[2], q[3]);
+        if !(q.norm() - 1.0).abs().lt(&1e-6) {
+            return Err(FileError::new_err(format!("{what}: row {row}: not a unit quaternion (norm {})", q.norm())));
+        }
+        Ok(UnitQuaternion::from_quaternion(q).to_rotation_matrix())
+    };
+    match v.shape() {
+        [4] => Ok((vec![one([v[[0]], v[[1]], v[[2]], v[[3]]], 0)?], true)),
+        [_, 4] => {
+            let out: PyResult<Vec<_>> =
+                v.outer_iter().enumerate().map(|(k, r)| one([r[0], r[1], r[2], r[3]], k)).collect();
+            Ok((out?, false))
+        }
+        shape => Err(FileError::new_err(format!("{what}: expected shape (n, 4) or (4,), got {shape:?}"))),
+    }
+}
+
+/// `qw, qx, qy, qz` with `qw ≥ 0`.
+fn quaternion(r: &Rotation3<f64>) -> [f64; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(r);
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
+/// Quaternions as `(n, 4)`, or `(4,)` for a single row.
+fn quaternion_array<'py>(py: Python<'py>, rs: &[Rotation3<f64>], single: bool) -> Bound<'py, PyAny> {
+    let mut a = Array2::<f64>::zeros((rs.len(), 4));
+    for (k, r) in rs.iter().enumerate() {
+        for (i, v) in quaternion(r).iter().enumerate() {
+            a[[k, i]] = *v;
+        }
+    }
+    if single { a.row(0).to_owned().into_pyarray(py).into_any() } else { a.into_pyarray(py).into_any() }
+}
+
+/// 3 × 3 matrices as `(n, 3, 3)`, or `(3, 3)` for a single one.
+fn matrix_array<'py>(py: Python<'py>, ms: &[nalgebra::Matrix3<f64>], single: bool) -> Bound<'py, PyAny> {
+    let mut a = Array3::<f64>::zeros((ms.len(), 3, 3));
+    for (k, m) in ms.iter().enumerate() {
+        for i in 0..3 {
+            for j in 0..3 {
+                a[[k, i, j]] = m[(i, j)];
+            }
+        }
+    }
+    if single {
+        a.index_axis(numpy::ndarray::Axis(0), 0).to_owned().into_pyarray(py).into_any()
+    } else {
+        a.into_pyarray(py).into_any()
+    }
+}
+
+/// A mechanism's kinematic model: the nominal one of a URDF, or a (calibrated) parameters file.
+#[pyclass(module = "spmcal._spmcal", frozen)]
+struct Model {
+    spm: Spm,
+    robot: Option<Arc<RobotModel>>,
+    params: Parameters,
+    source: String,
+}
+
+#[pymethods]
+impl Model {
+    /// The nominal model of the URDF at `urdf` (its companion `.yaml` beside it).
+    #[staticmethod]
+    fn load(urdf: PathBuf) -> PyResult<Model> {
+        let robot = RobotModel::load(&urdf).map_err(raise!(ModelError))?;
+        let params = Parameters::nominal(&robot.spm, Some(urdf.display().to_string()));
+        Ok(Model { spm: robot.spm.clone(), robot: Some(Arc::new(robot)), params, source: urdf.display().to_string() })
+    }
+
+    /// The model of the parameters file at `params` (e.g. a calibration's); `urdf` gives the model
+    /// it belongs to when the file's `model:` does not lead to it.
+    #[staticmethod]
+    #[pyo3(signature = (params, urdf=None))]
+    fn from_params(params: PathBuf, urdf: Option<PathBuf>) -> PyResult<Model> {
+        let p = Parameters::read(&params).map_err(raise!(FileError))?;
+        let spm = p.spm().map_err(|e| ModelError::new_err(format!("{}: {}", params.display(), message(&e))))?;
+        let named = urdf.or_else(|| p.model.as_ref().map(PathBuf::from)).filter(|u| u.exists());
+        let robot = named.map(|u| RobotModel::load(&u).map_err(raise!(ModelError))).transpose()?;
+        Ok(Model { spm, robot: robot.map(Arc::new), params: p, source: params.display().to_string() })
+    }
+
+    /// The MP orientation for joint readings `joints` (`(n, 3)` or `(3,)`, rad) by the working-mode
+    /// FDA: `(n, 4)` quaternions `qw, qx, qy, qz`, or `(n, 3, 3)` matrices with `matrices=True`.
+    /// Raises `KinematicsError` naming the first row without a solution.
+    #[pyo3(signature = (joints, matrices=false))]
+    fn forward<'py>(
+        &self,
+        py: Python<'py>,
+        joints: PyReadonlyArrayDyn<'py, f64>,
+        matrices: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(&joints, "joints")?;
+        let spm = &self.spm;
+        let solved: Result<Vec<Rotation3<f64>>, (usize, String)> =
+            py.detach(|| rows.iter().enumerate().map(|(k, j)| spm.forward(j).map_err(|e| (k, message(&e)))).collect());
+        let rs = solved.map_err(|(k, e)| KinematicsError::new_err(format!("joints row {k}: {e}")))?;
+        Ok(if matrices {
+            let ms: Vec<_> = rs.iter().map(|r| *r.matrix()).collect();
+            matrix_array(py, &ms, single)
+        } else {
+            quaternion_array(py, &rs, single)
+        })
+    }
+
+    /// Joint readings (rad) of the working mode for MP orientations `q` (`(n, 4)` or `(4,)`
+    /// quaternions `qw, qx, qy, qz`).
+    fn ik<'py>(&self, py: Python<'py>, q: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+        let (rs, single) = rotations(&q, "q")?;
+        let spm = &self.spm;
+        let solved: Result<Vec<Vector3<f64>>, (usize, String)> =
+            py.detach(|| rs.iter().enumerate().map(|(k, r)| spm.ik(r).map_err(|e| (k, message(&e)))).collect());
+        let js = solved.map_err(|(k, e)| KinematicsError::new_err(format!("q row {k}: {e}")))?;
+        Ok(rows_array(py, &js, single))
+    }
+
+    /// The FDA tracked along a stream: each row of `joints` solved from the previous solution,
+    /// the first from `previous` (a quaternion): `(n, 4)` quaternions. The haptic loop's call.
+    fn track<'py>(
+        &self,
+        py: Python<'py>,
+        joints: PyReadonlyArrayDyn<'py, f64>,
+        previous: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(&joints, "joints")?;
+        let (start, _) = rotations(&previous, "previous")?;
+        let mut last = start[0];
+        let mut out = Vec::with_capacity(rows.len());
+        for (k, j) in rows.iter().enumerate() {
+            last = self
+                .spm
+                .track(j, &last)
+                .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
+            out.push(last);
+        }
+        Ok(quaternion_array(py, &out, single))
+    }
+
+    /// Every assembly mode (at most 8) for one set of joint readings `(3,)`: `(k, 4)` quaternions,
+    /// nearest home first.
+    fn all_modes<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(&joints, "joints")?;
+        if !single {
+            return Err(FileError::new_err("joints: all_modes takes one set of readings, shape (3,)"));
+        }
+        let modes: Vec<Rotation3<f64>> = self.spm.all_modes(&rows[0]).iter().map(|m| m.rotation).collect();
+        Ok(quaternion_array(py, &modes, false))
+    }
+
+    /// The forward Jacobian `J = A⁻¹B` (joint rates → MP angular velocity) at each row of
+    /// `joints`: `(n, 3, 3)`; NaN at a parallel singularity.
+    fn jacobians<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(&joints, "joints")?;
+        let mut out = Vec::with_capacity(rows.len());
+        for (k, j) in rows.iter().enumerate() {
+            let r = self
+                .spm
+                .forward(j)
+                .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
+            out.push(self.spm.jacobians(j, &r).forward().unwrap_or_else(|| nalgebra::Matrix3::from_element(f64::NAN)));
+        }
+        Ok(matrix_array(py, &out, single))
+    }
+
+    /// The conditioning index (1 isotropic, 0 at a parallel singularity) at each row of `joints`.
+    fn conditioning<'py>(
+        &self,
+        py: Python<'py>,
+        joints: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let (rows, _) = rows3(&joints, "joints")?;
+        let mut out = Array1::<f64>::zeros(rows.len());
+        for (k, j) in rows.iter().enumerate() {
+            let r = self
+                .spm
+                .forward(j)
+                .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
+            out[k] = self.spm.jacobians(j, &r).conditioning();
+        }
+        Ok(out.into_pyarray(py))
+    }
+
+    /// The names of the markers on the MP (the URDF companion's, else the parameters file's).
+    #[getter]
+    fn marker_names(&self) -> Vec<String> {
+        match &self.robot {
+            Some(r) => r.markers.iter().map(|m| m.name.clone()).collect(),
+            None => self.params.markers.iter().map(|m| m.name.clone()).collect(),
+        }
+    }
+
+    /// The parameters file's content (geometry, registration, markers) as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        yaml_to_python(py, &self.params.to_yaml())
+    }
+
+    /// Write the model as a parameters file (atomically).
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        self.params.write(&path).map_err(raise!(FileError))
+    }
+
+    fn __repr__(&self) -> String {
+        let legs: Vec<String> = self
+            .spm
+            .geometry()
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                format!(
+                    "leg{}: alpha1 {:.4}°, alpha2 {:.4}°, u [{:+.4}, {:+.4}, {:+.4}]",
+                    i + 1,
+                    l.alpha1.to_degrees(),
+                    l.alpha2.to_degrees(),
+                    l.u.x,
+                    l.u.y,
+                    l.u.z
+                )
+            })
+            .collect();
+        format!("Model({}; {})", self.source, legs.join("; "))
+    }
+}
+
+/// Rows of three as `(n, 3)`, or `(3,)` for a single row.
+fn rows_array<'py>(py: Python<'py>, rows: &[Vector3<f64>], single: bool) -> Bound<'py, PyAny> {
+    let mut a = Array2::<f64>::zeros((rows.len(), 3));
+    for (k, r) in rows.iter().enumerate() {
+        for i in 0..3 {
+            a[[k, i]] = r[i];
+        }
+    }
+    if single { a.row(0).to_owned().into_pyarray(py).into_any() } else { a.into_pyarray(py).into_any() }
+}
+
+/// YAML text as Python objects (through JSON).
+fn yaml_to_python<'py>(py: Python<'py>, yaml: &str) -> PyResult<Bound<'py, PyAny>> {
+    let value: serde_json::Value = serde_yaml::from_str(yaml).map_err(|e| SpmcalError::new_err(e.to_string()))?;
+    json_to_python(py, &value.to_string())
+}
+
+/// JSON text as Python objects.
+fn json_to_python<'py>(py: Python<'py>, json: &str) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (json,))
+}
+
+/// A session: static poses, sequential captures, a free-motion recording or a ROS 2 bag.
+#[pyclass(module = "spmcal._spmcal", frozen)]
+struct Session {
+    inner: Arc<spmcal::dataset::Session>,
+}
+
+#[pymethods]
+impl Session {
+    /// Load the session at `path` (a session folder, an `.mcap` bag or a bag folder); `model`
+    /// overrides the URDF it names.
+    #[staticmethod]
+    #[pyo3(signature = (path, model=None))]
+    fn load(py: Python<'_>, path: PathBuf, model: Option<PathBuf>) -> PyResult<Session> {
+        let loaded = py.detach(|| spmcal::dataset::Session::load(&path, model.as_deref()));
+        let (session, _) = loaded.map_err(raise!(FileError))?;
+        Ok(Session { inner: Arc::new(session) })
+    }
+
+    /// A static session from arrays already in memory: `joints` `(n, 3)` rad, `markers`
+    /// `(n, m, 3)` m in the camera frame (NaN where a marker was not seen), `marker_names` (m,
+    /// the model's), `model` the URDF. Checked as a session folder is.
+    #[staticmethod]
+    #[pyo3(signature = (joints, markers, marker_names, model, name="arrays".to_string(), poses=None, times=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_arrays(
+        joints: PyReadonlyArrayDyn<'_, f64>,
+        markers: PyReadonlyArrayDyn<'_, f64>,
+        marker_names: Vec<String>,
+        model: PathBuf,
+        name: String,
+        poses: Option<Vec<u64>>,
+        times: Option<Vec<f64>>,
+    ) -> PyResult<Session> {
+        let (rows, _) = rows3(&joints, "joints")?;
+        let m = markers.as_array();
+        let n = rows.len();
+        if m.shape() != [n, marker_names.len(), 3] {
+            return Err(FileError::new_err(format!(
+                "markers: expected shape ({n}, {}, 3) (poses, marker_names, xyz), got {:?}",
+                marker_names.len(),
+                m.shape()
+            )));
+        }
+        let ids = poses.unwrap_or_else(|| (0..n as u64).collect());
+        if ids.len() != n || times.as_ref().is_some_and(|t| t.len() != n) {
+            return Err(FileError::new_err(format!("poses and times must hold {n} values, one per row of joints")));
+        }
+        let mut pose_list = Vec::with_capacity(n);
+        for (k, j) in rows.iter().enumerate() {
+            let seen: Vec<Option<Vector3<f64>>> = (0..marker_names.len())
+                .map(|i| {
+                    let p = Vector3::new(m[[k, i, 0]], m[[k, i, 1]], m[[k, i, 2]]);
+                    p.iter().all(|v| v.is_finite()).then_some(p)
+                })
+                .collect();
+            pose_list.push(spmcal::dataset::SessionPose {
+                id: ids[k],
+                joints: *j,
+                time_s: times.as_ref().map(|t| t[k]),
+                markers: seen,
+                line: k + 1,
+                marker_lines: vec![0; marker_names.len()],
+                station: None,
+            });
+        }
+        let session =
+            spmcal::dataset::Session::from_poses(&name, &model, marker_names, pose_list).map_err(raise!(FileError))?;
+        Ok(Session { inner: Arc::new(session) })
+    }
+
+    /// The session's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name.clone()
+    }
+
+    /// `"static"` or `"free_motion"`.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        if self.inner.streams.is_some() { "free_motion" } else { "static" }
+    }
+
+    /// The URDF the session is read with.
+    #[getter]
+    fn model(&self) -> String {
+        self.inner.model.display().to_string()
+    }
+
+    /// Marker names, in the order of `markers`' second axis.
+    #[getter]
+    fn marker_names(&self) -> Vec<String> {
+        self.inner.markers.clone()
+    }
+
+    /// Pose ids `(n,)` (a free-motion recording: one per camera frame).
+    #[getter]
+    fn poses<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
+        self.inner.poses.iter().map(|p| p.id).collect::<Vec<_>>().into_pyarray(py)
+    }
+
+    /// Joint readings `(n, 3)`, rad.
+    #[getter]
+    fn joints<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        let rows: Vec<Vector3<f64>> = self.inner.poses.iter().map(|p| p.joints).collect();
+        rows_array(py, &rows, false)
+    }
+
+    /// Marker positions `(n, m, 3)`, m, NaN where not seen.
+    #[getter]
+    fn markers<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        let m = self.inner.markers.len();
+        let mut a = Array3::<f64>::from_elem((self.inner.poses.len(), m, 3), f64::NAN);
+        for (k, p) in self.inner.poses.iter().enumerate() {
+            for (i, x) in p.markers.iter().enumerate() {
+                if let Some(x) = x {
+                    for c in 0..3 {
+                        a[[k, i, c]] = x[c];
+                    }
+                }
+            }
+        }
+        a.into_pyarray(py)
+    }
+
+    /// Capture times `(n,)`, s (NaN where none was recorded).
+    #[getter]
+    fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.poses.iter().map(|p| p.time_s.unwrap_or(f64::NAN)).collect::<Vec<_>>().into_pyarray(py)
+    }
+
+    /// Write the session as a folder (CSV), or as a ROS 2 bag when `path` ends in `.mcap`.
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        if path.extension().is_some_and(|x| x == "mcap") {
+            self.inner.write_bag(&path).map_err(raise!(FileError))
+        } else {
+            self.inner.write(&path).map_err(raise!(FileError))
+        }
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.poses.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Session({}, {} {} poses, markers {:?})",
+            self.inner.name,
+            self.inner.poses.len(),
+            self.kind(),
+            self.inner.markers
+        )
+    }
+}
+
+/// The settings of a calibration: `config` (a YAML file, or a dict) with `overrides` on top.
+fn calib_config(
+    py: Python<'_>,
+    config: Option<&Bound<'_, PyAny>>,
+    overrides: Option<&Bound<'_, PyDict>>,
+) -> PyResult<CalibConfig> {
+    let to_value = |obj: &Bound<'_, PyAny>| -> PyResult<serde_yaml::Value> {
+        let json: String = py.import("json")?.call_method1("dumps", (obj,))?.extract()?;
+        serde_json::from_str(&json).map_err(|e| ConfigError::new_err(e.to_string()))
+    };
+    let mut value = match config {
+        None => serde_yaml::Value::Mapping(Default::default()),
+        Some(c) if c.is_instance_of::<PyDict>() => to_value(c)?,
+        Some(c) => {
+            let path: PathBuf = c.extract()?;
+            let text =
+                std::fs::read_to_string(&path).map_err(|e| FileError::new_err(format!("{}: {e}", path.display())))?;
+            serde_yaml::from_str(&text).map_err(|e| FileError::new_err(format!("{}: {e}", path.display())))?
+        }
+    };
+    if let (Some(o), serde_yaml::Value::Mapping(map)) = (overrides, &mut value)
+        && let serde_yaml::Value::Mapping(extra) = to_value(o.as_any())?
+    {
+        map.extend(extra);
+    }
+    let config: CalibConfig = serde_yaml::from_value(value).map_err(|e| ConfigError::new_err(e.to_string()))?;
+    config.check().map_err(|(key, reason)| ConfigError::new_err(format!("`{key}`: {reason}")))?;
+    Ok(config)
+}
+
+/// How long to wait for a background job between checks for Ctrl-C.
+const POLL: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Run `job` on its own thread with the GIL released, checking for signals (Ctrl-C raises
+/// `KeyboardInterrupt` at once; the abandoned job finishes on its own).
+fn interruptible<T: Send + 'static>(py: Python<'_>, job: impl FnOnce() -> T + Send + 'static) -> PyResult<T> {
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = send.send(job());
+    });
+    let mut receive = Some(receive);
+    loop {
+        // The receiver goes with the released thread and comes back (it is not `Sync`).
+        let (back, received) = py.detach(move || {
+            let r = receive.take().expect("returned each round");
+            let received = r.recv_timeout(POLL);
+            (r, received)
+        });
+        receive = Some(back);
+        match received {
+            Ok(value) => return Ok(value),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(SpmcalError::new_err("the calculation ended without a result (it panicked)"));
+            }
+        }
+    }
+}
+
+/// The robot model of a session (or `model`).
+fn robot_of(session: &spmcal::dataset::Session, model: Option<PathBuf>) -> PyResult<Arc<RobotModel>> {
+    let path = model.unwrap_or_else(|| session.model.clone());
+    Ok(Arc::new(RobotModel::load(&path).map_err(raise!(ModelError))?))
+}
+
+/// Calibrate `session` (with the model it names, or `model`): `config` a YAML file or a dict of
+/// `calibrate`'s settings, `overrides` settings on top (e.g. `fit="orientations"`). The fit runs
+/// with the GIL released; Ctrl-C interrupts it.
+#[pyfunction]
+#[pyo3(signature = (session, model=None, config=None, **overrides))]
+fn calibrate(
+    py: Python<'_>,
+    session: &Session,
+    model: Option<PathBuf>,
+    config: Option<&Bound<'_, PyAny>>,
+    overrides: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Calibration> {
+    let config = calib_config(py, config, overrides)?;
+    let robot = robot_of(&session.inner, model)?;
+    let (s, r) = (session.inner.clone(), robot.clone());
+    let result = interruptible(py, move || spmcal::calib::calibrate(&s, &r, &config, &mut |_| {}))?;
+    let calibration = result
+        .map_err(|e| CalibrationError::new_err(format!("calibrating {}: {}", session.inner.name, message(&e))))?;
+    Ok(Calibration { inner: calibration, session: session.inner.clone(), robot })
+}
+
+/// A calibration: the calibrated parameters, the report, the covariance.
+#[pyclass(module = "spmcal._spmcal", frozen)]
+struct Calibration {
+    inner: spmcal::calib::Calibration,
+    session: Arc<spmcal::dataset::Session>,
+    robot: Arc<RobotModel>,
+}
+
+#[pymethods]
+impl Calibration {
+    /// The report, as `spmcal calibrate --json` gives it (`results`).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let json = serde_json::to_string(&self.inner.report).map_err(|e| SpmcalError::new_err(e.to_string()))?;
+        json_to_python(py, &json)
+    }
+
+    /// The calibrated parameters file's content as a dict.
+    #[getter]
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        yaml_to_python(py, &self.inner.parameters.to_yaml())
+    }
+
+    /// The calibrated model.
+    #[getter]
+    fn model(&self) -> PyResult<Model> {
+        let p = &self.inner.parameters;
+        let spm = p.spm().map_err(raise!(ModelError))?;
+        Ok(Model {
+            spm,
+            robot: Some(self.robot.clone()),
+            params: p.clone(),
+            source: format!("calibration of {}", self.session.name),
+        })
+    }
+
+    /// The report's verdict in words: what the cross-validation says of the calibrated model
+    /// against the nominal one.
+    #[getter]
+    fn verdict(&self) -> String {
+        self.inner.report.verdict.summary.clone()
+    }
+
+    /// The calibrated model predicts unseen poses clearly better than the nominal one.
+    #[getter]
+    fn passed(&self) -> bool {
+        self.inner.report.verdict.pass
+    }
+
+    /// The identifiability analysis of the fitted parameters (the report's `identifiability`).
+    #[getter]
+    fn identifiability<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let json = serde_json::to_string(&self.inner.report.identifiability)
+            .map_err(|e| SpmcalError::new_err(e.to_string()))?;
+        json_to_python(py, &json)
+    }
+
+    /// The fitted parameter vector's names (as in the covariance).
+    #[getter]
+    fn parameter_names(&self) -> Vec<String> {
+        self.inner.parameterisation.entries.iter().map(|e| e.name.clone()).collect()
+    }
+
+    /// The parameter vector's covariance `(p, p)` (internal units: rad, m, s; zero rows for held
+    /// parameters).
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let c = &self.inner.covariance;
+        Array2::from_shape_fn((c.nrows(), c.ncols()), |(i, j)| c[(i, j)]).into_pyarray(py)
+    }
+
+    /// Standard errors by parameter name (internal units), for the fitted parameters.
+    #[getter]
+    fn std_errors(&self) -> std::collections::BTreeMap<String, f64> {
+        let c = &self.inner.covariance;
+        self.inner
+            .parameterisation
+            .entries
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| c[(*i, *i)] > 0.0)
+            .map(|(i, e)| (e.name.clone(), c[(i, i)].sqrt()))
+            .collect()
+    }
+
+    /// The predicted RMS orientation error on unseen poses of the session's workspace (degrees):
+    /// the report's `predicted_error_deg.rms`.
+    #[getter]
+    fn predicted_error_deg(&self) -> Option<f64> {
+        self.inner.report.predicted_error_deg.as_ref().map(|e| e.rms)
+    }
+
+    /// Each pose's error against the camera before (nominal) and after (calibrated), as `compare`
+    /// measures them: `{"poses", "nominal", "calibrated", "unit"}` (arrays over the poses both
+    /// sets predict).
+    fn errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let nominal = Parameters::nominal(&self.robot.spm, None);
+        let sets = vec![("nominal".to_string(), nominal), ("calibrated".to_string(), self.inner.parameters.clone())];
+        let compared = spmcal::compare::compare(&self.session, &self.robot, &sets, Method::Kabsch, None)
+            .map_err(raise!(CompareError))?;
+        let after: std::collections::HashMap<u64, f64> = compared[1].per_pose.iter().copied().collect();
+        let (mut ids, mut before_v, mut after_v) = (Vec::new(), Vec::new(), Vec::new());
+        for (id, e) in &compared[0].per_pose {
+            if let Some(a) = after.get(id) {
+                ids.push(*id);
+                before_v.push(*e);
+                after_v.push(*a);
+            }
+        }
+        let out = PyDict::new(py);
+        out.set_item("poses", ids.into_pyarray(py))?;
+        out.set_item("nominal", before_v.into_pyarray(py))?;
+        out.set_item("calibrated", after_v.into_pyarray(py))?;
+        out.set_item("unit", compared[0].unit)?;
+        Ok(out)
+    }
+
+    /// Write the calibrated parameters file (atomically), as `spmcal calibrate --out` does.
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        self.inner.parameters.write(&path).map_err(raise!(FileError))
+    }
+
+    fn __repr__(&self) -> String {
+        let predicted = self.predicted_error_deg().map_or("none".to_string(), |e| format!("{e:.4} deg"));
+        let passed = if self.passed() { "True" } else { "False" };
+        format!("Calibration({}, passed={passed}, predicted error {predicted})", self.session.name)
+    }
+}
+
+/// Compare parameter sets against the camera on `session`: `params` a list of parameters files
+/// (the nominal model is always first). One dict per set, as `spmcal compare --json` gives them.
+#[pyfunction]
+#[pyo3(signature = (session, params=Vec::new(), model=None))]
+fn compare<'py>(
+    py: Python<'py>,
+    session: &Session,
+    params: Vec<PathBuf>,
+    model: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let robot = robot_of(&session.inner, model)?;
+    let mut sets = vec![("nominal".to_string(), Parameters::nominal(&robot.spm, None))];
+    for path in &params {
+        sets.push((path.display().to_string(), Parameters::read(path).map_err(raise!(FileError))?));
+    }
+    let compared = py
+        .detach(|| spmcal::compare::compare(&session.inner, &robot, &sets, Method::Kabsch, None))
+        .map_err(raise!(CompareError))?;
+    json_to_python(py, &serde_json::to_string(&compared).map_err(|e| SpmcalError::new_err(e.to_string()))?)
+}
+
+/// Simulate a session with ground truth from the settings file `config` (`seed`, `poses`
+/// override it); written to `out` when given.
+#[pyfunction]
+#[pyo3(signature = (config, out=None, seed=None, poses=None))]
+fn simulate(
+    py: Python<'_>,
+    config: PathBuf,
+    out: Option<PathBuf>,
+    seed: Option<u64>,
+    poses: Option<usize>,
+) -> PyResult<Session> {
+    let mut c = spmcal::sim::SimConfig::read(&config).map_err(raise!(FileError))?;
+    c.seed = seed.unwrap_or(c.seed);
+    c.poses = poses.unwrap_or(c.poses);
+    c.check().map_err(|(key, reason)| ConfigError::new_err(format!("{}: `{key}`: {reason}", config.display())))?;
+    let robot = RobotModel::load(&c.model).map_err(raise!(ModelError))?;
+    let (session, _) = interruptible(py, move || c.simulate(&robot, &mut |_| {}))?.map_err(raise!(SimulationError))?;
+    if let Some(dir) = out {
+        session.write(&dir).map_err(raise!(FileError))?;
+    }
+    Ok(Session { inner: Arc::new(session) })
+}
+
+/// Write the calibrated URDF of the parameters file `params` at `urdf` (its companion beside it),
+/// copied from `model` (default: the parameters' model). Returns the warnings.
+#[pyfunction]
+#[pyo3(signature = (params, urdf, model=None))]
+fn export(params: PathBuf, urdf: PathBuf, model: Option<PathBuf>) -> PyResult<Vec<String>> {
+    let p = Parameters::read(&params).map_err(raise!(FileError))?;
+    let model_path = model
+        .or_else(|| p.model.as_ref().map(PathBuf::from))
+        .ok_or_else(|| ModelError::new_err(format!("{}: names no model: pass model=", params.display())))?;
+    if same_file(&model_path, &urdf) || same_file(&params, &urdf) {
+        return Err(FileError::new_err(format!(
+            "{}: is an input of this call: refusing to overwrite it",
+            urdf.display()
+        )));
+    }
+    let robot = RobotModel::load(&model_path).map_err(raise!(ModelError))?;
+    let provenance = [format!("Calibrated model exported by spmcal (Python) from {}", params.display())];
+    let exported = spmcal::model::export(&robot, &p, &provenance).map_err(raise!(ModelError))?;
+    let companion = RobotModel::companion_path(&urdf);
+    std::fs::write(&urdf, &exported.urdf).map_err(|e| FileError::new_err(format!("{}: {e}", urdf.display())))?;
+    std::fs::write(&companion, &exported.companion)
+        .map_err(|e| FileError::new_err(format!("{}: {e}", companion.display())))?;
+    Ok(exported.warnings)
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// Plan `poses` poses for the model at `model` (default the shipped Agile Wrist) with the
+/// simulation settings `config` (workspace, camera, noise): `(summary dict, (poses, 4) quaternions,
+/// (poses, 3) joints)` in capture order.
+#[pyfunction]
+#[pyo3(signature = (poses, model=PathBuf::from("models/agile_wrist.urdf"), config=None, candidates=2000))]
+fn plan<'py>(
+    py: Python<'py>,
+    poses: usize,
+    model: PathBuf,
+    config: Option<PathBuf>,
+    candidates: usize,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let robot = RobotModel::load(&model).map_err(raise!(ModelError))?;
+    let sim = match &config {
+        Some(path) => spmcal::sim::SimConfig::read(path).map_err(raise!(FileError))?,
+        None => spmcal::sim::SimConfig::default(),
+    };
+    let settings = spmcal::plan::PlanSettings { poses, candidates, ..Default::default() };
+    let planned = interruptible(py, move || spmcal::plan::Plan::design(&robot, None, &sim, &settings, None))?
+        .map_err(raise!(PlanError))?;
+    let summary =
+        json_to_python(py, &serde_json::to_string(&planned.summary).map_err(|e| SpmcalError::new_err(e.to_string()))?)?;
+    let rs: Vec<Rotation3<f64>> = planned.poses.iter().map(|p| p.rotation).collect();
+    let js: Vec<Vector3<f64>> = planned.poses.iter().map(|p| p.joints).collect();
+    Ok((summary, quaternion_array(py, &rs, false), rows_array(py, &js, false)))
+}
+
+/// The module.
+#[pymodule]
+fn _spmcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add_class::<Model>()?;
+    m.add_class::<Session>()?;
+    m.add_class::<Calibration>()?;
+    m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(export, m)?)?;
+    m.add_function(wrap_pyfunction!(plan, m)?)?;
+    for (name, class) in [
+        ("SpmcalError", py.get_type::<SpmcalError>()),
+        ("FileError", py.get_type::<FileError>()),
+        ("ModelError", py.get_type::<ModelError>()),
+        ("KinematicsError", py.get_type::<KinematicsError>()),
+        ("ConfigError", py.get_type::<ConfigError>()),
+        ("CalibrationError", py.get_type::<CalibrationError>()),
+        ("CompareError", py.get_type::<CompareError>()),
+        ("PlanError", py.get_type::<PlanError>()),
+        ("SimulationError", py.get_type::<SimulationError>()),
+    ] {
+        m.add(name, class)?;
+    }
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
