@@ -129,3 +129,22 @@ def test_a_bag_and_a_simulation_are_sessions(tmp_path: Path) -> None:
     assert q.shape == (12, 4) and joints.shape == (12, 3) and summary["poses"] == 12
     compared = spmcal.compare(back)
     assert compared[0]["label"] == "nominal"
+
+
+def test_ctrl_c_interrupts_a_long_calibration_at_once() -> None:
+    import os
+    import signal
+
+    session = spmcal.Session.load("datasets/agile_wrist_free_motion_120s")
+    start = time.perf_counter()
+    spmcal.calibrate(session)
+    full = time.perf_counter() - start
+    timer = threading.Timer(0.02, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    start = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        spmcal.calibrate(session)
+    interrupted = time.perf_counter() - start
+    timer.join()
+    # The wait polls for signals every 50 ms: back well before the fit would have ended.
+    assert interrupted < 0.02 + 0.1 < full, (interrupted, full)
