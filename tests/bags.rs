@@ -10,6 +10,9 @@ use spmcal::calib::{CalibConfig, calibrate};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
 
+#[path = "common/outside_tool.rs"]
+mod outside_tool;
+
 const MODEL: &str = "models/agile_wrist.urdf";
 
 /// A plain-CDR encoder (the layout of the OMG spec, alignment from after the 4-byte header).
@@ -310,14 +313,10 @@ with Writer('{}', version=8, storage_plugin=StoragePlugin.MCAP) as w:
     match status {
         Ok(o) if o.status.success() => {}
         Ok(o) if String::from_utf8_lossy(&o.stderr).contains("No module named 'rosbags'") => {
-            eprintln!("SKIPPED: Python's `rosbags` is not installed (pip install rosbags)");
-            return;
+            return outside_tool::missing("Python's `rosbags`", "pip install rosbags");
         }
         Ok(o) => panic!("rosbags failed: {}", String::from_utf8_lossy(&o.stderr)),
-        Err(e) => {
-            eprintln!("SKIPPED: no python3 ({e})");
-            return;
-        }
+        Err(_) => return outside_tool::missing("python3", "install Python 3 with pip install rosbags"),
     }
     let (session, _) = Session::load(&dir.join("bag"), Some(Path::new(MODEL))).unwrap();
     let streams = session.streams.as_ref().expect("a free-motion recording");

@@ -362,11 +362,15 @@ mod tests {
             "multiplicative φ = {:.6e} ({} iterations), cone program φ = {:.6e} (equivalence ratio {:.5})",
             design.criterion, design.iterations, cone.criterion, cone.equivalence_ratio
         );
-        // Both optimal: criteria agree within the theorem's bound plus clarabel's tolerance (1e-8
-        // relative gap; its weights' own equivalence ratio shows how well it converged).
+        // Both near the optimum, each within its own equivalence ratio of it (the theorem's
+        // bound: φ(w) − φ* ≤ (ratio − 1) φ(w)); the cone program's weights are as good as
+        // clarabel's interior point leaves them (ratio 1.0015 here since the workspace weighting
+        // leaves out the common rotations and so is singular), and must be close to optimal too.
+        assert!(cone.equivalence_ratio < 1.01, "{}", cone.equivalence_ratio);
+        let bound = (design.equivalence_ratio - 1.0).max(0.0) + (cone.equivalence_ratio - 1.0).max(0.0);
         assert!(
-            (design.criterion - cone.criterion).abs() <= 2e-4 * cone.criterion,
-            "{} vs {}",
+            (design.criterion - cone.criterion).abs() <= bound * cone.criterion,
+            "{} vs {} (bound {bound})",
             design.criterion,
             cone.criterion
         );
