@@ -3,6 +3,7 @@
 mod bag;
 mod joints;
 mod markers;
+mod open;
 mod orientations;
 mod session;
 mod streams;

@@ -167,31 +167,12 @@ impl Session {
         Session { poses, reference_pose, truth, ..self.clone() }
     }
 
-    /// Load and validate the session in `dir` — a session folder, or a ROS 2 bag (an `.mcap`
-    /// file or a bag folder, read with the `spmcal.yaml` mapping beside it); `model` overrides
-    /// the one named in `session.yaml` (or the mapping).
+    /// Load and validate the session folder `dir`; `model` overrides the one named in
+    /// `session.yaml`. ([`Session::load`] reads bags too.)
     ///
     /// # Errors
-    /// A [`FileError`] naming the file, line and column (or YAML key, or bag topic and message)
-    /// of the first problem.
-    pub fn load(dir: &Path, model: Option<&Path>) -> Result<(Session, Vec<Warning>), FileError> {
-        Session::load_with_progress(dir, model, &mut |_, _| {})
-    }
-
-    /// [`Session::load`], also reading ROS 2 bags (an `.mcap` file, or a bag folder: DESIGN.md),
-    /// with `progress` told the bytes of a bag read so far and its size.
-    ///
-    /// # Errors
-    /// A [`FileError`] naming the file, line and column (or YAML key, or bag topic and message)
-    /// of the first problem.
-    pub fn load_with_progress(
-        dir: &Path,
-        model: Option<&Path>,
-        progress: &mut dyn FnMut(u64, u64),
-    ) -> Result<(Session, Vec<Warning>), FileError> {
-        if super::bag::is_bag(dir) {
-            return super::bag::load(dir, model, progress);
-        }
+    /// A [`FileError`] naming the file, line and column (or YAML key) of the first problem.
+    pub(crate) fn load_folder(dir: &Path, model: Option<&Path>) -> Result<(Session, Vec<Warning>), FileError> {
         let yaml_path = dir.join("session.yaml");
         let (file, keys) = crate::io::yaml::read::<SessionFile>(&yaml_path)?;
         let at = |key: &str, reason: String| keys.error(&yaml_path, key, reason);
@@ -293,18 +274,6 @@ impl Session {
             truth: None,
             streams: None,
         })
-    }
-
-    /// Write the session as a ROS 2 bag (one MCAP file at `path`, written atomically): joint
-    /// states on `/joint_states` (`theta1..3`, rad), marker points on `/markers` named by
-    /// `header.frame_id` — what [`Session::load`] reads back without a mapping file, to the
-    /// nanosecond. A free-motion recording goes as its two streams; a static pose as the joints
-    /// resting for 0.1 s with its markers (stations and the truth are not carried).
-    ///
-    /// # Errors
-    /// A [`FileError`] when a time cannot be a ROS stamp (negative) or the file cannot be written.
-    pub fn write_bag(&self, path: &Path) -> Result<(), FileError> {
-        super::bag::write(self, path)
     }
 
     /// The session as a perfect camera would have reported it: every marker position (the poses'
