@@ -28,8 +28,8 @@ fn a_plan_predicts_what_calibrating_on_it_achieves_and_beats_twice_as_many_rando
     assert_eq!(planned.poses.len(), 40);
     // Rounding to 40 distinct poses keeps most of the continuous optimum's value.
     assert!(s.efficiency > 0.85 && s.efficiency <= 1.0 + 1e-9, "{}", s.efficiency);
-    // On the report's definition (common rotations left out) the plan predicts 0.56× the error of
-    // 40 random poses (0.0213° vs 0.0383°): well under two thirds.
+    // On the report's definition (common rotations left out) the plan predicts 0.55× the error of
+    // 40 random poses (0.0225° vs 0.0409°): well under two thirds.
     assert!(s.plan.rms_deg < 0.65 * s.random.rms_deg, "{:?} vs {:?}", s.plan, s.random);
     assert!(s.random_poses_needed.unwrap() >= 80, "{:?}", s.random_poses_needed);
     // Calibrated on 10 true geometries: the plan's 40 poses against 80 random ones.
@@ -42,13 +42,11 @@ fn a_plan_predicts_what_calibrating_on_it_achieves_and_beats_twice_as_many_rando
     let (achieved, random) = (errors(40, Some(&rotations)), errors(80, None));
     eprintln!("plan: predicted {:.4}°, achieved {achieved:.4}°; 80 random poses {random:.4}°", s.plan.rms_deg);
     assert!(achieved < random, "{achieved} vs {random}");
-    // The prediction is the expected RMS at the nominal geometry; the study (examples/plan_study,
-    // 20 geometries per row) measures it 14–19% below the achieved error at every N — for random
-    // designs too (0.0383° predicted, 0.0474° achieved by 40 random poses), while each
-    // calibration's own covariance predicts its fresh-pose error to 8% — and 10 geometries
-    // estimate an RMS to about ±10%: achieved within 0.95–1.45× the prediction.
-    let ratio = achieved / s.plan.rms_deg;
-    assert!((0.95..1.45).contains(&ratio), "{achieved} vs {}", s.plan.rms_deg);
+    // The prediction is the expected RMS at the nominal geometry, over the workspace the
+    // simulator accepts; the study (examples/plan_study, 40 geometries per row) measures it 2–3%
+    // below the achieved error at every N, and 10 geometries estimate an RMS to about ±10%
+    // (measured spread): within 20%.
+    assert!((achieved / s.plan.rms_deg - 1.0).abs() < 0.2, "{achieved} vs {}", s.plan.rms_deg);
 }
 
 #[test]

@@ -26,19 +26,9 @@ pub fn calibrated_error(
     c.plan = plan.map(<[_]>::to_vec);
     let (session, _) = c.simulate(model, &mut |_| {}).ok()?;
     let truth = session.truth.as_ref()?;
-    let spm = truth.parameters.spm().ok()?;
-    // The workspace the plan predicts over: poses a session may capture (away from the
-    // singularities the simulator and the plan's candidates avoid).
-    let w = &config.workspace;
-    let tests: Vec<Rotation3<f64>> = efficiency::test_orientations(&spm, 240, seed ^ 0x5eed)
-        .into_iter()
-        .filter(|r| {
-            let joints = spm.ik(r).expect("test orientations are reachable");
-            spm.jacobians(&joints, r).conditioning() >= w.min_conditioning
-                && spm.branch_margins(&joints, r).max() <= -w.min_branch_margin
-        })
-        .take(60)
-        .collect();
+    // The workspace the plan predicts over: poses a session may capture, as the simulator accepts
+    // them on the true mechanism (reachable, away from singularities, no collisions).
+    let tests = config.workspace_orientations(model, &truth.parameters.spm().ok()?, 60, seed ^ 0x5eed);
     let fit = calibrate(&session, model, &CalibConfig { folds: 0, ..CalibConfig::default() }, &mut |_| {}).ok()?;
     Some(efficiency::calibration_error_up_to_common_rotations(&session, &fit, &tests))
 }

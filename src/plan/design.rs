@@ -350,7 +350,7 @@ mod tests {
             &names,
             &CalibConfig::default().bounds,
         );
-        let info = Information::of(&p, &camera, &pool, &config.camera.stereo_noise()).unwrap();
+        let info = Information::of(&p, &camera, &pool, &pool, &config.camera.stereo_noise()).unwrap();
         let zero = nalgebra::DMatrix::zeros(p.len(), p.len());
         let design = multiplicative(&info.per_candidate, &info.workspace, &zero, 1e-4, 100_000);
         // The general equivalence theorem: no candidate's directional derivative exceeds the

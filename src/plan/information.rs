@@ -28,14 +28,15 @@ pub(crate) struct Information {
     pub(crate) sensitivities: Vec<DMatrix<f64>>,
     /// `G̃_c` per candidate: `G_c` less the rotations common to the workspace.
     pub(crate) projected: Vec<DMatrix<f64>>,
-    /// `L = mean_c G̃_cᵀ G̃_c` (p × p).
+    /// `L = mean_e G̃_eᵀ G̃_e` over the workspace's poses (p × p).
     pub(crate) workspace: DMatrix<f64>,
 }
 
 impl Information {
     /// The information of each candidate's visible markers under `noise`, and the workspace
-    /// weighting, at `x = 0` of `p` (the parameters planned around); `camera` places the markers
-    /// in the camera frame as the model predicts them.
+    /// weighting over the poses `workspace` (where the accuracy counts: the workspace's poses
+    /// without the candidates' safety margin), at `x = 0` of `p` (the parameters planned
+    /// around); `camera` places the markers in the camera frame as the model predicts them.
     ///
     /// # Errors
     /// The model cannot be evaluated at a candidate (in words).
@@ -43,6 +44,7 @@ impl Information {
         p: &Parameterisation,
         camera: &CameraRegistration,
         candidates: &[Candidate],
+        workspace: &[Candidate],
         noise: &StereoNoise,
     ) -> Result<Information, EvalError> {
         let x0 = DVector::zeros(p.len());
@@ -67,22 +69,43 @@ impl Information {
         for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise)? {
             per_candidate[c as usize] = m;
         }
-        // One observation per candidate gives every candidate's orientation sensitivity, seen or not.
-        let every: Vec<MarkerObservation> = (0..candidates.len()).map(|c| observation(c, 0)).collect();
-        let sensitivities =
-            MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default(); // always there when the Jacobian is asked for
-        let rotations: Vec<_> = candidates.iter().map(|c| c.rotation).collect();
-        let every_column = vec![true; p.len()];
-        let projected: Vec<DMatrix<f64>> = match common_rotations(&sensitivities, &rotations, &every_column) {
-            Some(common) => sensitivities.iter().zip(&rotations).map(|(g, r)| common.project(g, r)).collect(),
-            None => sensitivities.clone(),
+        // One observation per pose gives every pose's orientation sensitivity, seen or not.
+        let sensitivities_of = |poses: &[Candidate]| -> Result<Vec<DMatrix<f64>>, EvalError> {
+            let every: Vec<MarkerObservation> = poses
+                .iter()
+                .enumerate()
+                .map(|(k, c)| MarkerObservation {
+                    pose: k as u64,
+                    marker: 0,
+                    joints: c.joints,
+                    measured: nalgebra::Vector3::zeros(),
+                    line: 0,
+                    station: None,
+                    time_s: None,
+                })
+                .collect();
+            // Always there when the Jacobian is asked for.
+            Ok(MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default())
         };
-        let mut workspace = DMatrix::zeros(p.len(), p.len());
-        for g in &projected {
-            workspace += g.transpose() * g;
+        let sensitivities = sensitivities_of(candidates)?;
+        let in_workspace = sensitivities_of(workspace)?;
+        let rotations: Vec<_> = workspace.iter().map(|c| c.rotation).collect();
+        let every_column = vec![true; p.len()];
+        // The rotations common to every pose of the workspace, projected out of each pose.
+        let common = common_rotations(&in_workspace, &rotations, &every_column);
+        let project = |s: &[DMatrix<f64>], poses: &[Candidate]| -> Vec<DMatrix<f64>> {
+            match &common {
+                Some(common) => s.iter().zip(poses).map(|(g, c)| common.project(g, &c.rotation)).collect(),
+                None => s.to_vec(),
+            }
+        };
+        let projected = project(&sensitivities, candidates);
+        let mut weighting = DMatrix::zeros(p.len(), p.len());
+        for g in project(&in_workspace, workspace) {
+            weighting += g.transpose() * &g;
         }
-        workspace /= candidates.len().max(1) as f64;
-        Ok(Information { per_candidate, sensitivities, projected, workspace })
+        weighting /= workspace.len().max(1) as f64;
+        Ok(Information { per_candidate, sensitivities, projected, workspace: weighting })
     }
 }
 

@@ -253,6 +253,13 @@ impl Plan {
         if pool.len() < settings.poses.max(2) {
             return Err(PlanError::TooFewCandidates { found: pool.len(), wanted: settings.poses });
         }
+        // Where the accuracy counts: the workspace's poses as the simulator accepts them, without
+        // the candidates' safety margin (the edges a plan keeps away from are still worked in).
+        let workspace = if settings.margin_deg > 0.0 {
+            Candidate::draw(config, model, &spm, &camera, &markers, settings.candidates.min(WORKSPACE_POSES), 0.0)
+        } else {
+            pool.clone()
+        };
         if let Some(&k) = information::unseen_markers(&pool, markers.len()).first() {
             return Err(PlanError::UnseenMarker(names[k].clone()));
         }
@@ -267,7 +274,7 @@ impl Plan {
             let camera_model = params.camera_model.with_kind(kind);
             let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &bounds)
                 .with_camera_model(camera_model, bounds.camera_term);
-            let info = Information::of(&p, &camera, &pool, &noise).map_err(crate::calib::SetError::Eval)?;
+            let info = Information::of(&p, &camera, &pool, &workspace, &noise).map_err(crate::calib::SetError::Eval)?;
             let prior = match augment {
                 Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
                 None => DMatrix::zeros(p.len(), p.len()),
@@ -452,6 +459,9 @@ fn session_information(
 /// Up to this many candidates (and no session to augment) the continuous design comes from the
 /// cone program (a few seconds at 150); beyond, from the multiplicative algorithm.
 const CONE_PROGRAM_MAX_CANDIDATES: usize = 150;
+
+/// Poses that sample the workspace for the plan's weighting (when the candidates keep a margin).
+const WORKSPACE_POSES: usize = 2000;
 
 /// Random designs whose worst workspace error is averaged.
 const WORST_DRAWS: usize = 10;

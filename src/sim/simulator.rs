@@ -284,6 +284,26 @@ struct Simulator<'a> {
 }
 
 impl SimConfig {
+    /// Up to `count` orientations of this config's workspace for the mechanism `spm` (of `model`,
+    /// with its markers and the camera looking down): drawn as [`SimConfig::simulate`] draws its
+    /// poses (seeded by `seed`) and kept when they pass its checks — reachable in the working
+    /// mode, away from singularities, no link collisions. The workspace a calibration's accuracy
+    /// is predicted over (`plan`) and scored over (the studies).
+    pub fn workspace_orientations(
+        &self,
+        model: &RobotModel,
+        spm: &Spm,
+        count: usize,
+        seed: u64,
+    ) -> Vec<Rotation3<f64>> {
+        let config = SimConfig { seed, ..self.clone() };
+        let markers: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
+        Candidate::draw(&config, model, spm, &self.camera.looking_down(), &markers, count, 0.0)
+            .into_iter()
+            .map(|c| c.rotation)
+            .collect()
+    }
+
     /// Simulate a session with this config on `model`, with the counts of what was rejected,
     /// occluded and drawn as an outlier; `progress` is told the number of poses made so far.
     /// Deterministic for a seed.
