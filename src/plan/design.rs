@@ -56,9 +56,22 @@ pub(crate) fn multiplicative(
     tolerance: f64,
     max_iterations: usize,
 ) -> ContinuousDesign {
+    multiplicative_from(info, l, m0, vec![1.0 / info.len() as f64; info.len()], tolerance, max_iterations)
+}
+
+/// [`multiplicative`] from the weights `start` (summing to 1; zero weights start inactive and
+/// come back only through the final check): the polish of another solver's design.
+pub(crate) fn multiplicative_from(
+    info: &[DMatrix<f64>],
+    l: &DMatrix<f64>,
+    m0: &DMatrix<f64>,
+    start: Vec<f64>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> ContinuousDesign {
     let n = info.len();
-    let mut w = vec![1.0 / n as f64; n];
-    let mut active: Vec<usize> = (0..n).collect();
+    let mut w = start;
+    let mut active: Vec<usize> = (0..n).filter(|&c| w[c] > 0.0).collect();
     let mut iterations = 0;
     loop {
         let m = weighted_sum(info, &w, m0);

@@ -298,10 +298,26 @@ impl Plan {
         let by_cone = (augment.is_none() && pool.len() <= CONE_PROGRAM_MAX_CANDIDATES)
             .then(|| cone_program(&info.per_candidate, l).ok())
             .flatten();
-        let solver = if by_cone.is_some() { "cone program (clarabel)" } else { "multiplicative algorithm" };
-        let continuous = by_cone.unwrap_or_else(|| {
-            multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations)
-        });
+        let (solver, continuous) = match by_cone {
+            Some(c) if c.equivalence_ratio <= 1.0 + settings.tolerance => ("cone program (clarabel)", c),
+            // Clarabel's interior point can stop short of the equivalence bound (the workspace
+            // weighting leaves out the common rotations and is singular): polish its weights.
+            Some(c) => {
+                let polished = design::multiplicative_from(
+                    &info.per_candidate,
+                    l,
+                    &prior,
+                    c.weights,
+                    settings.tolerance,
+                    settings.max_iterations,
+                );
+                ("cone program (clarabel), polished by the multiplicative algorithm", polished)
+            }
+            None => (
+                "multiplicative algorithm",
+                multiplicative(&info.per_candidate, l, &prior, settings.tolerance, settings.max_iterations),
+            ),
+        };
         let chosen = exact(&info.per_candidate, l, &prior, n, &continuous.weights);
         let m_plan = information_of(&info.per_candidate, &prior, &chosen.chosen);
         let m_continuous = design::weighted_sum(&info.per_candidate, &continuous.weights, &prior) * n as f64;
