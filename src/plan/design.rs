@@ -342,7 +342,7 @@ fn csc(rows: usize, columns: usize, mut triplets: Vec<(usize, usize, f64)>) -> c
 mod tests {
     use std::path::Path;
 
-    use super::{cone_program, multiplicative};
+    use super::{cone_program, multiplicative, multiplicative_from};
     use crate::calib::{CalibConfig, Parameterisation};
     use crate::model::RobotModel;
     use crate::plan::Information;
@@ -380,6 +380,10 @@ mod tests {
         // clarabel's interior point leaves them (ratio 1.0015 here since the workspace weighting
         // leaves out the common rotations and so is singular), and must be close to optimal too.
         assert!(cone.equivalence_ratio < 1.01, "{}", cone.equivalence_ratio);
+        // The polish of `Plan::design` takes the cone program's weights to the tolerance.
+        let polished =
+            multiplicative_from(&info.per_candidate, &info.workspace, &zero, cone.weights.clone(), 1e-4, 100_000);
+        assert!(polished.equivalence_ratio <= 1.0 + 1e-4 && polished.criterion <= cone.criterion, "{polished:?}");
         let bound = (design.equivalence_ratio - 1.0).max(0.0) + (cone.equivalence_ratio - 1.0).max(0.0);
         assert!(
             (design.criterion - cone.criterion).abs() <= bound * cone.criterion,
@@ -388,5 +392,9 @@ mod tests {
             cone.criterion
         );
         assert!(cone.equivalence_ratio < 1.01, "{}", cone.equivalence_ratio);
+        // The polish of `Plan::design` takes the cone program's weights to the tolerance.
+        let polished =
+            multiplicative_from(&info.per_candidate, &info.workspace, &zero, cone.weights.clone(), 1e-4, 100_000);
+        assert!(polished.equivalence_ratio <= 1.0 + 1e-4 && polished.criterion <= cone.criterion, "{polished:?}");
     }
 }
