@@ -22,7 +22,7 @@ pub struct Accuracy {
     pub dof_deg: f64,
     /// Achieved against the truth at the session's own poses (its workspace), degrees.
     pub achieved_deg: f64,
-    /// Achieved over fresh poses drawn uniformly from the workspace (tilt, yaw ≤ 30°), degrees.
+    /// Achieved over fresh poses of the whole workspace (as the simulator accepts them), degrees.
     pub fresh_deg: f64,
     /// The report's predicted RMS marker error, mm.
     pub predicted_mm: f64,
@@ -57,7 +57,8 @@ pub fn run(config: &SimConfig, model: &RobotModel, seed: u64, tests: usize) -> A
             last = Some(o.pose);
         }
     }
-    let fresh: Vec<Vector3<f64>> = crate::study::test_orientations(&spm_true, tests, seed ^ 0xacc)
+    let fresh: Vec<Vector3<f64>> = config
+        .workspace_orientations(model, &spm_true, tests, seed ^ 0xacc)
         .iter()
         .map(|r| spm_true.ik(r).expect("reachable"))
         .collect();

@@ -27,7 +27,7 @@ fn main() {
         ("free motion, 2 min", "configs/simulate_agile_wrist_free_motion.yaml", None),
     ];
     println!(
-        "| session | sessions | predicted (°) | achieved (°) | pooled ratio ± s.e. | per-session ratio mean [min, max] | effective dof | achieved inside the 90% interval | fresh uniform poses (°) | predicted (mm) | achieved (mm) | pooled ratio ± s.e. | per-session ratio mean [min, max] | inside the 90% interval |"
+        "| session | sessions | predicted (°) | achieved (°) | pooled ratio ± s.e. | per-session ratio mean [min, max] | effective dof | achieved inside the 90% interval | fresh workspace poses (°) | predicted (mm) | achieved (mm) | pooled ratio ± s.e. | per-session ratio mean [min, max] | inside the 90% interval |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut z: Vec<(Group, f64)> = Vec::new();

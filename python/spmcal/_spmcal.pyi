@@ -116,5 +116,13 @@ def compare(session: Session, params: list[_Path] = ..., model: Optional[_Path] 
 def simulate(config: _Path, out: Optional[_Path] = None, seed: Optional[int] = None, poses: Optional[int] = None) -> Session: ...
 def export(params: _Path, urdf: _Path, model: Optional[_Path] = None) -> list[str]: ...
 def plan(
-    poses: int, model: _Path = "models/agile_wrist.urdf", config: Optional[_Path] = None, candidates: int = 2000
-) -> tuple[dict[str, Any], _Array, _Array]: ...
+    poses: int,
+    model: _Path = "models/agile_wrist.urdf",
+    params: Optional[_Path] = None,
+    config: Optional[_Path] = None,
+    candidates: int = 2000,
+    margin_deg: float = 2.0,
+    camera_model: str = "depth_scale",
+    augment: Optional[Session] = None,
+) -> tuple[dict[str, Any], _Array, _Array]:
+    """Plan `poses` poses as `spmcal plan`: (summary, (poses, 4) quaternions, (poses, 3) joints)."""

@@ -15,7 +15,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use spmcal::calib::CalibConfig;
-use spmcal::model::{Parameters, RobotModel, Spm};
+use spmcal::model::{CameraModelKind, Parameters, RobotModel, Spm};
 use spmcal::vision::Method;
 
 create_exception!(_spmcal, SpmcalError, PyException, "Base class of every spmcal error.");
@@ -763,26 +763,51 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Plan `poses` poses for the model at `model` (default the shipped Agile Wrist) with the
-/// simulation settings `config` (workspace, camera, noise): `(summary dict, (poses, 4) quaternions,
-/// (poses, 3) joints)` in capture order.
+/// Plan `poses` poses for the model at `model` (default the shipped Agile Wrist), or the
+/// parameters file `params`, with the simulation settings `config` (workspace, camera, noise),
+/// as `spmcal plan` does (`candidates`, `margin_deg`, `camera_model`, `augment` a session the plan
+/// adds to): `(summary dict, (poses, 4) quaternions, (poses, 3) joints)` in capture order.
 #[pyfunction]
-#[pyo3(signature = (poses, model=PathBuf::from("models/agile_wrist.urdf"), config=None, candidates=2000))]
+#[pyo3(signature = (
+    poses,
+    model=PathBuf::from("models/agile_wrist.urdf"),
+    params=None,
+    config=None,
+    candidates=2000,
+    margin_deg=2.0,
+    camera_model="depth_scale",
+    augment=None,
+))]
+#[allow(clippy::too_many_arguments)]
 fn plan<'py>(
     py: Python<'py>,
     poses: usize,
     model: PathBuf,
+    params: Option<PathBuf>,
     config: Option<PathBuf>,
     candidates: usize,
+    margin_deg: f64,
+    camera_model: &str,
+    augment: Option<&Session>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     let robot = RobotModel::load(&model).map_err(raise!(ModelError))?;
+    let params = params.map(|p| Parameters::read(&p).map_err(raise!(FileError))).transpose()?;
     let sim = match &config {
         Some(path) => spmcal::sim::SimConfig::read(path).map_err(raise!(FileError))?,
         None => spmcal::sim::SimConfig::default(),
     };
-    let settings = spmcal::plan::PlanSettings { poses, candidates, ..Default::default() };
-    let planned = interruptible(py, move || spmcal::plan::Plan::design(&robot, None, &sim, &settings, None))?
-        .map_err(raise!(PlanError))?;
+    let camera_model = [CameraModelKind::Rigid, CameraModelKind::DepthScale, CameraModelKind::Affine]
+        .into_iter()
+        .find(|k| k.name() == camera_model)
+        .ok_or_else(|| {
+            ConfigError::new_err(format!("camera_model: `{camera_model}` is not rigid, depth_scale or affine"))
+        })?;
+    let settings = spmcal::plan::PlanSettings { poses, candidates, margin_deg, camera_model, ..Default::default() };
+    let augment = augment.map(|s| s.inner.clone());
+    let planned = interruptible(py, move || {
+        spmcal::plan::Plan::design(&robot, params.as_ref(), &sim, &settings, augment.as_deref())
+    })?
+    .map_err(raise!(PlanError))?;
     let summary =
         json_to_python(py, &serde_json::to_string(&planned.summary).map_err(|e| SpmcalError::new_err(e.to_string()))?)?;
     let rs: Vec<Rotation3<f64>> = planned.poses.iter().map(|p| p.rotation).collect();

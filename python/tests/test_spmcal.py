@@ -127,6 +127,10 @@ def test_a_bag_and_a_simulation_are_sessions(tmp_path: Path) -> None:
     assert np.array_equal(back.joints, session.joints)
     summary, q, joints = spmcal.plan(12, candidates=300)
     assert q.shape == (12, 4) and joints.shape == (12, 3) and summary["poses"] == 12
+    added, _, _ = spmcal.plan(6, candidates=200, augment=spmcal.Session.load("datasets/agile_wrist_sim_20"))
+    assert added["augments"] == ["agile_wrist_sim_20", 20]
+    with pytest.raises(spmcal.ConfigError, match="camera_model"):
+        spmcal.plan(6, camera_model="pinhole")
     compared = spmcal.compare(back)
     assert compared[0]["label"] == "nominal"
 
