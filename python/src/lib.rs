@@ -750,10 +750,23 @@ fn export(params: PathBuf, urdf: PathBuf, model: Option<PathBuf>) -> PyResult<Ve
     let provenance = [format!("Calibrated model exported by spmcal (Python) from {}", params.display())];
     let exported = spmcal::model::export(&robot, &p, &provenance).map_err(raise!(ModelError))?;
     let companion = RobotModel::companion_path(&urdf);
-    std::fs::write(&urdf, &exported.urdf).map_err(|e| FileError::new_err(format!("{}: {e}", urdf.display())))?;
-    std::fs::write(&companion, &exported.companion)
-        .map_err(|e| FileError::new_err(format!("{}: {e}", companion.display())))?;
+    write_atomic(&urdf, &exported.urdf)?;
+    write_atomic(&companion, &exported.companion)?;
     Ok(exported.warnings)
+}
+
+/// Write `text` at `path` through a temporary file beside it, renamed into place: a reader never
+/// sees half a file, and a failed write leaves the old one.
+fn write_atomic(path: &Path, text: &str) -> PyResult<()> {
+    let fail = |e: std::io::Error| FileError::new_err(format!("{}: cannot write: {e}", path.display()));
+    let mut temporary = path.as_os_str().to_owned();
+    temporary.push(".spmcal-partial");
+    let temporary = PathBuf::from(temporary);
+    std::fs::write(&temporary, text).map_err(fail)?;
+    std::fs::rename(&temporary, path).map_err(|e| {
+        let _ = std::fs::remove_file(&temporary);
+        fail(e)
+    })
 }
 
 fn same_file(a: &Path, b: &Path) -> bool {

@@ -152,3 +152,14 @@ def test_ctrl_c_interrupts_a_long_call_at_once() -> None:
     timer.join()
     # The wait polls for signals every 50 ms: back well before the plan would have been made.
     assert interrupted < 0.02 + 0.1 < full, (interrupted, full)
+
+
+def test_export_writes_a_urdf_that_loads_as_the_calibrated_model(tmp_path: Path) -> None:
+    calibration = spmcal.calibrate(spmcal.Session.load("datasets/agile_wrist_sim_20"))
+    calibration.save(tmp_path / "params.yaml")
+    spmcal.export(tmp_path / "params.yaml", tmp_path / "calibrated.urdf", model=MODEL)
+    joints = np.array([[0.1, -0.2, 0.05]])
+    exported = spmcal.Model.load(tmp_path / "calibrated.urdf").forward(joints)
+    assert np.abs(exported - calibration.model.forward(joints)).max() < 1e-9
+    with pytest.raises(spmcal.FileError, match="refusing to overwrite"):
+        spmcal.export(tmp_path / "params.yaml", tmp_path / "params.yaml", model=MODEL)
