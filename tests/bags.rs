@@ -274,6 +274,22 @@ fn bad_bags_are_refused_naming_the_topic_the_message_and_the_reason() {
     m[6].2 = point(50_000_000, "m9", [0.0, 0.0, 0.7], false);
     let e = refused("frame", &m, "cdr");
     assert!(e.contains("header.frame_id `m9` names no marker"), "{e}");
+    // A slow hand keeps the joints within 0.5 mrad for a few samples (40 ms here): still a
+    // free-motion recording, not a static session of momentary rests.
+    let slow: Vec<Message> = small()
+        .into_iter()
+        .map(|(topic, ns, data)| {
+            if topic != "/joint_states" {
+                return (topic, ns, data);
+            }
+            let t = ns as f64 * 1e-9;
+            (topic, ns, joint_state(ns, &NAMES, &[0.01 * t, -0.005 * t, 0.002 * t], false))
+        })
+        .collect();
+    let dir = tmp("slow");
+    write_bag(&dir.join("slow.mcap"), &slow, "cdr");
+    let (session, _) = Session::load(&dir.join("slow.mcap"), Some(Path::new(MODEL))).unwrap();
+    assert!(session.streams.is_some(), "a slow free motion is a recording");
     // A truncated file.
     let dir = tmp("truncated");
     let bag = dir.join("cut.mcap");

@@ -13,7 +13,8 @@
 //!   topics: {/tracker/m1: m1}         # or a topic per marker (default: /markers/<name>)
 //!   camera_frame: camera              # a topic per marker: header.frame_id must be this
 //! clock: header                       # header (header.stamp, the sensors' time) | receive
-//! still_rad: 0.0005                   # joints resting within this while markers are captured: a static session
+//! still_rad: 0.0005                   # joints resting within this ...
+//! min_rest_s: 0.05                    # ... this long around every capture: a static session
 //! ```
 
 use std::collections::BTreeMap;
@@ -97,6 +98,8 @@ pub(crate) struct Mapping {
     pub(crate) clock: Clock,
     /// Joints resting within this (rad, each joint) around the captures make a static pose.
     pub(crate) still_rad: f64,
+    /// ... for at least this long (s).
+    pub(crate) min_rest_s: f64,
     /// Where it was read from (`None`: the defaults).
     #[serde(skip)]
     pub(crate) path: Option<PathBuf>,
@@ -110,6 +113,7 @@ impl Default for Mapping {
             markers: Markers::default(),
             clock: Clock::Header,
             still_rad: 5e-4,
+            min_rest_s: 0.05,
             path: None,
         }
     }
@@ -131,6 +135,10 @@ impl Mapping {
         if !(mapping.still_rad.is_finite() && mapping.still_rad > 0.0 && mapping.still_rad < 0.1) {
             let reason = format!("`still_rad` must be above 0 and below 0.1 rad (got {})", mapping.still_rad);
             return Err(keys.error(&path, "still_rad", reason));
+        }
+        if !(mapping.min_rest_s.is_finite() && mapping.min_rest_s > 0.0 && mapping.min_rest_s <= 10.0) {
+            let reason = format!("`min_rest_s` must be above 0 and at most 10 s (got {})", mapping.min_rest_s);
+            return Err(keys.error(&path, "min_rest_s", reason));
         }
         let names = &mapping.joints.names;
         if names[0] == names[1] || names[1] == names[2] || names[0] == names[2] {

@@ -88,7 +88,7 @@ pub(crate) fn load(
     // Topics interleave by receive time: order the captures by their own time (stable).
     captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     check_captures(bag, &captures, &session.markers)?;
-    match still_poses(&data.encoders, &captures, mapping.still_rad) {
+    match still_poses(&data.encoders, &captures, mapping.still_rad, mapping.min_rest_s) {
         Some(poses) => Ok((static_session(session, poses), Vec::new())),
         None => {
             let streams = streams(bag, data.encoders, captures)?;
@@ -156,10 +156,16 @@ struct Rest {
     to: usize,
 }
 
-/// The poses of a static bag — each run of resting joints with captures in it: the joints'
-/// median, each marker's median — or `None` when some capture falls where the joints move (a
-/// free-motion recording).
-fn still_poses(encoders: &[EncoderSample], captures: &[Capture], still: f64) -> Option<Vec<RestingPose>> {
+/// The poses of a static bag — each run of joints resting within `still` for at least `min_rest_s`
+/// with captures in it: the joints' median, each marker's median — or `None` when some capture
+/// falls where the joints move (a free-motion recording: a slow hand also stays within `still` for
+/// a few samples, so a rest must last).
+fn still_poses(
+    encoders: &[EncoderSample],
+    captures: &[Capture],
+    still: f64,
+    min_rest_s: f64,
+) -> Option<Vec<RestingPose>> {
     let limits = StreamLimits::default();
     let mut rests: Vec<Rest> = Vec::new();
     let mut from = 0;
@@ -180,8 +186,7 @@ fn still_poses(encoders: &[EncoderSample], captures: &[Capture], still: f64) -> 
             rest += 1;
         }
         let r = rests.get(rest)?;
-        // A rest of one sample is no rest: the joints may be passing through.
-        if encoders[r.from].time_s > c.time_s || r.to == r.from {
+        if encoders[r.from].time_s > c.time_s || encoders[r.to].time_s - encoders[r.from].time_s < min_rest_s {
             return None;
         }
         if rest != last_rest {
