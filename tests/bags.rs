@@ -209,6 +209,23 @@ fn a_free_motion_bag_calibrates_exactly_as_the_csv_recording_of_the_same_numbers
     );
 }
 
+#[test]
+fn a_split_bag_reads_its_files_in_order_and_their_clocks_must_follow() {
+    let messages = small();
+    let (first, second) = messages.split_at(messages.len() / 2);
+    let dir = tmp("split");
+    // By name `rec_10` sorts before `rec_2`; by number it follows.
+    write_bag(&dir.join("rec_2.mcap"), first, "cdr");
+    write_bag(&dir.join("rec_10.mcap"), second, "cdr");
+    let (session, _) = Session::load(&dir, Some(Path::new(MODEL))).unwrap();
+    assert_eq!(session.streams.as_ref().unwrap().encoder_count(), 200);
+    let swapped = tmp("split-swapped");
+    write_bag(&swapped.join("rec_1.mcap"), second, "cdr");
+    write_bag(&swapped.join("rec_2.mcap"), first, "cdr");
+    let e = Session::load(&swapped, Some(Path::new(MODEL))).unwrap_err().to_string();
+    assert!(e.contains("go back in time from one file of the bag to the next"), "{e}");
+}
+
 /// The error loading `messages` as a bag (with the encoding `encoding`).
 fn refused(name: &str, messages: &[Message], encoding: &str) -> String {
     let dir = tmp(name);

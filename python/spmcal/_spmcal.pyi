@@ -8,7 +8,6 @@ import numpy.typing as npt
 
 _Path = Union[str, "os.PathLike[str]"]
 _Array = npt.NDArray[np.float64]
-_ArrayLike = npt.ArrayLike
 
 __version__: str
 
@@ -39,8 +38,8 @@ class Model:
         """Every assembly mode (<= 8) of one set of readings (3,): (k, 4) quaternions."""
     def jacobians(self, joints: _Array) -> _Array:
         """Forward Jacobians (n, 3, 3): joint rates -> MP angular velocity."""
-    def conditioning(self, joints: _Array) -> _Array:
-        """Conditioning index (n,): 1 isotropic, 0 at a parallel singularity."""
+    def conditioning(self, joints: _Array) -> Union[_Array, float]:
+        """Conditioning index (n,) (a float for one row): 1 isotropic, 0 at a parallel singularity."""
     @property
     def marker_names(self) -> list[str]: ...
     def to_dict(self) -> dict[str, Any]: ...

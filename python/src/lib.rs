@@ -74,8 +74,9 @@ fn rotations(a: &PyReadonlyArrayDyn<'_, f64>, what: &str) -> PyResult<(Vec<Rotat
     let v = a.as_array();
     let one = |q: [f64; 4], row: usize| -> PyResult<Rotation3<f64>> {
         let q = Quaternion::new(q[0], q[1], q[2], q[3]);
-        if !(q.norm() - 1.0).abs().lt(&1e-6) {
-            return Err(FileError::new_err(format!("{what}: row {row}: not a unit quaternion (norm {})", q.norm())));
+        let norm = q.norm();
+        if !norm.is_finite() || (norm - 1.0).abs() >= 1e-6 {
+            return Err(FileError::new_err(format!("{what}: row {row}: not a unit quaternion (norm {norm})")));
         }
         Ok(UnitQuaternion::from_quaternion(q).to_rotation_matrix())
     };
@@ -199,7 +200,10 @@ impl Model {
         previous: PyReadonlyArrayDyn<'py, f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = rows3(&joints, "joints")?;
-        let (start, _) = rotations(&previous, "previous")?;
+        let (start, one) = rotations(&previous, "previous")?;
+        if !one {
+            return Err(FileError::new_err("previous: expected one quaternion, shape (4,)"));
+        }
         let mut last = start[0];
         let mut out = Vec::with_capacity(rows.len());
         for (k, j) in rows.iter().enumerate() {
@@ -238,13 +242,10 @@ impl Model {
         Ok(matrix_array(py, &out, single))
     }
 
-    /// The conditioning index (1 isotropic, 0 at a parallel singularity) at each row of `joints`.
-    fn conditioning<'py>(
-        &self,
-        py: Python<'py>,
-        joints: PyReadonlyArrayDyn<'py, f64>,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let (rows, _) = rows3(&joints, "joints")?;
+    /// The conditioning index (1 isotropic, 0 at a parallel singularity) at each row of `joints`:
+    /// `(n,)`, or a float for a single row `(3,)`.
+    fn conditioning<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(&joints, "joints")?;
         let mut out = Array1::<f64>::zeros(rows.len());
         for (k, j) in rows.iter().enumerate() {
             let r = self
@@ -253,7 +254,7 @@ impl Model {
                 .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
             out[k] = self.spm.jacobians(j, &r).conditioning();
         }
-        Ok(out.into_pyarray(py))
+        Ok(if single { out[0].into_pyobject(py)?.into_any() } else { out.into_pyarray(py).into_any() })
     }
 
     /// The names of the markers on the MP (the URDF companion's, else the parameters file's).
@@ -333,7 +334,12 @@ impl Session {
     #[pyo3(signature = (path, model=None))]
     fn load(py: Python<'_>, path: PathBuf, model: Option<PathBuf>) -> PyResult<Session> {
         let loaded = py.detach(|| spmcal::dataset::Session::load(&path, model.as_deref()));
-        let (session, _) = loaded.map_err(raise!(FileError))?;
+        let (session, warnings) = loaded.map_err(raise!(FileError))?;
+        // What the command line prints as `warning:` lines, as Python warnings.
+        let warn = py.import("warnings")?;
+        for w in &warnings {
+            warn.call_method1("warn", (w.to_string(),))?;
+        }
         Ok(Session { inner: Arc::new(session) })
     }
 
@@ -362,18 +368,32 @@ impl Session {
                 m.shape()
             )));
         }
+        if let Some(k) = times.as_ref().and_then(|t| t.iter().position(|x| !x.is_finite())) {
+            return Err(FileError::new_err(format!("times: row {k}: not a finite time")));
+        }
         let ids = poses.unwrap_or_else(|| (0..n as u64).collect());
         if ids.len() != n || times.as_ref().is_some_and(|t| t.len() != n) {
             return Err(FileError::new_err(format!("poses and times must hold {n} values, one per row of joints")));
         }
         let mut pose_list = Vec::with_capacity(n);
         for (k, j) in rows.iter().enumerate() {
-            let seen: Vec<Option<Vector3<f64>>> = (0..marker_names.len())
-                .map(|i| {
-                    let p = Vector3::new(m[[k, i, 0]], m[[k, i, 1]], m[[k, i, 2]]);
-                    p.iter().all(|v| v.is_finite()).then_some(p)
-                })
-                .collect();
+            let mut seen: Vec<Option<Vector3<f64>>> = Vec::with_capacity(marker_names.len());
+            for i in 0..marker_names.len() {
+                let p = Vector3::new(m[[k, i, 0]], m[[k, i, 1]], m[[k, i, 2]]);
+                // NaN in all three coordinates is "not seen"; anything else not finite is an error.
+                if p.iter().all(|v| v.is_nan()) {
+                    seen.push(None);
+                } else if p.iter().all(|v| v.is_finite()) {
+                    seen.push(Some(p));
+                } else {
+                    let reason = format!(
+                        "markers: row {k}, marker `{}`: {:?} is neither a position nor unseen (all NaN)",
+                        marker_names[i],
+                        p.as_slice()
+                    );
+                    return Err(FileError::new_err(reason));
+                }
+            }
             pose_list.push(spmcal::dataset::SessionPose {
                 id: ids[k],
                 joints: *j,

@@ -46,7 +46,8 @@ def test_the_other_kinematics_agree_with_forward() -> None:
     modes = model.all_modes(joints[0])
     assert modes.shape[1] == 4 and np.abs(modes[0] - q[0]).max() < 1e-9
     assert model.jacobians(joints).shape == (2, 3, 3)
-    assert ((model.conditioning(joints) > 0) & (model.conditioning(joints) <= 1)).all()
+    conditioning = np.asarray(model.conditioning(joints))
+    assert ((conditioning > 0) & (conditioning <= 1)).all()
     assert model.forward(joints[0]).shape == (4,)
 
 
@@ -163,3 +164,25 @@ def test_export_writes_a_urdf_that_loads_as_the_calibrated_model(tmp_path: Path)
     assert np.abs(exported - calibration.model.forward(joints)).max() < 1e-9
     with pytest.raises(spmcal.FileError, match="refusing to overwrite"):
         spmcal.export(tmp_path / "params.yaml", tmp_path / "params.yaml", model=MODEL)
+
+
+def test_bad_arrays_and_single_rows() -> None:
+    model = spmcal.Model.load(MODEL)
+    joints = np.array([[0.1, -0.2, 0.05], [0.12, -0.18, 0.07]])
+    with pytest.raises(spmcal.FileError, match="previous: expected one quaternion"):
+        model.track(joints, np.zeros((0, 4)))
+    assert isinstance(model.conditioning(joints[0]), float)
+    loaded = spmcal.Session.load("datasets/agile_wrist_sim_20")
+    markers = loaded.markers.copy()
+    row, marker = map(int, np.argwhere(np.isfinite(markers[:, :, 0]))[0])
+    markers[row, marker, 2] = np.nan  # one coordinate missing: neither seen nor unseen
+    with pytest.raises(spmcal.FileError, match=f"row {row}, marker `{loaded.marker_names[marker]}`"):
+        spmcal.Session.from_arrays(loaded.joints, markers, loaded.marker_names, model=MODEL)
+    with pytest.raises(spmcal.FileError, match="times: row 0"):
+        spmcal.Session.from_arrays(loaded.joints, loaded.markers, loaded.marker_names, model=MODEL,
+                                   times=[float("nan")] * len(loaded))
+
+
+def test_loading_warnings_are_python_warnings() -> None:
+    with pytest.warns(UserWarning, match="falls outside the encoder stream"):
+        spmcal.Session.load("datasets/agile_wrist_free_motion_120s")

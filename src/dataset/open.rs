@@ -35,10 +35,12 @@ impl Session {
     /// states on `/joint_states` (`theta1..3`, rad), marker points on `/markers` named by
     /// `header.frame_id` — what [`Session::load`] reads back without a mapping file, to the
     /// nanosecond. A free-motion recording goes as its two streams; a static pose as the joints
-    /// resting for 0.1 s with its markers (stations and the truth are not carried).
+    /// resting for 0.1 s with its markers, at its own time when the poses are 0.2 s apart or more,
+    /// else at 0, 1, 2 … s (stations and the truth are not carried).
     ///
     /// # Errors
-    /// A [`FileError`] when a time cannot be a ROS stamp (negative) or the file cannot be written.
+    /// A [`FileError`] when a time cannot be a ROS stamp (negative, or past 2038) or the file
+    /// cannot be written.
     pub fn write_bag(&self, path: &Path) -> Result<(), FileError> {
         bag::write(self, path)
     }

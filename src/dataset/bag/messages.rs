@@ -2,8 +2,9 @@
 //! to) CDR by `re_cdr`, and the schemas they are checked against.
 //!
 //! A CDR message starts with a 4-byte encapsulation header: the representation identifier
-//! (`00 00` plain CDR big-endian, `00 01` little-endian; `00 06`/`00 07` XCDR2, which lays these
-//! two types out identically) and two option bytes; alignment counts from after it.
+//! (`00 00` plain CDR big-endian, `00 01` little-endian — what ROS 2 writes) and two option bytes;
+//! alignment counts from after it. XCDR2 (`00 06`/`00 07`, 8-byte values aligned to 4) is refused,
+//! not misread.
 
 use re_cdr::{BigEndian, LittleEndian};
 use serde::{Deserialize, Serialize};
@@ -168,8 +169,8 @@ pub(crate) fn decode<'a, T: Deserialize<'a>>(data: &'a [u8]) -> Result<T, String
     }
     let body = &data[4..];
     let decoded = match (data[0], data[1]) {
-        (0, 0 | 6) => re_cdr::from_bytes::<T, BigEndian>(body),
-        (0, 1 | 7) => re_cdr::from_bytes::<T, LittleEndian>(body),
+        (0, 0) => re_cdr::from_bytes::<T, BigEndian>(body),
+        (0, 1) => re_cdr::from_bytes::<T, LittleEndian>(body),
         (a, b) => return Err(format!("encapsulation {a:02x} {b:02x} is not plain CDR (00 00 or 00 01)")),
     };
     decoded.map(|(value, _)| value).map_err(|e| format!("does not decode: {e}"))
@@ -215,6 +216,8 @@ mod tests {
         assert_eq!(decode::<JointState>(&bytes).unwrap(), m);
         assert!(decode::<JointState>(&bytes[..20]).unwrap_err().contains("does not decode"));
         assert!(decode::<JointState>(&[0, 2, 0, 0]).unwrap_err().contains("not plain CDR"));
+        // XCDR2 aligns 8-byte values to 4: refused, not misread.
+        assert!(decode::<JointState>(&[0, 7, 0, 0, 1, 0, 0, 0]).unwrap_err().contains("not plain CDR"));
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! ROS 2 bags (rosbag2, MCAP storage) as sessions: joint encoders as `sensor_msgs/msg/JointState`,
 //! markers as `geometry_msgs/msg/PointStamped` in the camera frame (format in DESIGN.md; mapping
 //! in [`mapping`]). A bag is a free-motion recording, or a static session when the joints rest
-//! around every capture; [`write`] makes a bag of a session, both ways exact to the nanosecond.
+//! around every capture; [`write`] makes a bag of a session (the streams exact to the nanosecond;
+//! static poses at their own times when 0.2 s apart or more, else 0, 1, 2 … s).
 
 mod mapping;
 mod messages;
@@ -102,8 +103,11 @@ fn check_captures(bag: &Path, captures: &[Capture], names: &[String]) -> Result<
     for frame in captures.chunk_by(|a, b| a.time_s == b.time_s) {
         for (k, c) in frame.iter().enumerate() {
             if frame[..k].iter().any(|d| d.marker == c.marker) {
-                let reason = format!("marker `{}` is captured twice at {} s", names[c.marker], c.time_s);
-                return Err(FileError::new(bag, reason).at_line(c.line));
+                let reason = format!(
+                    "marker `{}` is captured twice at {} s (message {} on its topic)",
+                    names[c.marker], c.time_s, c.line
+                );
+                return Err(FileError::new(bag, reason));
             }
         }
     }
@@ -122,6 +126,14 @@ fn check_captures(bag: &Path, captures: &[Capture], names: &[String]) -> Result<
 /// capture placeable for some latency within the bound.
 fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> Result<Streams, FileError> {
     let limits = StreamLimits::default();
+    // Each file's clock is checked as it is read; a split bag's files must follow each other too.
+    if let Some(w) = encoders.windows(2).find(|w| w[1].time_s <= w[0].time_s) {
+        let reason = format!(
+            "the joint states go back in time from one file of the bag to the next ({} s after {} s)",
+            w[1].time_s, w[0].time_s
+        );
+        return Err(FileError::new(bag, reason));
+    }
     if encoders.len() < 2 {
         return Err(FileError::new(bag, format!("{} joint states: a recording needs at least two", encoders.len())));
     }
@@ -138,10 +150,10 @@ fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> 
     let bound = limits.latency_bound_s;
     if let Some(c) = captures.iter().find(|c| c.time_s + bound < first || c.time_s - bound > last) {
         let reason = format!(
-            "the marker point at {} s lies outside the joint states ({first} s to {last} s) for every latency within ±{bound} s",
-            c.time_s
+            "the marker point at {} s (message {} on its topic) lies outside the joint states ({first} s to {last} s) for every latency within ±{bound} s",
+            c.time_s, c.line
         );
-        return Err(FileError::new(bag, reason).at_line(c.line));
+        return Err(FileError::new(bag, reason));
     }
     Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures })
 }

@@ -60,7 +60,7 @@ pub(crate) fn bag_files(bag: &Path) -> Result<Vec<PathBuf>, FileError> {
             return Err(FileError::new(
                 &metadata,
                 format!(
-                    "the bag is stored as `{storage}`; spmcal reads MCAP: convert it with `ros2 bag convert -i {} -o out.yaml` (out.yaml: `output_bags: [{{uri: converted, storage_id: mcap}}]`)",
+                    "the bag is stored as `{storage}`; spmcal reads MCAP: convert it with `ros2 bag convert -i {} -o out.yaml` (out.yaml: `output_bags: [{{uri: rec_mcap, storage_id: mcap}}]`)",
                     bag.display()
                 ),
             ));
@@ -74,11 +74,31 @@ pub(crate) fn bag_files(bag: &Path) -> Result<Vec<PathBuf>, FileError> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
         .collect();
-    files.sort();
+    // Split bags number their files (`rec_2.mcap` before `rec_10.mcap`): by name, numbers by value.
+    files.sort_by_key(|p| natural_key(&p.to_string_lossy()));
     if files.is_empty() {
         return Err(FileError::new(bag, "a bag folder without `.mcap` files (and no session.yaml)"));
     }
     Ok(files)
+}
+
+/// A file name as text and numbers, so that numbered files sort by their numbers.
+fn natural_key(name: &str) -> Vec<(String, u64)> {
+    let mut key = Vec::new();
+    let (mut text, mut number) = (String::new(), None::<u64>);
+    for ch in name.chars() {
+        match ch.to_digit(10) {
+            Some(d) => number = Some(number.unwrap_or(0).saturating_mul(10).saturating_add(u64::from(d))),
+            None => {
+                if let Some(n) = number.take() {
+                    key.push((std::mem::take(&mut text), n));
+                }
+                text.push(ch);
+            }
+        }
+    }
+    key.push((text, number.unwrap_or(0)));
+    key
 }
 
 /// Read the joint states and marker points of `files` under `mapping`, the markers named
@@ -311,6 +331,9 @@ impl Decoder<'_> {
     /// The message's time (s from the first message's whole second) on the mapping's clock, and a
     /// clock check on its channel (`strict`: strictly increasing).
     fn time(&mut self, channel: usize, stamp: super::messages::Time, log_ns: u64, strict: bool) -> Result<f64, String> {
+        if self.mapping.clock == Clock::Header && stamp.nanosec >= 1_000_000_000 {
+            return Err(format!("header.stamp.nanosec is {}: not a time (at most 999,999,999)", stamp.nanosec));
+        }
         let (sec, nanosec) = match self.mapping.clock {
             Clock::Header => (i64::from(stamp.sec), i64::from(stamp.nanosec)),
             Clock::Receive => ((log_ns / 1_000_000_000) as i64, (log_ns % 1_000_000_000) as i64),
