@@ -153,6 +153,17 @@ pub(crate) fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture
     Ok(out)
 }
 
+/// The first capture that lies outside the encoder stream for every latency within ±`bound`, with
+/// the stream's first and last times (`encoders` not empty).
+pub(crate) fn unplaceable<'a>(
+    encoders: &[EncoderSample],
+    captures: &'a [Capture],
+    bound: f64,
+) -> Option<(&'a Capture, f64, f64)> {
+    let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
+    captures.iter().find(|c| c.time_s + bound < first || c.time_s - bound > last).map(|c| (c, first, last))
+}
+
 impl Streams {
     /// Read both streams of the recording in `dir` and check that every capture can be placed in
     /// the encoder stream for some latency within the bound.
@@ -163,9 +174,8 @@ impl Streams {
         let encoders = read_encoders(&dir.join("encoders.csv"), limits)?;
         let captures_path = dir.join("captures.csv");
         let captures = read_captures(&captures_path, names)?;
-        let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
         let bound = limits.latency_bound_s;
-        if let Some(c) = captures.iter().find(|c| c.time_s + bound < first || c.time_s - bound > last) {
+        if let Some((c, first, last)) = unplaceable(&encoders, &captures, bound) {
             return Err(FileError::new(
                 &captures_path,
                 format!(

@@ -166,11 +166,10 @@ impl Mapping {
                 )
             });
         }
-        let by_topic = match m.topics.get(topic) {
+        let by_topic = match self.marker_topic(topic, names) {
             Some(name) => Some(index(name).ok_or_else(|| {
                 format!("{MAPPING_FILE} maps topic `{topic}` to marker `{name}`, which the model does not have")
             })?),
-            None if m.topics.is_empty() => topic.strip_prefix("/markers/").and_then(index),
             None => None,
         };
         if let (Some(_), Some(frame)) = (by_topic, &m.camera_frame)
@@ -179,6 +178,22 @@ impl Mapping {
             return Err(format!("header.frame_id is `{frame_id}`, not the camera frame `{frame}`"));
         }
         Ok(by_topic)
+    }
+
+    /// The topic carries the points of markers (on the one marker topic, or a topic of their own).
+    pub(crate) fn carries_markers(&self, topic: &str, names: &[String]) -> bool {
+        topic == self.markers.topic || self.marker_topic(topic, names).is_some()
+    }
+
+    /// The marker whose own topic `topic` is: as `markers: topics` maps it, or by default
+    /// `/markers/<name>` for a marker of the model (`names`).
+    fn marker_topic<'a>(&'a self, topic: &'a str, names: &[String]) -> Option<&'a str> {
+        let m = &self.markers;
+        match m.topics.get(topic) {
+            Some(name) => Some(name),
+            None if m.topics.is_empty() => topic.strip_prefix("/markers/").filter(|n| names.iter().any(|k| k == n)),
+            None => None,
+        }
     }
 
     /// A joint position in radians.

@@ -17,7 +17,7 @@ pub(crate) use mapping::MAPPING_FILE;
 pub(crate) use write::write;
 
 use super::session::{Session, SessionPose, Warning};
-use super::streams::{Capture, EncoderSample, MIN_FRAMES, StreamLimits, Streams};
+use super::streams::{Capture, EncoderSample, MIN_FRAMES, StreamLimits, Streams, unplaceable};
 use crate::io::files::FileError;
 
 /// `path` is a bag: an `.mcap` file, or a folder with `metadata.yaml` or `.mcap` files and no
@@ -90,7 +90,7 @@ pub(crate) fn load(
     captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
     check_captures(bag, &captures, &session.markers)?;
     match still_poses(&data.encoders, &captures, mapping.still_rad, mapping.min_rest_s) {
-        Some(poses) => Ok((static_session(session, poses), Vec::new())),
+        Some(poses) => Ok((static_session(session, poses)?, Vec::new())),
         None => {
             let streams = streams(bag, data.encoders, captures)?;
             Ok(Session { streams: Some(std::sync::Arc::new(streams)), ..session }.at_latency(0.0))
@@ -146,9 +146,8 @@ fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> 
         );
         return Err(FileError::new(bag, reason));
     }
-    let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
     let bound = limits.latency_bound_s;
-    if let Some(c) = captures.iter().find(|c| c.time_s + bound < first || c.time_s - bound > last) {
+    if let Some((c, first, last)) = unplaceable(&encoders, &captures, bound) {
         let reason = format!(
             "the marker point at {} s (message {} on its topic) lies outside the joint states ({first} s to {last} s) for every latency within ±{bound} s",
             c.time_s, c.line
@@ -223,8 +222,9 @@ fn median(mut v: Vec<f64>) -> f64 {
     if n % 2 == 1 || v[n / 2 - 1] == v[n / 2] { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
-/// The static session of `poses` (time, joints, each marker's captures), numbered from 0.
-fn static_session(session: Session, poses: Vec<RestingPose>) -> Session {
+/// The static session of `poses` (time, joints, each marker's captures), numbered from 0, checked
+/// and given its reference pose as a session from memory is ([`Session::from_poses`]).
+fn static_session(session: Session, poses: Vec<RestingPose>) -> Result<Session, FileError> {
     let count = session.markers.len();
     let poses: Vec<SessionPose> = poses
         .into_iter()
@@ -248,6 +248,6 @@ fn static_session(session: Session, poses: Vec<RestingPose>) -> Session {
             }
         })
         .collect();
-    let reference_pose = poses.iter().find(|p| p.seen() >= crate::dataset::MIN_MARKERS).unwrap_or(&poses[0]).id;
-    Session { poses, reference_pose, ..session }
+    let made = Session::from_poses(&session.name, &session.model, session.markers, poses)?;
+    Ok(Session { description: session.description, ..made })
 }

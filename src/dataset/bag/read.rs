@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::{SendError, SyncSender};
 
 use mcap::records::Record;
 use mcap::sans_io::{LinearReadEvent, LinearReader};
@@ -162,6 +163,14 @@ const READ_SIZE: usize = 1 << 20;
 /// No channel in a slot.
 const NONE: u32 = u32::MAX;
 
+/// What the reading side keeps between records: the schemas by id, each declared channel's role
+/// by id, the batch being filled.
+struct Records {
+    schemas: HashMap<u16, (String, String, Vec<u8>)>,
+    roles: Vec<Option<Role>>,
+    batch: Batch,
+}
+
 /// The reading side: MCAP records, schemas checked, messages of interest passed on.
 struct Container<'a> {
     mapping: &'a Mapping,
@@ -176,12 +185,10 @@ impl Container<'_> {
 
     /// Feed the file to the MCAP reader and pass on what the decoder needs; stops quietly when the
     /// decoder has stopped listening.
-    fn stream(&self, send: &std::sync::mpsc::SyncSender<Event>) -> Result<(), FileError> {
+    fn stream(&self, send: &SyncSender<Event>) -> Result<(), FileError> {
         let mut file = std::fs::File::open(self.file).map_err(|e| self.error(format!("cannot open: {e}")))?;
         let mut mcap = LinearReader::new();
-        let mut schemas: HashMap<u16, (String, String, Vec<u8>)> = HashMap::new();
-        let mut roles = vec![None; 1 << 16];
-        let mut batch = Batch::default();
+        let mut state = Records { schemas: HashMap::new(), roles: vec![None; 1 << 16], batch: Batch::default() };
         let mut read = 0u64;
         while let Some(event) = mcap.next_event() {
             let event = event.map_err(|e| {
@@ -198,41 +205,7 @@ impl Container<'_> {
                 LinearReadEvent::Record { data, opcode } => {
                     let record = mcap::parse_record(opcode, data)
                         .map_err(|e| self.error(format!("a corrupt MCAP record near byte {read}: {e}")))?;
-                    match record {
-                        Record::Schema { header, data } => {
-                            schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
-                            Ok(())
-                        }
-                        // Chunked files repeat a channel in every chunk that uses it (and in the summary).
-                        Record::Channel(c) if roles[usize::from(c.id)].is_some() => Ok(()),
-                        Record::Channel(c) => {
-                            let role = self.role(&c.topic);
-                            if role != Role::Ignored {
-                                self.check_channel(&schemas, &c.topic, role, c.schema_id, &c.message_encoding)?;
-                            }
-                            roles[usize::from(c.id)] = Some(role);
-                            send.send(Event::Channel { id: c.id, topic: c.topic, role })
-                        }
-                        Record::Message { header, data } => match roles[usize::from(header.channel_id)] {
-                            None => {
-                                let reason =
-                                    format!("a message on channel {} that the bag never declared", header.channel_id);
-                                return Err(self.error(reason));
-                            }
-                            Some(Role::Ignored) => Ok(()),
-                            Some(_) => {
-                                let from = batch.bytes.len();
-                                batch.bytes.extend_from_slice(&data);
-                                batch.items.push((header.channel_id, header.log_time, from..batch.bytes.len()));
-                                if batch.items.len() < BATCH {
-                                    Ok(())
-                                } else {
-                                    send.send(Event::Messages(std::mem::take(&mut batch)))
-                                }
-                            }
-                        },
-                        _ => Ok(()),
-                    }
+                    self.record(record, &mut state, send)?
                 }
             };
             if handed.is_err() {
@@ -240,19 +213,55 @@ impl Container<'_> {
             }
         }
         // The decoder may have stopped already: then its error is the one to report.
-        let _ = send.send(Event::Messages(batch));
+        let _ = send.send(Event::Messages(state.batch));
         Ok(())
     }
 
+    /// One MCAP record: a schema kept, a channel checked and announced (once: chunked files repeat
+    /// it in every chunk that uses it, and in the summary), a message of interest batched. The
+    /// inner result is the hand-over's (an error when the decoder stopped listening).
+    fn record(
+        &self,
+        record: Record<'_>,
+        state: &mut Records,
+        send: &SyncSender<Event>,
+    ) -> Result<Result<(), SendError<Event>>, FileError> {
+        Ok(match record {
+            Record::Schema { header, data } => {
+                state.schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
+                Ok(())
+            }
+            Record::Channel(c) if state.roles[usize::from(c.id)].is_some() => Ok(()),
+            Record::Channel(c) => {
+                let role = self.role(&c.topic);
+                if role != Role::Ignored {
+                    self.check_channel(&state.schemas, &c.topic, role, c.schema_id, &c.message_encoding)?;
+                }
+                state.roles[usize::from(c.id)] = Some(role);
+                send.send(Event::Channel { id: c.id, topic: c.topic, role })
+            }
+            Record::Message { header, data } => match state.roles[usize::from(header.channel_id)] {
+                None => {
+                    let reason = format!("a message on channel {} that the bag never declared", header.channel_id);
+                    return Err(self.error(reason));
+                }
+                Some(Role::Ignored) => Ok(()),
+                Some(_) => {
+                    let batch = &mut state.batch;
+                    let from = batch.bytes.len();
+                    batch.bytes.extend_from_slice(&data);
+                    batch.items.push((header.channel_id, header.log_time, from..batch.bytes.len()));
+                    if batch.items.len() < BATCH { Ok(()) } else { send.send(Event::Messages(std::mem::take(batch))) }
+                }
+            },
+            _ => Ok(()),
+        })
+    }
+
     fn role(&self, topic: &str) -> Role {
-        let m = &self.mapping.markers;
         if topic == self.mapping.joints.topic {
             Role::Joints
-        } else if topic == m.topic
-            || m.topics.contains_key(topic)
-            || (m.topics.is_empty()
-                && topic.strip_prefix("/markers/").is_some_and(|n| self.markers.iter().any(|k| k == n)))
-        {
+        } else if self.mapping.carries_markers(topic, self.markers) {
             Role::Markers
         } else {
             Role::Ignored

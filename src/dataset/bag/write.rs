@@ -11,8 +11,8 @@ use super::messages::{Header, JOINT_STATE, JointState, POINT_STAMPED, Point, Poi
 use crate::dataset::Session;
 use crate::io::files::{FileError, StagedFile};
 
-/// One message to write: time (s), channel, CDR bytes.
-type Message = (f64, u16, Vec<u8>);
+/// One message to write: its stamp (ns since the epoch), channel, CDR bytes.
+type Message = (u64, u16, Vec<u8>);
 
 /// Write `session` as an MCAP bag at `path` (atomically).
 ///
@@ -36,9 +36,8 @@ pub(crate) fn write(session: &Session, path: &Path) -> Result<(), FileError> {
             writer.add_channel(points, "/markers", "cdr", &none).map_err(fail)?,
         ];
         let mut sequence = [0u32; 2];
-        for (time_s, channel, data) in &messages {
-            let ns = Time::of_seconds(*time_s).expect("checked in `messages`").nanoseconds();
-            let k = *channel as usize;
+        for &(ns, channel, ref data) in &messages {
+            let k = channel as usize;
             sequence[k] += 1;
             let header = mcap::records::MessageHeader {
                 channel_id: channels[k],
@@ -66,14 +65,14 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
             velocity: Vec::new(),
             effort: Vec::new(),
         };
-        Ok((t, 0, encode(&m)))
+        Ok((m.header.stamp.nanoseconds(), 0, encode(&m)))
     };
     let point = |t: f64, marker: usize, p: &nalgebra::Vector3<f64>| -> Result<Message, String> {
         let m = PointStamped {
             header: Header { stamp: stamp(t)?, frame_id: &session.markers[marker] },
             point: Point { x: p.x, y: p.y, z: p.z },
         };
-        Ok((t, 1, encode(&m)))
+        Ok((m.header.stamp.nanoseconds(), 1, encode(&m)))
     };
     let mut out = Vec::new();
     match &session.streams {
@@ -103,6 +102,6 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
             }
         }
     }
-    out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    out.sort_by_key(|&(ns, channel, _)| (ns, channel));
     Ok(out)
 }
