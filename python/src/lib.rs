@@ -59,6 +59,11 @@ macro_rules! raise {
     };
 }
 
+/// A kinematics error at row `k` of the joint readings.
+fn row_error(k: usize, e: &(dyn std::error::Error + 'static)) -> PyErr {
+    KinematicsError::new_err(format!("joints row {k}: {}", message(e)))
+}
+
 /// Rows of three from a `(n, 3)` or `(3,)` array (`single`: the latter).
 fn rows3(a: &PyReadonlyArrayDyn<'_, f64>, what: &str) -> PyResult<(Vec<Vector3<f64>>, bool)> {
     let v = a.as_array();
@@ -207,10 +212,7 @@ impl Model {
         let mut last = start[0];
         let mut out = Vec::with_capacity(rows.len());
         for (k, j) in rows.iter().enumerate() {
-            last = self
-                .spm
-                .track(j, &last)
-                .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
+            last = self.spm.track(j, &last).map_err(|e| row_error(k, &e))?;
             out.push(last);
         }
         Ok(quaternion_array(py, &out, single))
@@ -231,14 +233,8 @@ impl Model {
     /// `joints`: `(n, 3, 3)`; NaN at a parallel singularity.
     fn jacobians<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = rows3(&joints, "joints")?;
-        let mut out = Vec::with_capacity(rows.len());
-        for (k, j) in rows.iter().enumerate() {
-            let r = self
-                .spm
-                .forward(j)
-                .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
-            out.push(self.spm.jacobians(j, &r).forward().unwrap_or_else(|| nalgebra::Matrix3::from_element(f64::NAN)));
-        }
+        let nan = nalgebra::Matrix3::from_element(f64::NAN);
+        let out: Vec<_> = self.jacobians_at(&rows)?.iter().map(|j| j.forward().unwrap_or(nan)).collect();
         Ok(matrix_array(py, &out, single))
     }
 
@@ -246,14 +242,7 @@ impl Model {
     /// `(n,)`, or a float for a single row `(3,)`.
     fn conditioning<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = rows3(&joints, "joints")?;
-        let mut out = Array1::<f64>::zeros(rows.len());
-        for (k, j) in rows.iter().enumerate() {
-            let r = self
-                .spm
-                .forward(j)
-                .map_err(|e| KinematicsError::new_err(format!("joints row {k}: {}", message(&e))))?;
-            out[k] = self.spm.jacobians(j, &r).conditioning();
-        }
+        let out: Array1<f64> = self.jacobians_at(&rows)?.iter().map(spmcal::model::Jacobians::conditioning).collect();
         Ok(if single { out[0].into_pyobject(py)?.into_any() } else { out.into_pyarray(py).into_any() })
     }
 
@@ -298,6 +287,16 @@ impl Model {
     }
 }
 
+impl Model {
+    /// The closure Jacobians at each row of joint readings, at the working-mode FDA's pose.
+    fn jacobians_at(&self, rows: &[Vector3<f64>]) -> PyResult<Vec<spmcal::model::Jacobians>> {
+        rows.iter()
+            .enumerate()
+            .map(|(k, j)| Ok(self.spm.jacobians(j, &self.spm.forward(j).map_err(|e| row_error(k, &e))?)))
+            .collect()
+    }
+}
+
 /// Rows of three as `(n, 3)`, or `(3,)` for a single row.
 fn rows_array<'py>(py: Python<'py>, rows: &[Vector3<f64>], single: bool) -> Bound<'py, PyAny> {
     let mut a = Array2::<f64>::zeros((rows.len(), 3));
@@ -313,6 +312,11 @@ fn rows_array<'py>(py: Python<'py>, rows: &[Vector3<f64>], single: bool) -> Boun
 fn yaml_to_python<'py>(py: Python<'py>, yaml: &str) -> PyResult<Bound<'py, PyAny>> {
     let value: serde_json::Value = serde_yaml::from_str(yaml).map_err(|e| SpmcalError::new_err(e.to_string()))?;
     json_to_python(py, &value.to_string())
+}
+
+/// A serialisable value (a report, a summary) as Python objects, as `--json` gives it.
+fn to_python<'py, T: serde::Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
+    json_to_python(py, &serde_json::to_string(value).map_err(|e| SpmcalError::new_err(e.to_string()))?)
 }
 
 /// JSON text as Python objects.
@@ -591,8 +595,7 @@ struct Calibration {
 impl Calibration {
     /// The report, as `spmcal calibrate --json` gives it (`results`).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let json = serde_json::to_string(&self.inner.report).map_err(|e| SpmcalError::new_err(e.to_string()))?;
-        json_to_python(py, &json)
+        to_python(py, &self.inner.report)
     }
 
     /// The calibrated parameters file's content as a dict.
@@ -630,9 +633,7 @@ impl Calibration {
     /// The identifiability analysis of the fitted parameters (the report's `identifiability`).
     #[getter]
     fn identifiability<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let json = serde_json::to_string(&self.inner.report.identifiability)
-            .map_err(|e| SpmcalError::new_err(e.to_string()))?;
-        json_to_python(py, &json)
+        to_python(py, &self.inner.report.identifiability)
     }
 
     /// The fitted parameter vector's names (as in the covariance).
@@ -725,7 +726,7 @@ fn compare<'py>(
     let compared = py
         .detach(|| spmcal::compare::compare(&session.inner, &robot, &sets, Method::Kabsch, None))
         .map_err(raise!(CompareError))?;
-    json_to_python(py, &serde_json::to_string(&compared).map_err(|e| SpmcalError::new_err(e.to_string()))?)
+    to_python(py, &compared)
 }
 
 /// Simulate a session with ground truth from the settings file `config` (`seed`, `poses`
@@ -769,24 +770,8 @@ fn export(params: PathBuf, urdf: PathBuf, model: Option<PathBuf>) -> PyResult<Ve
     let robot = RobotModel::load(&model_path).map_err(raise!(ModelError))?;
     let provenance = [format!("Calibrated model exported by spmcal (Python) from {}", params.display())];
     let exported = spmcal::model::export(&robot, &p, &provenance).map_err(raise!(ModelError))?;
-    let companion = RobotModel::companion_path(&urdf);
-    write_atomic(&urdf, &exported.urdf)?;
-    write_atomic(&companion, &exported.companion)?;
+    exported.write(&urdf).map_err(raise!(FileError))?;
     Ok(exported.warnings)
-}
-
-/// Write `text` at `path` through a temporary file beside it, renamed into place: a reader never
-/// sees half a file, and a failed write leaves the old one.
-fn write_atomic(path: &Path, text: &str) -> PyResult<()> {
-    let fail = |e: std::io::Error| FileError::new_err(format!("{}: cannot write: {e}", path.display()));
-    let mut temporary = path.as_os_str().to_owned();
-    temporary.push(".spmcal-partial");
-    let temporary = PathBuf::from(temporary);
-    std::fs::write(&temporary, text).map_err(fail)?;
-    std::fs::rename(&temporary, path).map_err(|e| {
-        let _ = std::fs::remove_file(&temporary);
-        fail(e)
-    })
 }
 
 fn same_file(a: &Path, b: &Path) -> bool {
@@ -841,8 +826,7 @@ fn plan<'py>(
         spmcal::plan::Plan::design(&robot, params.as_ref(), &sim, &settings, augment.as_deref())
     })?
     .map_err(raise!(PlanError))?;
-    let summary =
-        json_to_python(py, &serde_json::to_string(&planned.summary).map_err(|e| SpmcalError::new_err(e.to_string()))?)?;
+    let summary = to_python(py, &planned.summary)?;
     let rs: Vec<Rotation3<f64>> = planned.poses.iter().map(|p| p.rotation).collect();
     let js: Vec<Vector3<f64>> = planned.poses.iter().map(|p| p.joints).collect();
     Ok((summary, quaternion_array(py, &rs, false), rows_array(py, &js, false)))

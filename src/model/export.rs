@@ -28,6 +28,18 @@ pub struct ExportedModel {
     pub warnings: Vec<String>,
 }
 
+impl ExportedModel {
+    /// Write the URDF at `urdf` and its companion beside it (`NAME.yaml`), each atomically
+    /// (temporary file, then rename).
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file that cannot be written.
+    pub fn write(&self, urdf: &std::path::Path) -> Result<(), crate::io::FileError> {
+        crate::io::files::write_atomic(urdf, self.urdf.as_bytes())?;
+        crate::io::files::write_atomic(&companion_path(urdf), self.companion.as_bytes())
+    }
+}
+
 /// The calibrated model of `params` (geometry, markers) as a URDF and companion, from `model`'s
 /// URDF (its links, shapes and joint names kept); `provenance` lines go into both files as
 /// comments. The parameters must belong to the model (their legs in the model's order, their fitted
