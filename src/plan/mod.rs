@@ -255,11 +255,10 @@ impl Plan {
         }
         // Where the accuracy counts: the workspace's poses as the simulator accepts them, without
         // the candidates' safety margin (the edges a plan keeps away from are still worked in).
-        let workspace = if settings.margin_deg > 0.0 {
+        let unmargined = (settings.margin_deg > 0.0).then(|| {
             Candidate::draw(config, model, &spm, &camera, &markers, settings.candidates.min(WORKSPACE_POSES), 0.0)
-        } else {
-            pool.clone()
-        };
+        });
+        let workspace = unmargined.as_deref().unwrap_or(&pool);
         if let Some(&k) = information::unseen_markers(&pool, markers.len()).first() {
             return Err(PlanError::UnseenMarker(names[k].clone()));
         }
@@ -274,7 +273,7 @@ impl Plan {
             let camera_model = params.camera_model.with_kind(kind);
             let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &bounds)
                 .with_camera_model(camera_model, bounds.camera_term);
-            let info = Information::of(&p, &camera, &pool, &workspace, &noise).map_err(crate::calib::SetError::Eval)?;
+            let info = Information::of(&p, &camera, &pool, workspace, &noise).map_err(crate::calib::SetError::Eval)?;
             let prior = match augment {
                 Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
                 None => DMatrix::zeros(p.len(), p.len()),
