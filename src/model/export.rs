@@ -33,7 +33,7 @@ impl ExportedModel {
     /// (temporary file, then rename).
     ///
     /// # Errors
-    /// A [`FileError`] naming the file that cannot be written.
+    /// A [`FileError`](crate::io::FileError) naming the file that cannot be written.
     pub fn write(&self, urdf: &std::path::Path) -> Result<(), crate::io::FileError> {
         crate::io::files::write_atomic(urdf, self.urdf.as_bytes())?;
         crate::io::files::write_atomic(&companion_path(urdf), self.companion.as_bytes())
