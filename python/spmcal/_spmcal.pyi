@@ -125,3 +125,18 @@ def plan(
     augment: Optional[Session] = None,
 ) -> tuple[dict[str, Any], _Array, _Array]:
     """Plan `poses` poses as `spmcal plan`: (summary, (poses, 4) quaternions, (poses, 3) joints)."""
+def _marker_model(
+    model: Model,
+    x: Optional[list[float]],
+    joints: _Array,
+    markers: list[int],
+    marker_positions: _Array,
+    camera_rotation: list[float],
+    camera_translation: list[float],
+    camera_model: str = "depth_scale",
+    camera_terms: Optional[list[float]] = None,
+) -> dict[str, Any]:
+    """Private (an independent check's hook): the fit's marker-level model at `x` (None: the start)
+    around `model`, the registration (qw, qx, qy, qz; t), the markers' positions (k, 3) and the
+    camera model: {"names", "predictions" (m, 3), "orientations" (m, 3, 3), "jacobian" (m, 3, n),
+    "information" (m, n, n), "whitening" (m, 3, 3), "actuated_dirs", "platform_dirs"}."""

@@ -832,6 +832,172 @@ fn plan<'py>(
     Ok((summary, quaternion_array(py, &rs, false), rows_array(py, &js, false)))
 }
 
+/// The marker-level observation model of the fit at the parameter vector `x` (`None`: the start,
+/// all zeros), for an independent check (`python/tests/test_reference_model.py`; private: the leading underscore).
+///
+/// The parameterisation is the fit's (`Parameterisation::for_markers` around `model`'s geometry,
+/// the registration `camera_rotation` (`qw, qx, qy, qz`) and `camera_translation`, the markers'
+/// positions `marker_positions` `(k, 3)`, `camera_model` with its terms started at
+/// `camera_terms`, the five values in `CameraTerm::ALL`'s order, a perfect camera's by default),
+/// with the default bounds. Observation `j` is marker `markers[j]` seen at readings `joints[j]`.
+///
+/// Returns a dict: `names` (the parameters, in `x`'s order); `predictions` `(m, 3)`, the camera
+/// point `K (R_CB R(θ) p_k + t_CB)` made from the parameterisation's public parts at `x` and the
+/// library's working-mode FDA (`orientations`, `(m, 3, 3)`); `jacobian` `(m, 3, n)`, the analytic
+/// Jacobian of the predictions that the fit uses; `information` `(m, n, n)` and `whitening`
+/// `(m, 3, 3)`, what that Jacobian is read from; `actuated_dirs` and `platform_dirs`, the gauge's
+/// tilt directions per leg (`(k, 3)` each).
+///
+/// The fit's Jacobian is not public; `MarkerModel::information_per_pose` is, and it is the fit's
+/// `Σ (W_j J_j)ᵀ (W_j J_j)` at `x` (`J_j = ∂r_j/∂x` of the residual `r = x_C − x̂`, `W_j` the
+/// whitening). With one observation per pose, `M_j = W_j J_j` follows from the translation
+/// columns `T`, where `∂r/∂t_CB = −K`: `G[T, :] = M_Tᵀ M`, so `M = M_T⁻ᵀ G[T, :]`. A library whose
+/// translation columns were not `−K` would give every other column wrong, so the check still
+/// sees it; `information` lets a test compare `G` itself too.
+#[pyfunction]
+#[pyo3(signature = (model, x, joints, markers, marker_positions, camera_rotation, camera_translation, camera_model="depth_scale", camera_terms=None))]
+#[allow(clippy::too_many_arguments)]
+fn _marker_model<'py>(
+    py: Python<'py>,
+    model: &Model,
+    x: Option<Vec<f64>>,
+    joints: PyReadonlyArrayDyn<'py, f64>,
+    markers: Vec<usize>,
+    marker_positions: PyReadonlyArrayDyn<'py, f64>,
+    camera_rotation: Vec<f64>,
+    camera_translation: Vec<f64>,
+    camera_model: &str,
+    camera_terms: Option<Vec<f64>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use nalgebra::{DMatrix, DVector, Matrix3};
+    use spmcal::calib::{Bounds, Kind, MarkerModel, MarkerObservation, Parameterisation, StereoNoise};
+    use spmcal::model::{CameraModel, CameraRegistration};
+
+    let (rows, _) = rows3(&joints, "joints")?;
+    let (positions, _) = rows3(&marker_positions, "marker_positions")?;
+    let kind = [CameraModelKind::Rigid, CameraModelKind::DepthScale, CameraModelKind::Affine]
+        .into_iter()
+        .find(|k| k.name() == camera_model)
+        .ok_or_else(|| {
+            ConfigError::new_err(format!("camera_model: `{camera_model}` is not rigid, depth_scale or affine"))
+        })?;
+    let terms: [f64; 5] = match camera_terms {
+        None => spmcal::model::CameraTerm::ALL.map(|t| t.perfect()),
+        Some(v) => v.try_into().map_err(|_| FileError::new_err("camera_terms: expected 5 values"))?,
+    };
+    if markers.len() != rows.len() || markers.iter().any(|&k| k >= positions.len()) {
+        return Err(FileError::new_err(
+            "markers: one index per row of joints, each below the number of marker_positions",
+        ));
+    }
+    let (q, t) = (camera_rotation, camera_translation);
+    if q.len() != 4 || t.len() != 3 {
+        return Err(FileError::new_err("camera_rotation: 4 values (qw, qx, qy, qz); camera_translation: 3"));
+    }
+    let registration = CameraRegistration {
+        rotation: UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3])).to_rotation_matrix(),
+        translation: Vector3::new(t[0], t[1], t[2]),
+    };
+    let bounds = Bounds::default();
+    let names: Vec<String> = (1..=positions.len()).map(|k| format!("m{k}")).collect();
+    let p = Parameterisation::for_markers(*model.spm.geometry(), &registration, &positions, &names, &bounds)
+        .with_camera_model(CameraModel::of(kind, terms), bounds.camera_term);
+    let n = p.len();
+    let x = match x {
+        None => p.start(),
+        Some(x) if x.len() == n => DVector::from_vec(x),
+        Some(x) => return Err(FileError::new_err(format!("x: expected {n} parameters, got {}", x.len()))),
+    };
+
+    // The predictions, from the parameterisation's public parts and the library's FDA.
+    let spm = Spm::new(p.legs(&x)).map_err(raise!(ModelError))?;
+    let (camera, translation, k_matrix) = (p.camera(&x), p.translation(&x), p.camera_model(&x));
+    let mut orientations = Vec::with_capacity(rows.len());
+    let mut predictions = Vec::with_capacity(rows.len());
+    for (j, (theta, &k)) in rows.iter().zip(&markers).enumerate() {
+        let r = spm.forward(theta).map_err(|e| row_error(j, &e))?;
+        predictions.push(k_matrix.distort(&(camera * (r * p.marker(&x, k)) + translation)));
+        orientations.push(*r.matrix());
+    }
+
+    // The fit's Jacobian, read from its information (one observation per pose).
+    let observations: Vec<MarkerObservation> = rows
+        .iter()
+        .zip(&markers)
+        .zip(&predictions)
+        .enumerate()
+        .map(|(j, ((theta, &marker), measured))| MarkerObservation {
+            pose: j as u64,
+            marker,
+            joints: *theta,
+            measured: *measured,
+            line: 0,
+            station: None,
+            time_s: None,
+        })
+        .collect();
+    let noise = StereoNoise {
+        reference_distance_m: 1.0,
+        lateral_m: 1.0,
+        lateral_std_error_m: 0.0,
+        depth_m: 1.0,
+        depth_std_error_m: 0.0,
+    };
+    let fitted = MarkerModel::new(&p, &observations);
+    let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;
+    let columns: Vec<usize> = (0..3)
+        .map(|k| p.entries.iter().position(|e| e.kind == Kind::Translation { k }).expect("the marker level has t_CB"))
+        .collect();
+    let k_now = k_matrix.matrix();
+    let mut jacobian = Array3::<f64>::zeros((rows.len(), 3, n));
+    let mut info_out = Array3::<f64>::zeros((rows.len(), n, n));
+    let mut whitening_out = Array3::<f64>::zeros((rows.len(), 3, 3));
+    for (j, (_, g)) in information.iter().enumerate() {
+        let w = fitted.whitening_of(j, &noise);
+        let m_t: Matrix3<f64> = -(w * k_now);
+        let g_t = DMatrix::from_fn(3, n, |a, c| g[(columns[a], c)]);
+        let inverse = m_t.transpose().try_inverse().ok_or_else(|| CalibrationError::new_err("a singular K"))?;
+        let w_inverse = w.try_inverse().ok_or_else(|| CalibrationError::new_err("a singular whitening"))?;
+        // x̂ = x_C − r, so the predictions' Jacobian is −∂r/∂x.
+        let d = -(w_inverse * inverse) * g_t;
+        for a in 0..3 {
+            for c in 0..n {
+                jacobian[[j, a, c]] = d[(a, c)];
+            }
+            for b in 0..3 {
+                whitening_out[[j, a, b]] = w[(a, b)];
+            }
+        }
+        for a in 0..n {
+            for c in 0..n {
+                info_out[[j, a, c]] = g[(a, c)];
+            }
+        }
+    }
+
+    let out = PyDict::new(py);
+    out.set_item("names", p.entries.iter().map(|e| e.name.clone()).collect::<Vec<_>>())?;
+    out.set_item("predictions", rows_array(py, &predictions, false))?;
+    out.set_item("orientations", matrix_array(py, &orientations, false))?;
+    out.set_item("jacobian", jacobian.into_pyarray(py))?;
+    out.set_item("information", info_out.into_pyarray(py))?;
+    out.set_item("whitening", whitening_out.into_pyarray(py))?;
+    let dirs = |d: &[Vec<Vector3<f64>>; 3]| -> Vec<Bound<'py, PyAny>> {
+        d.iter()
+            .map(|v| {
+                if v.is_empty() {
+                    Array2::<f64>::zeros((0, 3)).into_pyarray(py).into_any()
+                } else {
+                    rows_array(py, v, false)
+                }
+            })
+            .collect()
+    };
+    out.set_item("actuated_dirs", dirs(&p.actuated_dirs))?;
+    out.set_item("platform_dirs", dirs(&p.platform_dirs))?;
+    Ok(out)
+}
+
 /// The module.
 #[pymodule]
 fn _spmcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -844,6 +1010,7 @@ fn _spmcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
+    m.add_function(wrap_pyfunction!(_marker_model, m)?)?;
     for (name, class) in [
         ("SpmcalError", py.get_type::<SpmcalError>()),
         ("FileError", py.get_type::<FileError>()),
