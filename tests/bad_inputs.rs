@@ -1,15 +1,54 @@
 //! The bad-input corpus (`tests/data/bad_inputs`, made by its `make_corpus.py`): every case runs
 //! the spmcal binary as a user would and must end with its expected message — a clear error that
-//! names the file (and line where there is one), never a panic — and must leave every input and
-//! every existing output exactly as it was.
+//! names the file (and line where there is one) and the reason, never a panic — and must leave
+//! every input and every existing output exactly as it was, and a failed run must write nothing:
+//! the scratch folder of existing outputs holds exactly those outputs afterwards, nothing more at
+//! any depth (no output, no half-written temporary file, no folder).
 
 use std::path::{Path, PathBuf};
 
 #[derive(serde::Deserialize)]
 struct Case {
     args: Vec<String>,
-    expect: String,
+    expect: Expect,
     status: String,
+}
+
+/// The message a case must produce: one piece, or several that must all appear in this order
+/// (where a computed number stands between the file and line and the reason).
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum Expect {
+    One(String),
+    All(Vec<String>),
+}
+
+impl Expect {
+    fn pieces(&self) -> Vec<&str> {
+        match self {
+            Expect::One(piece) => vec![piece],
+            Expect::All(pieces) => pieces.iter().map(String::as_str).collect(),
+        }
+    }
+}
+
+/// Words of two letters or more in `text` once every argument of the command (and each one's
+/// file name) is taken out, not counting the words that only locate (`column`, `line`, `pose`,
+/// `leg`, `step`): what an expected message says beyond where. An expectation of an error must
+/// say why (three such words at least: "more than 64 aliases"), not only which file, line or
+/// column ("c.yaml:1: column `max_iterations`" says nothing of what is wrong there).
+fn words_beyond_the_arguments(text: &str, args: &[String]) -> usize {
+    let mut rest = text.to_string();
+    let mut echoes: Vec<&str> = args.iter().map(String::as_str).collect();
+    echoes.extend(args.iter().filter_map(|a| Path::new(a).file_name().and_then(|n| n.to_str())));
+    echoes.sort_by_key(|e| std::cmp::Reverse(e.len()));
+    for echo in echoes.iter().filter(|e| !e.is_empty()) {
+        rest = rest.replace(echo, " ");
+    }
+    const LOCATING: [&str; 5] = ["column", "line", "pose", "leg", "step"];
+    rest.split(|c: char| !c.is_alphanumeric() && c != '_')
+        .filter(|w| w.chars().filter(|c| c.is_alphabetic()).count() >= 2 && !LOCATING.contains(w))
+        .count()
 }
 
 const SENTINELS: [&str; 3] = ["existing.yaml", "existing.csv", "existing.rrd"];
@@ -35,7 +74,7 @@ fn run_case(dir: &Path) -> Result<(), String> {
         return Err("an input file was changed".into());
     }
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    let expect = fill(&case.expect);
+    let pieces: Vec<String> = case.expect.pieces().into_iter().map(fill).collect();
     let code = out.status.code();
     if stderr.contains("panicked") || code == Some(101) || code.is_none() {
         return Err(format!("panicked or was killed ({code:?}): {stderr}"));
@@ -45,8 +84,15 @@ fn run_case(dir: &Path) -> Result<(), String> {
         return Err(format!("exit {code:?}, expected {}: {stderr}", case.status));
     }
     let text = if ok { stdout.to_string() } else { stderr.to_string() };
-    if !text.contains(&expect) {
-        return Err(format!("expected `{expect}` in:\n{text}"));
+    let mut from = 0;
+    for piece in &pieces {
+        match text[from..].find(piece.as_str()) {
+            Some(at) => from += at + piece.len(),
+            None => return Err(format!("expected `{piece}` (after the pieces before it) in:\n{text}")),
+        }
+    }
+    if !ok && words_beyond_the_arguments(&pieces.join(" "), &args) < 3 {
+        return Err(format!("the expected message {pieces:?} says too little beyond the file names given"));
     }
     if !ok {
         if !text.starts_with("error: ") || text.lines().count() > 1 {
@@ -56,6 +102,13 @@ fn run_case(dir: &Path) -> Result<(), String> {
             if std::fs::read_to_string(tmp.path().join(name)).unwrap() != SENTINEL {
                 return Err(format!("{name} was changed by a failed run"));
             }
+        }
+        let kept: Vec<PathBuf> = everything_under(tmp.path())
+            .into_iter()
+            .filter(|p| !SENTINELS.iter().any(|name| *p == tmp.path().join(name)))
+            .collect();
+        if !kept.is_empty() {
+            return Err(format!("a failed run wrote {kept:?}"));
         }
     }
     let leftovers: Vec<PathBuf> = std::fs::read_dir(tmp.path())
@@ -67,6 +120,19 @@ fn run_case(dir: &Path) -> Result<(), String> {
         return Err(format!("temporary files left behind: {leftovers:?}"));
     }
     Ok(())
+}
+
+/// Every file and folder under `dir`, at any depth.
+fn everything_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            out.extend(everything_under(&path));
+        }
+        out.push(path);
+    }
+    out
 }
 
 /// The contents of every file in the case folder and of every existing path an argument names

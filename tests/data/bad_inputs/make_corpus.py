@@ -5,7 +5,13 @@ the message it must produce. tests/bad_inputs.rs runs every case through the spm
 
 Run from the repository root: python3 tests/data/bad_inputs/make_corpus.py
 Placeholders in `args` and `expect`: {case} = the case folder, {tmp} = a scratch folder that holds
-existing outputs (existing.yaml, existing.csv, existing.rrd) that a failed run must not change.
+existing outputs (existing.yaml, existing.csv, existing.rrd) that a failed run must not change, and
+in which it must write nothing else.
+
+Every expected error message holds the file (and line and column where the error has them) and the
+reason, not only a path the arguments already hold: tests/bad_inputs.rs refuses an expectation
+with fewer than three words beyond the arguments and the words that only locate. Line numbers are
+computed from the shipped file each case breaks (line_of), so a change to that file moves them.
 """
 import json
 import os
@@ -51,6 +57,11 @@ def replace_once(text, old, new):
     return text.replace(old, new, 1)
 
 
+def line_of(text, needle, start=0):
+    """The 1-based line of `text` on which `needle` first occurs (at or after `start`)."""
+    return text[:text.index(needle, start)].count("\n") + 1
+
+
 CAL = ["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", "{tmp}/existing.yaml", "--config", "{case}/c.yaml"]
 SIMC = ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/sim", "--poses", "30"]
 FDA_MODEL = ["fda", "--joints", "datasets/joystick_circle/joints.csv", "--model", "{case}/m.urdf"]
@@ -58,108 +69,108 @@ FDA_PARAMS = ["fda", "--joints", "datasets/joystick_circle/joints.csv", "--param
 
 # --- YAML pathologies: bounded work, located duplicates ------------------------------------------
 case("yaml_flow_nesting_bomb", {"c.yaml": "loss: " + "[" * 5000}, CAL, "c.yaml:1: nested more than 16 levels deep")
-case("yaml_block_nesting", {"c.yaml": "".join(" " * d + f"k{d}:\n" for d in range(40))}, CAL, "nested more than 16 levels deep")
-case("yaml_alias_bomb", {"c.yaml": "a: &a [x, x]\n" + "".join(f"b{i}: [*a, *a, *a]\n" for i in range(200))}, CAL, "more than 64 aliases")
-case("yaml_two_documents", {"c.yaml": "loss: huber\n---\nloss: huber\n"}, CAL, "c.yaml:2: a second YAML document")
+case("yaml_block_nesting", {"c.yaml": "".join(" " * d + f"k{d}:\n" for d in range(40))}, CAL, "c.yaml:17: nested more than 16 levels deep")
+case("yaml_alias_bomb", {"c.yaml": "a: &a [x, x]\n" + "".join(f"b{i}: [*a, *a, *a]\n" for i in range(200))}, CAL, "c.yaml:23: more than 64 aliases")
+case("yaml_two_documents", {"c.yaml": "loss: huber\n---\nloss: huber\n"}, CAL, "c.yaml:2: a second YAML document: a settings file holds one")
 case("yaml_duplicate_top_key", {"c.yaml": "loss: huber\nmax_iterations: 10\nloss: least_squares\n"}, CAL, "c.yaml:3: duplicate key `loss` (first at line 1)")
-case("yaml_duplicate_nested_key", {"c.yaml": "bounds:\n  axis_tilt_deg: 5\n  link_angle_deg: 5\n  axis_tilt_deg: 6\n"}, CAL, "c.yaml:4: duplicate key `bounds.axis_tilt_deg`")
-case("yaml_malformed", {"c.yaml": "loss: [huber\n"}, CAL, "c.yaml")
-case("yaml_tab_indent", {"c.yaml": "bounds:\n\taxis_tilt_deg: 5\n"}, CAL, "c.yaml:2")
+case("yaml_duplicate_nested_key", {"c.yaml": "bounds:\n  axis_tilt_deg: 5\n  link_angle_deg: 5\n  axis_tilt_deg: 6\n"}, CAL, "c.yaml:4: duplicate key `bounds.axis_tilt_deg` (first at line 2)")
+case("yaml_malformed", {"c.yaml": "loss: [huber\n"}, CAL, "c.yaml:2: malformed YAML: while parsing a flow sequence, expected ',' or ']'")
+case("yaml_tab_indent", {"c.yaml": "bounds:\n\taxis_tilt_deg: 5\n"}, CAL, "c.yaml:2: malformed YAML: tabs disallowed within this context (block indentation)")
 
 # --- Calibration config: every value checked where it is built, located at its key ---------------
-case("calib_unknown_key", {"c.yaml": "los: huber\n"}, CAL, "c.yaml:1: unknown field `los`")
-case("calib_absurd_radius", {"c.yaml": "initial_radius_deg: 1.0e6\n"}, CAL, "c.yaml:1: column `initial_radius_deg`")
-case("calib_negative_huber", {"c.yaml": "loss: huber\nhuber_threshold: -1\n"}, CAL, "c.yaml:2: column `huber_threshold`")
-case("calib_nan_tolerance", {"c.yaml": "step_tolerance_deg: .nan\n"}, CAL, "c.yaml:1: column `step_tolerance_deg`")
-case("calib_freeze_everything", {"c.yaml": "freeze: [actuated_axes, platform_axes, proximal_angles, distal_angles, joint_offsets]\n"}, CAL, "c.yaml:1: column `freeze`: `freeze` holds every mechanism parameter fixed")
-case("calib_zero_iterations", {"c.yaml": "max_iterations: 0\n"}, CAL, "c.yaml:1: column `max_iterations`")
-case("calib_one_iteration", {"c.yaml": "max_iterations: 1\n"}, CAL, "raise `max_iterations`")
-case("calib_holdout_every_pose", {"c.yaml": "holdout_every: 1\n"}, CAL, "c.yaml:1: column `holdout_every`")
-case("calib_tolerance_above_radius", {"c.yaml": "initial_radius_deg: 1\nstep_tolerance_deg: 2\n"}, CAL, "c.yaml:2: column `step_tolerance_deg`")
-case("calib_singular_ratio_above_one", {"c.yaml": "min_singular_ratio: 2\n"}, CAL, "c.yaml:1: column `min_singular_ratio`")
-case("calib_negative_bound", {"c.yaml": "bounds:\n  axis_tilt_deg: -1\n"}, CAL, "c.yaml:2: column `bounds.axis_tilt_deg`")
-case("calib_wrong_type", {"c.yaml": "max_iterations: many\n"}, CAL, "c.yaml:1")
-case("calib_unknown_group", {"c.yaml": "freeze: [camera]\n"}, CAL, "c.yaml:1")
+case("calib_unknown_key", {"c.yaml": "los: huber\n"}, CAL, "c.yaml:1: unknown field `los`, expected one of `fit`")
+case("calib_absurd_radius", {"c.yaml": "initial_radius_deg: 1.0e6\n"}, CAL, "c.yaml:1: column `initial_radius_deg`: `initial_radius_deg` 1000000 is absurd: a trust region of at most 90° is meaningful")
+case("calib_negative_huber", {"c.yaml": "loss: huber\nhuber_threshold: -1\n"}, CAL, "c.yaml:2: column `huber_threshold`: `huber_threshold` must be a positive number (got -1)")
+case("calib_nan_tolerance", {"c.yaml": "step_tolerance_deg: .nan\n"}, CAL, "c.yaml:1: column `step_tolerance_deg`: `step_tolerance_deg` must be a positive number (got NaN)")
+case("calib_freeze_everything", {"c.yaml": "freeze: [actuated_axes, platform_axes, proximal_angles, distal_angles, joint_offsets]\n"}, CAL, "c.yaml:1: column `freeze`: `freeze` holds every mechanism parameter fixed: there is nothing to calibrate")
+case("calib_zero_iterations", {"c.yaml": "max_iterations: 0\n"}, CAL, "c.yaml:1: column `max_iterations`: `max_iterations` must be from 1 to 10000 (got 0)")
+case("calib_one_iteration", {"c.yaml": "max_iterations: 1\n"}, CAL, "{case}/c.yaml: nominal registration: the fit was still improving after `max_iterations` = 1 iterations")
+case("calib_holdout_every_pose", {"c.yaml": "holdout_every: 1\n"}, CAL, "c.yaml:1: column `holdout_every`: `holdout_every: 1` would hold out every pose")
+case("calib_tolerance_above_radius", {"c.yaml": "initial_radius_deg: 1\nstep_tolerance_deg: 2\n"}, CAL, "c.yaml:2: column `step_tolerance_deg`: `step_tolerance_deg` must be smaller than `initial_radius_deg`")
+case("calib_singular_ratio_above_one", {"c.yaml": "min_singular_ratio: 2\n"}, CAL, "c.yaml:1: column `min_singular_ratio`: `min_singular_ratio` must be below 1")
+case("calib_negative_bound", {"c.yaml": "bounds:\n  axis_tilt_deg: -1\n"}, CAL, "c.yaml:2: column `bounds.axis_tilt_deg`: `bounds.axis_tilt_deg` must be a positive number (got -1)")
+case("calib_wrong_type", {"c.yaml": "max_iterations: many\n"}, CAL, 'c.yaml:1: max_iterations: invalid type: string "many", expected u32')
+case("calib_unknown_group", {"c.yaml": "freeze: [camera]\n"}, CAL, "c.yaml:1: freeze[0]: unknown variant `camera`, expected one of `actuated_axes`")
 case("calib_partial_config_works", {"c.yaml": "loss: least_squares\n"}, CAL, "wrote {tmp}/existing.yaml", status="ok")
 
 # --- Simulation config ----------------------------------------------------------------------------
-case("sim_negative_sigma", {"s.yaml": replace_once(SIM, "lateral_sigma_m: 0.0002", "lateral_sigma_m: -0.0002")}, SIMC, f"s.yaml:{SIM[:SIM.index('lateral_sigma_m')].count(chr(10)) + 1}: column `camera.lateral_sigma_m`")
-case("sim_tilt_over_90", {"s.yaml": replace_once(SIM, "max_tilt_deg: 30", "max_tilt_deg: 95")}, SIMC, "column `workspace.max_tilt_deg`")
-case("sim_probability_over_one", {"s.yaml": replace_once(SIM, "outlier_probability: 0.0", "outlier_probability: 2")}, SIMC, "column `camera.outlier_probability`")
-case("sim_zero_poses", {"s.yaml": replace_once(SIM, "poses: 400", "poses: 0")}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/sim"], "column `poses`")
-case("sim_gives_up", {"s.yaml": replace_once(SIM, "min_conditioning: 0.2", "min_conditioning: 0.999")}, SIMC, "loosen `workspace.min_conditioning`")
-case("sim_unknown_camera_key", {"s.yaml": replace_once(SIM, "  baseline_m:", "  base_line_m:")}, SIMC, "unknown field `base_line_m`")
-case("sim_missing_model", {"s.yaml": replace_once(SIM, "../../../../models/agile_wrist.urdf", "nowhere.urdf")}, SIMC, "nowhere.urdf")
-case("sim_duplicate_key", {"s.yaml": SIM + "seed: 5\n"}, SIMC, "duplicate key `seed`")
-case("sim_out_is_a_file", {"s.yaml": SIM}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/existing.csv", "--poses", "5"], "is a file")
-case("sim_out_not_a_session", {"s.yaml": SIM, "notsession/readme.txt": "keep me\n"}, ["simulate", "--config", "{case}/s.yaml", "--out", "{case}/notsession", "--poses", "5"], "holds no session")
-case("sim_bad_rrd_keeps_nothing", {"s.yaml": SIM}, SIMC + ["--rrd", "{tmp}/no/such/folder/r.rrd"], "r.rrd")
-case("sim_coincident_companion_markers", {"s.yaml": replace_once(SIM, "../../../../models/agile_wrist.urdf", "m.urdf"), **model(companion=replace_once(COMPANION, "m3: [0.0649519053, -0.0375, 0.06]", "m3: [-0.0649, -0.0375, 0.06]"))}, SIMC, "markers `m2` and `m3`")
+case("sim_negative_sigma", {"s.yaml": replace_once(SIM, "lateral_sigma_m: 0.0002", "lateral_sigma_m: -0.0002")}, SIMC, f"s.yaml:{line_of(SIM, 'lateral_sigma_m')}: column `camera.lateral_sigma_m`: `camera.lateral_sigma_m` must be a finite, non-negative number (got -0.0002)")
+case("sim_tilt_over_90", {"s.yaml": replace_once(SIM, "max_tilt_deg: 30", "max_tilt_deg: 95")}, SIMC, f"s.yaml:{line_of(SIM, 'max_tilt_deg')}: column `workspace.max_tilt_deg`: `max_tilt_deg` must be below 90°")
+case("sim_probability_over_one", {"s.yaml": replace_once(SIM, "outlier_probability: 0.0", "outlier_probability: 2")}, SIMC, f"s.yaml:{line_of(SIM, 'outlier_probability')}: column `camera.outlier_probability`: `outlier_probability` must lie in [0, 1]")
+case("sim_zero_poses", {"s.yaml": replace_once(SIM, "poses: 400", "poses: 0")}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/sim"], f"s.yaml:{line_of(SIM, 'poses: 400')}: column `poses`: `poses` (or `--poses`) must be from 1 to 1000000 (got 0)")
+case("sim_gives_up", {"s.yaml": replace_once(SIM, "min_conditioning: 0.2", "min_conditioning: 0.999")}, SIMC, "only 0 of 30 poses survived 1600 attempts: 1600 candidates were rejected as near a singularity; loosen `workspace.min_conditioning` in the config")
+case("sim_unknown_camera_key", {"s.yaml": replace_once(SIM, "  baseline_m:", "  base_line_m:")}, SIMC, f"s.yaml:{line_of(SIM, '  baseline_m:')}: camera: unknown field `base_line_m`, expected one of `height_m`")
+case("sim_missing_model", {"s.yaml": replace_once(SIM, "../../../../models/agile_wrist.urdf", "nowhere.urdf")}, SIMC, "{case}/nowhere.urdf: No such file or directory")
+case("sim_duplicate_key", {"s.yaml": SIM + "seed: 5\n"}, SIMC, f"s.yaml:{SIM.count(chr(10)) + 1}: duplicate key `seed` (first at line {line_of(SIM, chr(10) + 'seed:') + 1})")
+case("sim_out_is_a_file", {"s.yaml": SIM}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/existing.csv", "--poses", "5"], "{tmp}/existing.csv: is a file; a session is a folder")
+case("sim_out_not_a_session", {"s.yaml": SIM, "notsession/readme.txt": "keep me\n"}, ["simulate", "--config", "{case}/s.yaml", "--out", "{case}/notsession", "--poses", "5"], "{case}/notsession: the folder is not empty and holds no session: refusing to write into it")
+case("sim_bad_rrd_keeps_nothing", {"s.yaml": SIM}, SIMC + ["--rrd", "{tmp}/no/such/folder/r.rrd"], "{tmp}/no/such/folder/r.rrd: cannot write here: No such file or directory")
+case("sim_coincident_companion_markers", {"s.yaml": replace_once(SIM, "../../../../models/agile_wrist.urdf", "m.urdf"), **model(companion=replace_once(COMPANION, "m3: [0.0649519053, -0.0375, 0.06]", "m3: [-0.0649, -0.0375, 0.06]"))}, SIMC, f"m.yaml:{line_of(COMPANION, '  m3:')}: column `markers_m.m3`: markers `m2` and `m3`: markers #2 and #3 are 0.052 mm apart, within 3.0 mm (3 × the 1 mm marker noise): they coincide")
 
 # --- URDF: what check_urdf rejects, named by joint or link -------------------------------------------
-case("urdf_missing_child_link", model(replace_once(URDF, '<child link="proximal1"/>', '<child link="proximal9"/>')), FDA_MODEL, "joint `theta1` names child link `proximal9`, which does not exist")
-case("urdf_missing_parent_link", model(replace_once(URDF, '<parent link="proximal1"/>', '<parent link="nowhere"/>')), FDA_MODEL, "joint `elbow1` names parent link `nowhere`")
-case("urdf_nan_origin", model(replace_once(URDF, '<origin xyz="0 0 0" rpy="0 0 0"/><axis xyz="1 0 0"/>', '<origin xyz="0 nan 0" rpy="0 0 0"/><axis xyz="1 0 0"/>')), FDA_MODEL, "joint `elbow1` has an origin that is not finite")
-case("urdf_inf_axis", model(replace_once(URDF, '<axis xyz="1 0 0"/>', '<axis xyz="inf 0 0"/>')), FDA_MODEL, "joint `elbow1` has a zero-length or non-finite axis")
-case("urdf_zero_axis", model(replace_once(URDF, '<axis xyz="1 0 0"/>', '<axis xyz="0 0 0"/>')), FDA_MODEL, "joint `elbow1` has a zero-length or non-finite axis")
-case("urdf_duplicate_link", model(replace_once(URDF, '<link name="proximal1">', '<link name="base_link">')), FDA_MODEL, "link `base_link` is defined twice")
-case("urdf_duplicate_joint", model(replace_once(URDF, '<joint name="elbow1"', '<joint name="theta1"')), FDA_MODEL, "joint `theta1` is defined twice")
-case("urdf_two_parents", model(replace_once(URDF, '<parent link="proximal2"/><child link="distal2"/>', '<parent link="proximal2"/><child link="distal1"/>')), FDA_MODEL, "joint `elbow2` makes link `distal1` a child a second time")
-case("urdf_self_loop", model(replace_once(URDF, '<parent link="proximal1"/><child link="distal1"/>', '<parent link="distal1"/><child link="distal1"/>')), FDA_MODEL, "as both parent and child")
-case("urdf_malformed_xml", model(URDF.replace("</robot>", "")), FDA_MODEL, "m.urdf")
-case("urdf_negative_shape_size", model(replace_once(URDF, '<cylinder radius="0.012"', '<cylinder radius="-0.012"')), FDA_MODEL, "link `proximal1` visual: has a shape size that is negative")
-case("urdf_negative_mass", model(replace_once(URDF, '<link name="proximal1">', '<link name="proximal1"><inertial><mass value="-1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>')), FDA_MODEL, "link `proximal1` has an inertial with a negative mass")
-case("urdf_missing_companion", {"m.urdf": URDF}, FDA_MODEL, "m.yaml")
+case("urdf_missing_child_link", model(replace_once(URDF, '<child link="proximal1"/>', '<child link="proximal9"/>')), FDA_MODEL, "{case}/m.urdf: joint `theta1` names child link `proximal9`, which does not exist")
+case("urdf_missing_parent_link", model(replace_once(URDF, '<parent link="proximal1"/>', '<parent link="nowhere"/>')), FDA_MODEL, "{case}/m.urdf: joint `elbow1` names parent link `nowhere`, which does not exist")
+case("urdf_nan_origin", model(replace_once(URDF, '<origin xyz="0 0 0" rpy="0 0 0"/><axis xyz="1 0 0"/>', '<origin xyz="0 nan 0" rpy="0 0 0"/><axis xyz="1 0 0"/>')), FDA_MODEL, "{case}/m.urdf: joint `elbow1` has an origin that is not finite: xyz [0.0, NaN, 0.0]")
+case("urdf_inf_axis", model(replace_once(URDF, '<axis xyz="1 0 0"/>', '<axis xyz="inf 0 0"/>')), FDA_MODEL, "{case}/m.urdf: joint `elbow1` has a zero-length or non-finite axis [inf, 0.0, 0.0]")
+case("urdf_zero_axis", model(replace_once(URDF, '<axis xyz="1 0 0"/>', '<axis xyz="0 0 0"/>')), FDA_MODEL, "{case}/m.urdf: joint `elbow1` has a zero-length or non-finite axis [0.0, 0.0, 0.0]")
+case("urdf_duplicate_link", model(replace_once(URDF, '<link name="proximal1">', '<link name="base_link">')), FDA_MODEL, "{case}/m.urdf: link `base_link` is defined twice")
+case("urdf_duplicate_joint", model(replace_once(URDF, '<joint name="elbow1"', '<joint name="theta1"')), FDA_MODEL, "{case}/m.urdf: joint `theta1` is defined twice")
+case("urdf_two_parents", model(replace_once(URDF, '<parent link="proximal2"/><child link="distal2"/>', '<parent link="proximal2"/><child link="distal1"/>')), FDA_MODEL, "{case}/m.urdf: joint `elbow2` makes link `distal1` a child a second time (of joint `elbow1` too)")
+case("urdf_self_loop", model(replace_once(URDF, '<parent link="proximal1"/><child link="distal1"/>', '<parent link="distal1"/><child link="distal1"/>')), FDA_MODEL, "{case}/m.urdf: joint `elbow1` has link `distal1` as both parent and child")
+case("urdf_malformed_xml", model(URDF.replace("</robot>", "")), FDA_MODEL, "{case}/m.urdf: No elements found")
+case("urdf_negative_shape_size", model(replace_once(URDF, '<cylinder radius="0.012"', '<cylinder radius="-0.012"')), FDA_MODEL, "{case}/m.urdf: link `proximal1` visual: has a shape size that is negative or not finite: [-0.012, ")
+case("urdf_negative_mass", model(replace_once(URDF, '<link name="proximal1">', '<link name="proximal1"><inertial><mass value="-1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>')), FDA_MODEL, "{case}/m.urdf: link `proximal1` has an inertial with a negative mass or a number that is not finite")
+case("urdf_missing_companion", {"m.urdf": URDF}, FDA_MODEL, "{case}/m.yaml: cannot read the URDF companion: cannot read: No such file or directory")
 
 # --- Companion -------------------------------------------------------------------------------------
-case("companion_collinear_markers", model(companion=replace_once(replace_once(COMPANION, "m1: [0.0, 0.075, 0.06]", "m1: [0.0, 0.0, 0.06]"), "m2: [-0.0649519053, -0.0375, 0.06]", "m2: [0.0, 0.0, 0.10]").replace("m3: [0.0649519053, -0.0375, 0.06]", "m3: [0.0, 0.0005, 0.14]")), FDA_MODEL, "lie within")
-case("companion_nan_marker", model(companion=replace_once(COMPANION, "m4: [0.0, 0.0, 0.22]", "m4: [0.0, .nan, 0.22]")), FDA_MODEL, f"m.yaml:{COMPANION[:COMPANION.index('  m4:')].count(chr(10)) + 1}: column `markers_m.m4`: marker `m4` has a non-finite position")
-case("companion_two_legs", model(companion=replace_once(COMPANION, "  - { actuated: theta3, intermediate: elbow3, platform: wrist3, closes_on: platform_closure3 }\n", "")), FDA_MODEL, f"m.yaml:{COMPANION[:COMPANION.index(chr(10) + 'legs:')].count(chr(10)) + 2}: column `legs`: `legs` lists 2 legs")
-case("companion_duplicate_marker", model(companion=COMPANION.rstrip("\n") + "\n  m1: [0.0, 0.07, 0.06]\n"), FDA_MODEL, f"m.yaml:{COMPANION.rstrip(chr(10)).count(chr(10)) + 2}: duplicate key `markers_m.m1`")
-case("companion_unknown_key", model(companion=COMPANION + "marker_radius_m: 0.006\n"), FDA_MODEL, "unknown field `marker_radius_m`")
-case("companion_unknown_joint", model(companion=replace_once(COMPANION, "intermediate: elbow1", "intermediate: elbow9")), FDA_MODEL, "joint `elbow9` is missing")
+case("companion_collinear_markers", model(companion=replace_once(replace_once(COMPANION, "m1: [0.0, 0.075, 0.06]", "m1: [0.0, 0.0, 0.06]"), "m2: [-0.0649519053, -0.0375, 0.06]", "m2: [0.0, 0.0, 0.10]").replace("m3: [0.0649519053, -0.0375, 0.06]", "m3: [0.0, 0.0005, 0.14]")), FDA_MODEL, f"m.yaml:{line_of(COMPANION, 'markers_m:', COMPANION.index(chr(10) + 'markers_m:'))}: column `markers_m`: the markers cannot fix an orientation: the markers lie within 0.215 mm (RMS) of a line")
+case("companion_nan_marker", model(companion=replace_once(COMPANION, "m4: [0.0, 0.0, 0.22]", "m4: [0.0, .nan, 0.22]")), FDA_MODEL, f"m.yaml:{line_of(COMPANION, '  m4:')}: column `markers_m.m4[1]`: marker `m4`'s position is not finite: component 1 is NaN")
+case("companion_two_legs", model(companion=replace_once(COMPANION, "  - { actuated: theta3, intermediate: elbow3, platform: wrist3, closes_on: platform_closure3 }\n", "")), FDA_MODEL, f"m.yaml:{COMPANION[:COMPANION.index(chr(10) + 'legs:')].count(chr(10)) + 2}: column `legs`: `legs` lists 2 legs; an SPM of this kind has 3")
+case("companion_duplicate_marker", model(companion=COMPANION.rstrip("\n") + "\n  m1: [0.0, 0.07, 0.06]\n"), FDA_MODEL, f"m.yaml:{COMPANION.rstrip(chr(10)).count(chr(10)) + 2}: duplicate key `markers_m.m1` (first at line {line_of(COMPANION, '  m1:')})")
+case("companion_unknown_key", model(companion=COMPANION + "marker_radius_m: 0.006\n"), FDA_MODEL, f"m.yaml:{COMPANION.count(chr(10)) + 1}: unknown field `marker_radius_m`, expected one of `platform_link`")
+case("companion_unknown_joint", model(companion=replace_once(COMPANION, "intermediate: elbow1", "intermediate: elbow9")), FDA_MODEL, f"m.yaml:{line_of(COMPANION, 'intermediate: elbow1')}: column `legs[0].intermediate`: joint `elbow9` is missing from {{case}}/m.urdf")
 
 # --- Parameters file -------------------------------------------------------------------------------
 leg_start = PARAMS.index("- u:")
 second_leg = PARAMS.index("- u:", leg_start + 1)
-case("params_two_legs", {"p.yaml": PARAMS[:leg_start] + PARAMS[second_leg:]}, FDA_PARAMS, "p.yaml:7: column `legs`: `legs` has 2 entries")
-case("params_non_unit_axis", {"p.yaml": PARAMS[:second_leg] + replace_once(PARAMS[second_leg:], "- u:\n  - -0.68", "- u:\n  - -1.68")}, FDA_PARAMS, f"p.yaml:{PARAMS[:second_leg].count(chr(10)) + 1}: column `legs[1]`: leg 2")
-case("params_link_angle_out_of_range", {"p.yaml": replace_once(PARAMS, "alpha1_deg: 90.08628802309651", "alpha1_deg: 200")}, FDA_PARAMS, f"p.yaml:{PARAMS[:leg_start].count(chr(10)) + 1}: column `legs[0]`: leg 1")
+case("params_two_legs", {"p.yaml": PARAMS[:leg_start] + PARAMS[second_leg:]}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, 'legs:')}: column `legs`: `legs` has 2 entries, expected 3")
+case("params_non_unit_axis", {"p.yaml": PARAMS[:second_leg] + replace_once(PARAMS[second_leg:], "- u:\n  - -0.68", "- u:\n  - -1.68")}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, '- u:', second_leg)}: column `legs[1].u`: leg 2: axis u has length 1.838e0; a joint axis must be a unit vector")
+case("params_link_angle_out_of_range", {"p.yaml": replace_once(PARAMS, "alpha1_deg: 90.08628802309651", "alpha1_deg: 200")}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, 'alpha1_deg:')}: column `legs[0].alpha1_deg`: leg 1: alpha1 = 200.0000° is outside (0°, 180°)")
 quat_at = PARAMS.index("r_cb_wxyz:\n  - ") + len("r_cb_wxyz:\n  - ")
 quat_end = PARAMS.index("\n", quat_at)
-case("params_bad_quaternion", {"p.yaml": PARAMS[:quat_at] + "7.0" + PARAMS[quat_end:]}, FDA_PARAMS, f"p.yaml:{PARAMS[:quat_at].count(chr(10))}: column `camera.r_cb_wxyz`: `r_cb_wxyz` is not a unit quaternion")
-case("params_short_quaternion", {"p.yaml": PARAMS[:quat_at] + PARAMS[quat_end + 5:]}, FDA_PARAMS, "camera.r_cb_wxyz: invalid length")
-case("params_wrong_format", {"p.yaml": replace_once(PARAMS, "format: spmcal-parameters/1", "format: spmcal-parameters/9")}, FDA_PARAMS, "p.yaml:4: column `format`")
-case("params_duplicate_key", {"p.yaml": PARAMS + "source: nominal\n"}, FDA_PARAMS, "duplicate key `source`")
-case("params_nan_offset", {"p.yaml": replace_once(PARAMS, "delta_deg: 0.15425991586269458", "delta_deg: .nan")}, FDA_PARAMS, "column `legs[0]`: leg 1")
+case("params_bad_quaternion", {"p.yaml": PARAMS[:quat_at] + "7.0" + PARAMS[quat_end:]}, FDA_PARAMS, f"p.yaml:{PARAMS[:quat_at].count(chr(10))}: column `camera.r_cb_wxyz`: `r_cb_wxyz` is not a unit quaternion (its norm is 7.07")
+case("params_short_quaternion", {"p.yaml": PARAMS[:quat_at] + PARAMS[quat_end + 5:]}, FDA_PARAMS, f"p.yaml:{PARAMS[:quat_at].count(chr(10)) + 1}: camera.r_cb_wxyz: invalid length 3, expected an array of length 4")
+case("params_wrong_format", {"p.yaml": replace_once(PARAMS, "format: spmcal-parameters/1", "format: spmcal-parameters/9")}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, 'format:')}: column `format`: format is `spmcal-parameters/9`, expected `spmcal-parameters/1`")
+case("params_duplicate_key", {"p.yaml": PARAMS + "source: nominal\n"}, FDA_PARAMS, f"p.yaml:{PARAMS.count(chr(10)) + 1}: duplicate key `source` (first at line {line_of(PARAMS, 'source:')})")
+case("params_nan_offset", {"p.yaml": replace_once(PARAMS, "delta_deg: 0.15425991586269458", "delta_deg: .nan")}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, 'delta_deg:')}: column `legs[0].delta_deg`: leg 1: delta is not finite")
 
 # --- Kinematics CSV and IK -------------------------------------------------------------------------
-case("fda_nan_joint", {"j.csv": "pose,theta1_rad,theta2_rad,theta3_rad\n0,0,0,0\n1,NaN,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:3: column `theta1_rad`")
-case("fda_ragged_row", {"j.csv": "pose,theta1_rad,theta2_rad,theta3_rad\n0,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:2")
-case("fda_missing_column", {"j.csv": "pose,theta1_rad,theta2_rad\n0,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:1: the header has no column `theta3_rad`")
-case("ik_non_unit_quaternion", {"o.csv": "pose,qw,qx,qy,qz\n0,1,0,0,0\n1,2,0,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:3")
-case("ik_serial_singularity", {"o.csv": "pose,qw,qx,qy,qz\n0,0.816496580927726,-0.5773502691896258,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:2: pose 0: leg")
+case("fda_nan_joint", {"j.csv": "pose,theta1_rad,theta2_rad,theta3_rad\n0,0,0,0\n1,NaN,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:3: column `theta1_rad`: `NaN` is not finite")
+case("fda_ragged_row", {"j.csv": "pose,theta1_rad,theta2_rad,theta3_rad\n0,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:2: malformed CSV: CSV error: record 1 (line: 2, byte: 38): found record with 3 fields, but the previous record has 4 fields")
+case("fda_missing_column", {"j.csv": "pose,theta1_rad,theta2_rad\n0,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:1: the header has no column `theta3_rad` (it has: pose,theta1_rad,theta2_rad)")
+case("ik_non_unit_quaternion", {"o.csv": "pose,qw,qx,qy,qz\n0,1,0,0,0\n1,2,0,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:3: column `qw`: quaternion [2.0, 0.0, 0.0, 0.0] does not have unit norm")
+case("ik_serial_singularity", {"o.csv": "pose,qw,qx,qy,qz\n0,0.816496580927726,-0.5773502691896258,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:2: pose 0: leg 1 is at a serial singularity: its platform axis lies")
 
 # --- Outputs: checked before the work, written all together ------------------------------------------
 CAL20 = ["calibrate", "--dataset", "datasets/agile_wrist_sim_20"]
-case("out_rrd_folder_missing", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/missing/r.rrd"], "missing/r.rrd")
-case("out_is_a_folder", {}, CAL20 + ["--out", "{tmp}"], "is a folder")
-case("out_twice", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/existing.yaml"], "is given as two different outputs")
-case("estimate_rrd_folder_missing", {}, ["estimate", "--dataset", "datasets/agile_wrist_sim_20", "--out", "{tmp}/existing.csv", "--rrd", "{tmp}/missing/e.rrd"], "missing/e.rrd")
-case("ik_out_folder_missing", {}, ["ik", "--quat", "1,0,0,0", "--out", "{tmp}/missing/j.csv"], "missing/j.csv")
+case("out_rrd_folder_missing", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/missing/r.rrd"], "{tmp}/missing/r.rrd: cannot write here: No such file or directory")
+case("out_is_a_folder", {}, CAL20 + ["--out", "{tmp}"], "{tmp}: is a folder; an output file was expected")
+case("out_twice", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/existing.yaml"], "{tmp}/existing.yaml: is given as two different outputs")
+case("estimate_rrd_folder_missing", {}, ["estimate", "--dataset", "datasets/agile_wrist_sim_20", "--out", "{tmp}/existing.csv", "--rrd", "{tmp}/missing/e.rrd"], "{tmp}/missing/e.rrd: cannot write here: No such file or directory")
+case("ik_out_folder_missing", {}, ["ik", "--quat", "1,0,0,0", "--out", "{tmp}/missing/j.csv"], "{tmp}/missing/j.csv: cannot write here: No such file or directory")
 
 # --- Sessions and vision ---------------------------------------------------------------------------
 still = "pose,theta1_rad,theta2_rad,theta3_rad\n" + "".join(f"{p},0,0,0\n" for p in range(20))
 still_markers = "pose,marker,x_m,y_m,z_m\n" + "".join(line.replace("0,", f"{p},", 1) + "\n" for p in range(20) for line in MARKERS.splitlines()[1:5])
-case("session_nothing_moves", session(**{"joints.csv": still, "markers.csv": still_markers}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "the MP barely moves")
+case("session_nothing_moves", session(**{"joints.csv": still, "markers.csv": still_markers}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "the MP barely moves: the largest rotation between the session's poses is 0.000°, too little to calibrate from")
 ref = MARKERS.splitlines()
 near = ref[:]
 x, y, z = (float(v) for v in ref[1].split(",")[2:])
 near[2] = f"0,m2,{x + 1e-4},{y},{z}"
-case("session_reference_markers_coincide", session(**{"markers.csv": "\n".join(near) + "\n"}), ["estimate", "--dataset", "{case}"], "markers #1 and #2 are 0.100 mm apart")
-case("session_duplicate_key", session(**{"session.yaml": SESSION + "name: again\n"}), ["estimate", "--dataset", "{case}"], "session.yaml:10: duplicate key `name`")
-case("session_nested_bomb", session(**{"session.yaml": "name: " + "{a: " * 5000}), ["estimate", "--dataset", "{case}"], "nested more than 16 levels deep")
-case("session_reference_not_a_pose", session(**{"session.yaml": SESSION.replace("reference_pose: 0", "reference_pose: 99")}), ["estimate", "--dataset", "{case}"], "session.yaml:8: column `reference_pose`")
+case("session_reference_markers_coincide", session(**{"markers.csv": "\n".join(near) + "\n"}), ["estimate", "--dataset", "{case}"], "pose 0: markers #1 and #2 are 0.100 mm apart, within 3.0 mm (3 × the 1 mm marker noise): they coincide")
+case("session_duplicate_key", session(**{"session.yaml": SESSION + "name: again\n"}), ["estimate", "--dataset", "{case}"], f"session.yaml:{SESSION.count(chr(10)) + 1}: duplicate key `name` (first at line {line_of(SESSION, 'name:')})")
+case("session_nested_bomb", session(**{"session.yaml": "name: " + "{a: " * 5000}), ["estimate", "--dataset", "{case}"], "session.yaml:1: nested more than 16 levels deep")
+case("session_reference_not_a_pose", session(**{"session.yaml": SESSION.replace("reference_pose: 0", "reference_pose: 99")}), ["estimate", "--dataset", "{case}"], f"session.yaml:{line_of(SESSION, 'reference_pose:')}: column `reference_pose`: reference pose 99 is not in joints.csv")
 
 
 def main():
