@@ -368,6 +368,12 @@ def predict(start: Start, x: Array, joints: Array, markers: Array,
     return camera_points(s, r, markers), r
 
 
+def implicit_step(a_inverse: Array, f_x: Array) -> Array:
+    """``dε = −A⁻¹ ∂f/∂x``: how the FDA's rotation turns (in B) when the closure moves by ``f_x``."""
+    out: Array = -np.einsum("nab,nb->na", a_inverse, f_x)
+    return out
+
+
 def sensitivities(start: Start, x: Array, joints: Array, markers: Array) -> tuple[Array, Array, Array, Array]:
     """Predictions ``(n, 3)``, rotations ``(n, 3, 3)``, the predictions' Jacobian ``(n, 3, p)`` and
     the orientations' ``(n, 3, p)`` (``dR = [dω]× R``, ``dω`` in B)."""
@@ -386,7 +392,7 @@ def sensitivities(start: Start, x: Array, joints: Array, markers: Array) -> tupl
         xc[i] += 1j * COMPLEX_STEP
         sc = state(start, xc)
         f_x = closure(sc.legs, joints, r.astype(complex)).imag / COMPLEX_STEP
-        d_omega = -np.einsum("nab,nb->na", a_inverse, f_x)
+        d_omega = implicit_step(a_inverse, f_x)
         explicit = camera_points(sc, r.astype(complex), markers).imag / COMPLEX_STEP
         jac[:, :, i] = explicit - np.einsum("nab,nb->na", lever, d_omega)
         omega[:, :, i] = d_omega

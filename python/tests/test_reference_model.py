@@ -14,9 +14,10 @@ them) — random parameter vectors, registrations, markers, camera models and re
 - the reference's analytic Jacobian agrees with its own central differences (to 1e-6; measured
   ~1e-9, the differences' own error).
 
-And the comparison sees a wrong convention: each of three deliberate mistakes in the reference
+And the comparison sees a wrong convention: each of four deliberate mistakes in the reference
 (the offset's direction, two shears swapped in K, the camera rotation's update composed on the
-wrong side) makes it fail on every case it applies to.
+wrong side, the implicit derivative's sign — which leaves the values right and only the Jacobian
+wrong) makes it fail on every case it applies to.
 """
 
 from __future__ import annotations
@@ -236,7 +237,15 @@ def registration_transposed(start: ref.Start, x: ref.Array) -> ref.State:
     return out
 
 
+def implicit_step_reversed(a_inverse: ref.Array, f_x: ref.Array) -> ref.Array:
+    return -ORIGINAL_STEP(a_inverse, f_x)
+
+
+ORIGINAL_STEP = ref.implicit_step
+
+
 MUTANTS: dict[str, tuple[str, Callable[..., Any]]] = {
+    "implicit derivative's sign (the Jacobian alone)": ("implicit_step", implicit_step_reversed),
     "offset direction (phi = theta - delta)": ("intermediate_axis", flipped_offset),
     "shears k_xz and k_yz swapped in K": ("camera_matrix", shear_misplaced),
     "camera rotation composed on the right": ("state", registration_transposed),
@@ -260,6 +269,8 @@ def test_a_wrong_convention_is_seen(mutant: str, tmp_path: Path, monkeypatch: py
             monkeypatch.undo()
         worst = max(found["value_m"] / VALUE_TOL_M, found.get("jacobian", 0.0) / JACOBIAN_TOL)
         assert worst > 1, (mutant, found)
+        if "Jacobian alone" in mutant:
+            assert found["value_m"] < VALUE_TOL_M and found["jacobian"] > JACOBIAN_TOL, found
         seen += 1
     assert seen >= 2, mutant
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import reference_model as ref
 import spmcal
 from conftest import run
 
@@ -32,6 +33,10 @@ def test_forward_is_the_command_lines_fda_to_1e12(cli: str, tmp_path: Path) -> N
     assert np.abs(model.forward(joints) - expected).max() < 1e-12
     # And the IK then FDA round trip returns the orientations (sign of q fixed, qw >= 0).
     assert np.abs(model.forward(joints) - q).max() < 1e-12
+    # An independent fact (the command line and the module run the same Rust): the numpy
+    # reference's FDA of DESIGN.md's nominal wrist gives the same rotations.
+    assert np.abs(ref.fda(ref.agile_wrist(), joints) - model.forward(joints, matrices=True)).max() < 1e-12
+    assert np.abs(ref.fda(ref.agile_wrist(), joints) - ref.expm(rotvec)).max() < 1e-12
 
 
 def test_the_other_kinematics_agree_with_forward() -> None:
@@ -87,6 +92,7 @@ def test_the_calibration_of_a_shipped_dataset_is_the_command_lines(cli: str, tmp
     report = json.loads(out.stdout)["results"]
     calibration = spmcal.calibrate(spmcal.Session.load("datasets/agile_wrist_sim_400"))
     ours = calibration.to_dict()
+    assert len(ours["parameters"]) == len(report["parameters"]) > 0
     for a, b in zip(ours["parameters"], report["parameters"]):
         assert a["name"] == b["name"]
         assert a["change_deg"] == pytest.approx(b["change_deg"], abs=1e-12)
@@ -96,6 +102,19 @@ def test_the_calibration_of_a_shipped_dataset_is_the_command_lines(cli: str, tmp
         spmcal.Model.from_params(tmp_path / "cli.yaml").to_dict()["legs"]
     errors = calibration.errors()
     assert errors["calibrated"].mean() < errors["nominal"].mean() / 2
+    # An independent fact: the simulation's truth. The calibrated legs through the numpy reference's
+    # FDA against the true legs at the session's readings, up to the rotations common to every
+    # pose, lie within the report's own 90% range of its predicted error (and far below nominal).
+    session = spmcal.Session.load("datasets/agile_wrist_sim_400")
+    true_legs = spmcal.Model.from_params("datasets/agile_wrist_sim_400/truth.yaml").to_dict()["legs"]
+    truth = ref.fda(ref.legs_from_file(true_legs), session.joints)
+    calibrated = ref.fda(ref.legs_from_file(calibration.parameters["legs"]), session.joints)
+    achieved = ref.orientation_error_deg(calibrated, truth)
+    nominal = ref.orientation_error_deg(ref.fda(ref.agile_wrist(), session.joints), truth)
+    rms = float(np.sqrt(np.mean(achieved**2)))
+    low, high = ours["predicted_error_deg"]["interval_90"]
+    assert low <= rms <= high, (rms, low, high)
+    assert rms < float(np.sqrt(np.mean(nominal**2))) / 10
 
 
 def test_a_long_calibration_releases_the_gil() -> None:
