@@ -10,6 +10,9 @@
 //! sessions per row, the same seeds in every row so that rows differ only by the camera, and 5
 //! recordings per free-motion row).
 
+#[macro_use]
+#[path = "../common/results.rs"]
+mod results;
 use std::path::Path;
 
 use spmcal::calib::CalibConfig;
@@ -22,6 +25,7 @@ mod study;
 use study::{SessionResult, pooled, run_session_with};
 
 fn main() {
+    let mut results = results::Results::new("camera_model");
     let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(50);
     let recordings: u64 = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(5);
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).expect("shipped model");
@@ -31,11 +35,12 @@ fn main() {
     let run = |c: &SimConfig, kind| -> Vec<SessionResult> {
         (0..sessions).map(|s| run_session_with(c, &model, 10_000 + s, 60, &fit(kind))).collect()
     };
-    println!(
+    out!(
+        results,
         "| depth scale | sessions | rigid camera (°) | depth-scale model (°) | Cramér–Rao (°) | model / CRB | \
          fitted scale − true (mean ± sd) | reported σ (mean) | truth within 2σ / 3σ |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    out!(results, "|---|---|---|---|---|---|---|---|---|");
     for scale in [0.98, 0.99, 1.0, 1.01, 1.02] {
         let mut c = base.clone();
         c.camera.depth_scale = scale;
@@ -54,7 +59,8 @@ fn main() {
         let sd = (errors.iter().map(|e| (e.0 - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
         let sigma = errors.iter().map(|e| e.1).sum::<f64>() / n;
         let within = |k: f64| errors.iter().filter(|(e, s)| e.abs() <= k * s).count();
-        println!(
+        out!(
+            results,
             "| {scale:.2} | {} | {:.4} | {m:.4} | {crb:.4} | {:.3} | {mean:+.5} ± {sd:.5} | {sigma:.5} | {} / {} of {} |",
             model_fit.len(),
             pooled(rigid.iter().map(|r| r.markers_deg)),
@@ -67,9 +73,12 @@ fn main() {
     // An affine camera: y reads 1% short, x and the optical axis are sheared by 1%, depths 1% long.
     let mut c = base.clone();
     (c.camera.depth_scale, c.camera.scale_y, c.camera.shear_xz, c.camera.shear_xy) = (1.01, 0.99, 0.01, 0.005);
-    println!();
-    println!("| camera model fitted (affine camera) | sessions | error vs truth (°) | Cramér–Rao (°) | model / CRB |");
-    println!("|---|---|---|---|---|");
+    out!(results);
+    out!(
+        results,
+        "| camera model fitted (affine camera) | sessions | error vs truth (°) | Cramér–Rao (°) | model / CRB |"
+    );
+    out!(results, "|---|---|---|---|---|");
     for kind in [CameraModelKind::Rigid, CameraModelKind::DepthScale, CameraModelKind::Affine] {
         let rows = run(&c, kind);
         let m = pooled(rows.iter().map(|r| r.markers_deg));
@@ -81,20 +90,21 @@ fn main() {
             CameraModelKind::Affine => format!("{:.3}", m / pooled(rows.iter().map(|r| r.cramer_rao_deg))),
             _ => "–".to_string(),
         };
-        println!("| {} | {} | {m:.4} | {crb} | {ratio} |", kind.name(), rows.len());
+        out!(results, "| {} | {} | {m:.4} | {crb} | {ratio} |", kind.name(), rows.len());
     }
-    free_motion(&model, recordings);
+    free_motion(&mut results, &model, recordings);
+    results.save();
 }
 
 /// Ten minutes of free motion (`configs/simulate_agile_wrist_free_motion.yaml`, 600 s) from a
 /// perfect camera and from one whose depths read 1% long, calibrated with the depth-scale model
 /// (and, for the long camera, with a rigid one): RMS error against the truth.
-fn free_motion(model: &RobotModel, sessions: u64) {
+fn free_motion(results: &mut results::Results, model: &RobotModel, sessions: u64) {
     let recording =
         SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).expect("shipped config");
-    println!();
-    println!("| 10 min free motion | sessions | error vs truth (°) | fitted scale − true (RMS) |");
-    println!("|---|---|---|---|");
+    out!(results);
+    out!(results, "| 10 min free motion | sessions | error vs truth (°) | fitted scale − true (RMS) |");
+    out!(results, "|---|---|---|---|");
     for (label, scale, kind) in [
         ("perfect camera, depth-scale model", 1.0, CameraModelKind::DepthScale),
         ("depth 1% long, depth-scale model", 1.01, CameraModelKind::DepthScale),
@@ -122,6 +132,6 @@ fn free_motion(model: &RobotModel, sessions: u64) {
             CameraModelKind::Rigid => "–".to_string(),
             _ => format!("{:.5}", pooled(scales.into_iter())),
         };
-        println!("| {label} | {} | {:.4} | {scale_error} |", errors.len(), pooled(errors.into_iter()));
+        out!(results, "| {label} | {} | {:.4} | {scale_error} |", errors.len(), pooled(errors.into_iter()));
     }
 }

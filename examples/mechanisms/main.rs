@@ -6,6 +6,9 @@
 //! standard errors of the truth (honest σ's: ≥ 95%, ideally 99.7%).
 //! Run: `cargo run --release --example mechanisms [sessions]` (default 20 per model).
 
+#[macro_use]
+#[path = "../common/results.rs"]
+mod results;
 use std::path::Path;
 
 use spmcal::model::RobotModel;
@@ -17,11 +20,13 @@ mod study;
 use study::{pooled, run_session};
 
 fn main() {
+    let mut results = results::Results::new("mechanisms");
     let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(20);
-    println!(
+    out!(
+        results,
         "| model | sessions | nominal (°) | marker-level (°) | Cramér–Rao (°) | marker / CRB | parameters within 3σ |"
     );
-    println!("|---|---|---|---|---|---|---|");
+    out!(results, "|---|---|---|---|---|---|---|");
     for config in ["configs/simulate_agile_wrist.yaml", "configs/simulate_orbita3d.yaml"] {
         let mut c = SimConfig::read(Path::new(config)).expect("shipped config");
         c.poses = 200;
@@ -29,7 +34,8 @@ fn main() {
         let rows: Vec<_> = (0..sessions).map(|s| run_session(&c, &model, 10_000 + s, 60)).collect();
         let (m, crb) = (pooled(rows.iter().map(|r| r.markers_deg)), pooled(rows.iter().map(|r| r.cramer_rao_deg)));
         let (inside, total) = rows.iter().fold((0, 0), |(a, b), r| (a + r.within_3_sigma.0, b + r.within_3_sigma.1));
-        println!(
+        out!(
+            results,
             "| {} | {} | {:.4} | {m:.4} | {crb:.4} | {:.3} | {inside} of {total} ({:.1}%) |",
             model.name,
             rows.len(),
@@ -38,4 +44,5 @@ fn main() {
             100.0 * inside as f64 / total as f64
         );
     }
+    results.save();
 }

@@ -6,6 +6,9 @@
 //! estimate a pooled ratio to about ±0.06, 60 to about ±0.035;
 //! `kind` keeps the kinds whose label contains it, e.g. `free`).
 
+#[macro_use]
+#[path = "../common/results.rs"]
+mod results;
 use std::path::Path;
 
 use spmcal::calib::Group;
@@ -18,6 +21,7 @@ mod accuracy;
 mod study;
 
 fn main() {
+    let mut results = results::Results::new("predicted_accuracy");
     let sessions: u64 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(60);
     let only = std::env::args().nth(2).unwrap_or_default();
     let kinds: [(&str, &str, Option<usize>); 4] = [
@@ -26,10 +30,11 @@ fn main() {
         ("sequential, 200 stations", "configs/simulate_agile_wrist_sequential.yaml", None),
         ("free motion, 2 min", "configs/simulate_agile_wrist_free_motion.yaml", None),
     ];
-    println!(
+    out!(
+        results,
         "| session | sessions | predicted (°) | achieved (°) | pooled ratio ± s.e. | per-session ratio mean [min, max] | effective dof | achieved inside the 90% interval | fresh workspace poses (°) | predicted (mm) | achieved (mm) | pooled ratio ± s.e. | per-session ratio mean [min, max] | inside the 90% interval |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    out!(results, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut z: Vec<(Group, f64)> = Vec::new();
     for (label, file, poses) in kinds.into_iter().filter(|(label, ..)| label.contains(only.as_str())) {
         let mut config = SimConfig::read(Path::new(file)).expect("shipped config");
@@ -46,7 +51,8 @@ fn main() {
             let (lo, hi) = r.iter().fold((f64::INFINITY, 0f64), |(a, b), x| (a.min(*x), b.max(*x)));
             format!("{mean:.2} [{lo:.2}, {hi:.2}]")
         };
-        println!(
+        out!(
+            results,
             "| {label} | {} | {:.4} | {:.4} | {:.2} ± {:.2} | {} | {:.1} | {} of {} | {:.4} | {:.4} | {:.4} | {:.2} ± {:.2} | {} | {} of {} |",
             rows.len(),
             rms(rows.iter().map(|r| r.predicted_deg).collect()),
@@ -68,9 +74,9 @@ fn main() {
         );
         z.extend(rows.iter().flat_map(|r| r.z.iter().copied()));
     }
-    println!();
-    println!("| parameter group | parameters | within 1σ (68.3%) | within 2σ (95.4%) | within 3σ (99.7%) |");
-    println!("|---|---|---|---|---|");
+    out!(results);
+    out!(results, "| parameter group | parameters | within 1σ (68.3%) | within 2σ (95.4%) | within 3σ (99.7%) |");
+    out!(results, "|---|---|---|---|---|");
     let mut groups: Vec<Group> = Vec::new();
     for (g, _) in &z {
         if !groups.contains(g) {
@@ -80,6 +86,7 @@ fn main() {
     for g in groups {
         let of: Vec<f64> = z.iter().filter(|(h, _)| *h == g).map(|(_, v)| *v).collect();
         let within = |k: f64| 100.0 * of.iter().filter(|v| **v <= k).count() as f64 / of.len() as f64;
-        println!("| {g:?} | {} | {:.1}% | {:.1}% | {:.1}% |", of.len(), within(1.0), within(2.0), within(3.0));
+        out!(results, "| {g:?} | {} | {:.1}% | {:.1}% | {:.1}% |", of.len(), within(1.0), within(2.0), within(3.0));
     }
+    results.save();
 }
