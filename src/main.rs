@@ -5,7 +5,7 @@ mod cli;
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use cli::{Cli, Command};
 
 fn main() -> ExitCode {
@@ -21,7 +21,7 @@ fn main() -> ExitCode {
         Command::Plan(args) => cli::plan::run(args),
         Command::Export(args) => cli::export::run(args),
         Command::Convert(args) => cli::convert::run(args),
-        Command::Completions(args) => cli::completions::completions(args),
-        Command::Man => cli::completions::man(),
+        Command::Completions(args) => cli::completions::completions(args, Cli::command()),
+        Command::Man => cli::completions::man(Cli::command()),
     })
 }

@@ -1,10 +1,10 @@
 //! `spmcal completions SHELL` and `spmcal man`: the shell completion script and the manual page,
-//! both generated from the command line's own definition, so they cannot drift from it.
+//! both generated from the command line's own definition (handed in by `main`, so that this file
+//! does not import the definition that lists it), so they cannot drift from it.
 
 use anyhow::Result;
-use clap::{Args, CommandFactory};
+use clap::Args;
 
-use super::Cli;
 use super::output::out;
 
 #[derive(Args)]
@@ -16,15 +16,15 @@ pub(crate) struct CompletionsArgs {
 
 /// The completion script on standard output (e.g. `spmcal completions bash >
 /// ~/.local/share/bash-completion/completions/spmcal`).
-pub(crate) fn completions(args: CompletionsArgs) -> Result<()> {
+pub(crate) fn completions(args: CompletionsArgs, mut command: clap::Command) -> Result<()> {
     let mut script = Vec::new();
-    clap_complete::generate(args.shell, &mut Cli::command(), "spmcal", &mut script);
+    clap_complete::generate(args.shell, &mut command, "spmcal", &mut script);
     out(&String::from_utf8_lossy(&script))
 }
 
 /// The manual page (roff) on standard output.
-pub(crate) fn man() -> Result<()> {
+pub(crate) fn man(command: clap::Command) -> Result<()> {
     let mut page = Vec::new();
-    clap_mangen::Man::new(Cli::command()).render(&mut page)?;
+    clap_mangen::Man::new(command).render(&mut page)?;
     out(&String::from_utf8_lossy(&page))
 }

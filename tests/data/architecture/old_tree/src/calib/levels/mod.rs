@@ -1,0 +1,3 @@
+mod markers;
+
+pub(crate) use markers::MarkerLevel;

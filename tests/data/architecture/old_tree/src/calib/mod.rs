@@ -1,0 +1,4 @@
+mod levels;
+mod pipeline;
+
+pub use pipeline::{Calibration, calibrate};
