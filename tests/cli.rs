@@ -6,6 +6,11 @@ fn spmcal(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_spmcal")).args(args).output().unwrap()
 }
 
+/// The data rows of a CSV file (its lines less the header), counted from the file itself.
+fn csv_rows(path: &str) -> usize {
+    std::fs::read_to_string(path).unwrap().lines().skip(1).filter(|l| !l.trim().is_empty()).count()
+}
+
 #[test]
 fn ik_then_fda_through_files_recovers_the_orientations() {
     let dir = tempfile::tempdir().unwrap();
@@ -67,9 +72,36 @@ fn bad_joint_file_is_reported_with_file_line_and_column() {
 
 #[test]
 fn unreachable_orientation_names_the_pose() {
-    let out = spmcal(&["ik", "--quat", "1,0,0,0", "--params", "/nonexistent/params.yaml"]);
+    // A valid shipped model (Orbita3d: link angles below 90°, so its reach is bounded), three
+    // orientations it reaches and, at pose 7 on the file's fifth line, a tilt of 60° about x,
+    // which no link of leg 1 reaches (its IK needs a cosine beyond 1).
+    let dir = tempfile::tempdir().unwrap();
+    let orientations = dir.path().join("o.csv");
+    let beyond_reach = "7,0.8660254037844386,0.5,0,0";
+    let reachable =
+        "0,1,0,0,0\n3,0.9961946980917455,0.0871557427476582,0,0\n5,0.9961946980917455,0,0.0871557427476582,0";
+    std::fs::write(&orientations, format!("pose,qw,qx,qy,qz\n{reachable}\n{beyond_reach}\n")).unwrap();
+    let joints = dir.path().join("j.csv");
+    let ik = |orientations: &std::path::Path| {
+        let paths = [orientations.to_str().unwrap(), joints.to_str().unwrap()];
+        spmcal(&["ik", "--model", "models/orbita3d.urdf", "--orientations", paths[0], "--out", paths[1]])
+    };
+    let out = ik(&orientations);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("/nonexistent/params.yaml"), "{err}");
+    assert!(!out.status.success(), "{err}");
+    // File and line, the pose's own number, and the reason with the leg and the number behind it.
+    assert!(
+        err.contains("o.csv:5: pose 7: orientation outside the workspace: leg 1 cannot reach it (needs |cos| = "),
+        "{err}"
+    );
+    let needs: f64 = err.split("|cos| = ").nth(1).and_then(|t| t.split(' ').next()).unwrap().parse().unwrap();
+    assert!(needs > 1.0 && needs.is_finite(), "{err}");
+    assert!(!joints.exists(), "no joints file after a failure");
+    // Without that pose the same file goes through: the failure was that pose's, not the model's.
+    std::fs::write(&orientations, format!("pose,qw,qx,qy,qz\n{reachable}\n")).unwrap();
+    let out = ik(&orientations);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(csv_rows(joints.to_str().unwrap()), 3);
 }
 
 #[test]
@@ -153,12 +185,13 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
     assert_eq!(v["command"], "compare");
     let sets = v["results"].as_array().unwrap();
+    assert_eq!(sets.len(), 2, "nominal and calibrated");
     assert_eq!((sets[0]["label"].as_str(), sets[1]["label"].as_str()), (Some("nominal"), Some("calibrated")));
     for set in sets {
         for key in ["rms", "median", "max"] {
             assert!(set[key].as_f64().unwrap() > 0.0, "{key}");
         }
-        assert_eq!(set["per_pose"].as_array().unwrap().len(), 20);
+        assert_eq!(set["per_pose"].as_array().unwrap().len(), csv_rows("datasets/agile_wrist_sim_20/joints.csv"));
     }
     assert!(sets[1]["rms"].as_f64().unwrap() < sets[0]["rms"].as_f64().unwrap());
     assert!(sets.iter().all(|s| s["level"] == "orientations" && s["unit"] == "deg"));
@@ -166,7 +199,9 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     // The calibrated file drives the kinematics commands.
     let fda = spmcal(&["fda", "--joints", "datasets/joystick_circle/joints.csv", "--params", params.to_str().unwrap()]);
     assert!(fda.status.success(), "{}", String::from_utf8_lossy(&fda.stderr));
-    assert_eq!(String::from_utf8_lossy(&fda.stdout).lines().count(), 1 + 36);
+    let circle = csv_rows("datasets/joystick_circle/joints.csv");
+    assert!(circle > 0);
+    assert_eq!(String::from_utf8_lossy(&fda.stdout).lines().count(), 1 + circle);
     let json =
         spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
@@ -287,7 +322,8 @@ fn export_writes_a_urdf_and_companion_that_drive_fda_as_the_parameters_file_does
             .collect()
     };
     let (a, b) = (quaternions(&by_model), quaternions(&by_params));
-    assert_eq!(a.len(), 36 * 4);
+    // A quaternion per row of the input, from both: a shorter list cannot pass by zipping.
+    assert_eq!((a.len(), b.len()), (csv_rows(joints) * 4, csv_rows(joints) * 4));
     assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12));
     // A destination folder that does not exist is an error naming it, and writes nothing.
     let missing = dir.path().join("no/such/folder/x.urdf");
@@ -301,7 +337,15 @@ fn check_describes_a_model_its_home_branches_and_its_workspace() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("a coaxial SPM") && text.matches("+ positive").count() == 3, "{text}");
-    assert!(text.contains("3757 of 3757 orientations regular") && text.contains("problems: none"), "{text}");
+    // Every orientation of the survey's grid regular: the count is the survey's own (its JSON),
+    // not today's figure, and the grid is the workspace's, not the orientations reached (the same
+    // grid over a workspace the Agile Wrist cannot all reach, below, counts as many).
+    let json = spmcal(&["check", "--model", "models/orbita3d.urdf", "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let grid = json["results"]["orientations"].as_u64().unwrap();
+    assert_eq!(json["results"]["regular"].as_u64(), Some(grid), "{json}");
+    let all = format!("{grid} of {grid} orientations regular");
+    assert!(grid > 1000 && text.contains(&all) && text.contains("problems: none"), "{all}: {text}");
 
     // The Agile Wrist over more workspace than it has: the problem is said, with numbers.
     let out = spmcal(&["check", "--max-tilt-deg", "80", "--json"]);
@@ -310,7 +354,7 @@ fn check_describes_a_model_its_home_branches_and_its_workspace() {
     let results = &json["results"];
     assert_eq!(results["legs"][0]["home_branch"], "negative");
     let (regular, total) = (results["regular"].as_u64().unwrap(), results["orientations"].as_u64().unwrap());
-    assert!(regular < total, "{results}");
+    assert!(regular < total && total == grid, "{results}");
     let problems = results["problems"].as_array().unwrap();
     assert!(problems.iter().any(|p| p.as_str().unwrap().contains(&format!("{} of the {total}", total - regular))));
 
