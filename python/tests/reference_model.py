@@ -49,6 +49,15 @@ class ReferenceError(Exception):
     """A pose the reference cannot solve on the working mode (out of reach, near a singularity)."""
 
 
+def cross(a: Any, b: Any) -> Array:
+    """``a × b`` along the last axis, broadcasting (numpy's ``cross`` is slow on small arrays)."""
+    a, b = np.asarray(a), np.asarray(b)
+    out: Array = np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                           a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                           a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+    return out
+
+
 def hat(a: Array) -> Array:
     """``[a]×`` for ``(..., 3)`` vectors: ``(..., 3, 3)``."""
     out = np.zeros(a.shape[:-1] + (3, 3), dtype=a.dtype)
@@ -82,18 +91,6 @@ def log_rotation(r: Array) -> Array:
     scale = np.where(angle < 1e-8, 0.5 + angle**2 / 12, angle / (2 * np.where(s == 0, 1.0, s)))
     out: Array = v * scale[..., None]
     return out
-
-
-def quaternion_matrix(q: Sequence[float]) -> Array:
-    """The rotation of a unit quaternion ``qw, qx, qy, qz``."""
-    w, x, y, z = (float(v) for v in q)
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def matrix_quaternion(r: Array) -> Array:
@@ -139,7 +136,7 @@ class Leg:
 def intermediate_axis(leg: Leg, theta: Array) -> Array:
     """``w(θ)`` for readings ``(n,)``: ``(n, 3)``."""
     phi = theta + leg.delta
-    y = np.cross(leg.u, leg.z)
+    y = cross(leg.u, leg.z)
     out: Array = (np.cos(leg.alpha1) * leg.u
                   + np.sin(leg.alpha1) * (np.cos(phi)[:, None] * leg.z + np.sin(phi)[:, None] * y))
     return out
@@ -162,8 +159,8 @@ def closure_jacobian(legs: Sequence[Leg], joints: Array, r: Array) -> tuple[Arra
     for i, leg in enumerate(legs):
         w = intermediate_axis(leg, joints[:, i])
         v = np.einsum("nab,b->na", r, leg.v0)
-        rows.append(np.cross(v, w))
-        signs.append(np.sum(np.cross(leg.u, w) * v, axis=1))
+        rows.append(cross(v, w))
+        signs.append(np.sum(cross(leg.u, w) * v, axis=1))
     return np.stack(rows, axis=1), np.stack(signs, axis=1)
 
 
@@ -182,7 +179,7 @@ def ik(legs: Sequence[Leg], r: Array, near: Optional[Array] = None) -> Array:
     out = np.zeros((n, 3))
     for i, leg in enumerate(legs):
         v = np.einsum("nab,b->na", r, leg.v0)
-        y = np.cross(leg.u, leg.z)
+        y = cross(leg.u, leg.z)
         a = math.sin(leg.alpha1) * (v @ leg.z)
         b = math.sin(leg.alpha1) * (v @ y)
         c = math.cos(leg.alpha2) - math.cos(leg.alpha1) * (v @ leg.u)
@@ -194,7 +191,7 @@ def ik(legs: Sequence[Leg], r: Array, near: Optional[Array] = None) -> Array:
         for phi in (base + spread, base - spread):
             w = (math.cos(leg.alpha1) * leg.u
                  + math.sin(leg.alpha1) * (np.cos(phi)[:, None] * leg.z + np.sin(phi)[:, None] * y))
-            sign = np.sum(np.cross(leg.u, w) * v, axis=1)
+            sign = np.sum(cross(leg.u, w) * v, axis=1)
             chosen = np.where(np.isnan(chosen) & (np.sign(sign) == leg.branch), phi, chosen)
         if np.any(np.isnan(chosen)):
             raise ReferenceError(f"leg {i + 1}: no root on the home branch")
@@ -210,16 +207,19 @@ def home_joints(legs: Sequence[Leg]) -> Array:
     return out
 
 
-def newton(legs: Sequence[Leg], joints: Array, r: Array, iterations: int) -> Array:
-    """``iterations`` Newton steps on the closure, ``R ← exp(−A⁻¹ f) R``."""
+def newton(legs: Sequence[Leg], joints: Array, r: Array, iterations: int, tol: float = 0.0) -> Array:
+    """Up to ``iterations`` Newton steps on the closure, ``R ← exp(−A⁻¹ f) R``, ending after a
+    step below ``tol`` rad."""
     for _ in range(iterations):
         a, _ = closure_jacobian(legs, joints, r)
         eps = -np.linalg.solve(a, closure(legs, joints, r)[..., None])[..., 0]
         r = expm(eps) @ r
+        if np.abs(eps).max() < tol:
+            break
     return r
 
 
-def fda(legs: Sequence[Leg], joints: Array, steps: int = 24, min_conditioning: float = 0.05,
+def fda(legs: Sequence[Leg], joints: Array, steps: int = 12, min_conditioning: float = 0.05,
         min_margin: float = 0.05, start: Optional[Array] = None) -> Array:
     """The working-mode FDA of readings ``(n, 3)``: continuation from ``R = I`` at the home
     readings along the straight joint-space path, Newton at every step, refusing a path that comes
@@ -235,7 +235,7 @@ def fda(legs: Sequence[Leg], joints: Array, steps: int = 24, min_conditioning: f
     sin_a1 = np.array([math.sin(leg.alpha1) for leg in legs])
     for s in range(1, steps + 1):
         path = home + (joints - home) * (s / steps)
-        r = newton(legs, path, r, 6 if s < steps else 10)
+        r = newton(legs, path, r, 8, 1e-9) if s < steps else newton(legs, path, r, 10)
         a, signs = closure_jacobian(legs, path, r)
         if np.any(np.abs(closure(legs, path, r)) > 1e-9):
             raise ReferenceError("the continuation lost the closure")
@@ -477,13 +477,13 @@ def general_spm(rng: np.random.Generator, coaxial: bool) -> list[Leg]:
             [-math.sin(eta) * math.sin(b), math.cos(eta) * math.sin(b), -math.cos(b)])
         eta_v = 2 * math.pi * i / 3 + rng.uniform(-0.25, 0.25)
         v0 = np.array([-math.sin(eta_v) * math.sin(p), math.cos(eta_v) * math.sin(p), math.cos(p)])
-        z = unit(np.cross(u, rng.normal(size=3)))
+        z = unit(cross(u, rng.normal(size=3)))
         alpha1 = rng.uniform(math.radians(60), math.radians(130))
         delta = rng.uniform(-0.5, 0.5)
         leg = Leg(u=u, z=z, alpha1=alpha1, alpha2=0.0, v0=v0, delta=delta, branch=1.0)
         w = intermediate_axis(leg, np.zeros(1))[0]
         alpha2 = math.acos(float(np.clip(w @ v0, -1, 1)))
-        sign = float(np.sign(np.cross(u, w) @ v0))
+        sign = float(np.sign(cross(u, w) @ v0))
         legs.append(replace(leg, alpha2=alpha2, branch=sign))
     return legs
 

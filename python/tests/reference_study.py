@@ -99,11 +99,11 @@ def fit_start(truth: Truth, depth_scale: float = 1.0) -> ref.Start:
     g = truth.legs
 
     def tangents(a: ref.Array) -> ref.Array:
-        e1 = ref.unit(np.cross(a, [0.3, 0.5, 0.7]))
-        return np.array([e1, np.cross(a, e1)])
+        e1 = ref.unit(ref.cross(a, [0.3, 0.5, 0.7]))
+        return np.array([e1, ref.cross(a, e1)])
 
-    actuated = [np.zeros((0, 3)), ref.unit(np.cross(g[0].u, g[1].u))[None], tangents(g[2].u)]
-    platform = [np.zeros((0, 3)), ref.unit(np.cross(g[0].v0, g[1].v0))[None], tangents(g[2].v0)]
+    actuated = [np.zeros((0, 3)), ref.unit(ref.cross(g[0].u, g[1].u))[None], tangents(g[2].u)]
+    platform = [np.zeros((0, 3)), ref.unit(ref.cross(g[0].v0, g[1].v0))[None], tangents(g[2].v0)]
     names = ["leg1.alpha1", "leg1.alpha2", "leg1.delta",
              "leg2.u_tilt", "leg2.alpha1", "leg2.alpha2", "leg2.delta", "leg2.v0_tilt",
              "leg3.u_tilt1", "leg3.u_tilt2", "leg3.alpha1", "leg3.alpha2", "leg3.delta", "leg3.v0_tilt1",
