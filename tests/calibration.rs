@@ -85,46 +85,39 @@ fn sim_400_calibration_beats_nominal_fivefold() {
         nominal / calibrated
     );
     assert!(nominal >= 5.0 * calibrated, "nominal {nominal:.4}° vs calibrated {calibrated:.4}°");
-    // Against the camera, on held-out poses, within 10% of what the true parameters achieve: a
-    // unit test of the pipeline (it fits the true mechanism's registration alone).
+    // Every fourth pose held out (`holdout_every: 4`). The held-out error against the camera
+    // within 10% of what the true parameters achieve is a unit test inside the crate (it fits the
+    // true mechanism's registration alone, which the public API does not offer):
+    // `calib::tests::the_orientation_level_fit_reaches_the_noise_floor_on_held_out_poses`.
     assert_eq!(calibration.report.held_out_poses, 100);
 }
 
 #[test]
 fn recovered_parameters_lie_within_three_standard_errors_of_the_truth() {
-    let (mut inside, mut total, mut within_one) = (0, 0, 0);
-    let mut worst = Vec::new();
-    for seed in 0..10 {
+    let mut z = z_scores::ZScores::default();
+    for seed in 0..20 {
         let (session, model) = simulated(300, 1000 + seed);
         let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
         let truth = truth(&session, &calibration);
-        for (i, e) in calibration.parameterisation.entries.iter().enumerate() {
-            if matches!(e.kind.group(), Group::ReferenceRotation) {
-                continue; // a property of the session's reference markers, not of the device
-            }
-            let se = calibration.covariance[(i, i)].sqrt();
-            let z = (calibration.calibrated.x[i] - truth.x[i]) / se;
-            total += 1;
-            within_one += usize::from(z.abs() <= 1.0);
-            if z.abs() <= 3.0 {
-                inside += 1;
-            } else {
-                worst.push(format!("seed {seed} {}: z = {z:.2}", e.name));
-            }
-        }
+        // The reference rotation is a property of the session's reference markers, not of the device.
+        let indices: Vec<usize> = (0..calibration.parameterisation.len())
+            .filter(|&i| !matches!(calibration.parameterisation.entries[i].kind.group(), Group::ReferenceRotation))
+            .collect();
+        let errors: Vec<f64> = indices.iter().map(|&i| calibration.calibrated.x[i] - truth.x[i]).collect();
+        z.add_session(&errors, &calibration.covariance, &indices);
     }
-    let share = inside as f64 / total as f64;
-    let share_one = within_one as f64 / total as f64;
-    eprintln!(
-        "{inside} of {total} parameters within 3 standard errors ({:.1}%), {within_one} within 1 ({:.1}%); outside: {worst:?}",
-        100.0 * share,
-        100.0 * share_one
-    );
-    assert!(share >= 0.95, "{inside} of {total}: {worst:?}");
-    // Honest from the other side too: inflated errors would put nearly everything within 1σ
-    // (68% expected; with 180 correlated draws, 55–82% is a generous 3σ band).
-    assert!((0.55..=0.82).contains(&share_one), "{within_one} of {total} within one standard error");
+    eprintln!("{}", z.summary());
+    // Honest on both sides: each statistic within the band honest σ's keep with probability 99.9%
+    // (`z_scores`: 360 z's, correlated within a session; 20 sessions, as 10 leave σ's 1.5×
+    // too large on the band's edge).
+    assert_eq!(z.len(), 360);
+    z.assert_honest("orientation-level fit, 20 sessions");
 }
+
+/// Standardised errors of the fits' parameters against the truth, checked for honest σ's.
+#[path = "common/z_scores.rs"]
+#[allow(dead_code)] // shared by the tests, each using part of it
+mod z_scores;
 
 #[test]
 fn twenty_poses_converge_and_say_what_they_cannot_pin_down() {
@@ -134,7 +127,9 @@ fn twenty_poses_converge_and_say_what_they_cannot_pin_down() {
     let large = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
     let r = &small.report;
     assert_eq!((r.fit_poses, r.held_out_poses), (15, 5));
-    assert!(r.iterations.last().unwrap().accepted || r.iterations.len() > 1);
+    // Converged (the Newton decrement below 1e-3 standard errors), not merely stopped.
+    assert_eq!(r.convergence, Convergence::Converged, "{:?}", r.iterations.last());
+    assert_eq!(large.report.convergence, Convergence::Converged, "{:?}", large.report.iterations.last());
     // Fewer poses: a worse-conditioned problem and honestly larger standard errors.
     assert!(r.identifiability.condition > large.report.identifiability.condition);
     assert_eq!(r.identifiability.weakest.len(), 3);
@@ -328,6 +323,10 @@ fn small_sessions_always_end_at_a_minimum() {
         }
         stalled += usize::from(report.convergence == Convergence::StalledAtMinimum);
     }
-    // Most fits meet the step tolerance outright; stalls are the exception the rule is there for.
-    assert!(stalled <= 12, "{stalled} of 24 fits stalled");
+    // Most fits meet the convergence test outright; stalls are the exception the rule is there
+    // for. Over 2,400 sessions of this scheme (seeds 1000–3399) none stalled: the stall rate is
+    // below 0.29% with 99.9% confidence, and 24 fits at that rate stall more than twice with
+    // probability < 0.1% (binomial). (One of the 2,400, seed 2057, ended instead at
+    // `max_iterations` with its cost still falling by 6e-10 per iteration: outside these 24.)
+    assert!(stalled <= 2, "{stalled} of 24 fits stalled");
 }
