@@ -100,11 +100,11 @@ pub mod compare;
 pub mod dataset;
 // The HTML report is one method, `Calibration::html`: nothing else of the module is public.
 #[cfg(feature = "full")]
-mod html;
-#[cfg(feature = "full")]
 pub mod plan;
 #[cfg(feature = "full")]
 pub mod record;
+#[cfg(feature = "full")]
+mod report;
 #[cfg(feature = "full")]
 pub mod sim;
 #[cfg(feature = "full")]

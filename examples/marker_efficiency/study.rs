@@ -7,7 +7,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use spmcal::calib::{
-    CalibConfig, Calibration, FitLevel, MarkerModel, MarkerObservation, Parameterisation, TruthInGauge, calibrate,
+    CalibConfig, Calibration, FitLevel, MarkerObservation, MarkerResiduals, Parameterisation, TruthInGauge, calibrate,
 };
 use spmcal::dataset::Session;
 use spmcal::math::so3;
@@ -104,7 +104,7 @@ pub fn cramer_rao(
     let spm_true = truth.parameters.spm().expect("a valid truth");
     let (observations, _) = MarkerObservation::of_session(session, &spm_true);
     let noise = config.camera.stereo_noise();
-    let fisher = MarkerModel::new(&p, &observations)
+    let fisher = MarkerResiduals::new(&p, &observations)
         .information_per_pose(&gauge.x, &noise)
         .expect("the truth evaluates")
         .into_iter()

@@ -848,7 +848,7 @@ fn plan<'py>(
 /// `(m, 3, 3)`, what that Jacobian is read from; `actuated_dirs` and `platform_dirs`, the gauge's
 /// tilt directions per leg (`(k, 3)` each).
 ///
-/// The fit's Jacobian is not public; `MarkerModel::information_per_pose` is, and it is the fit's
+/// The fit's Jacobian is not public; `MarkerResiduals::information_per_pose` is, and it is the fit's
 /// `Σ (W_j J_j)ᵀ (W_j J_j)` at `x` (`J_j = ∂r_j/∂x` of the residual `r = x_C − x̂`, `W_j` the
 /// whitening). With one observation per pose, `M_j = W_j J_j` follows from the translation
 /// columns `T`, where `∂r/∂t_CB = −K`: `G[T, :] = M_Tᵀ M`, so `M = M_T⁻ᵀ G[T, :]`. A library whose
@@ -870,7 +870,7 @@ fn _marker_model<'py>(
     camera_terms: Option<Vec<f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use nalgebra::{DMatrix, DVector, Matrix3};
-    use spmcal::calib::{Bounds, Kind, MarkerModel, MarkerObservation, Parameterisation, StereoNoise};
+    use spmcal::calib::{Bounds, Kind, MarkerObservation, MarkerResiduals, Parameterisation, StereoNoise};
     use spmcal::model::{CameraModel, CameraRegistration};
 
     let (rows, _) = rows3(&joints, "joints")?;
@@ -943,7 +943,7 @@ fn _marker_model<'py>(
         depth_m: 1.0,
         depth_std_error_m: 0.0,
     };
-    let fitted = MarkerModel::new(&p, &observations);
+    let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;
     let columns: Vec<usize> = (0..3)
         .map(|k| p.entries.iter().position(|e| e.kind == Kind::Translation { k }).expect("the marker level has t_CB"))

@@ -15,11 +15,11 @@ use serde::Serialize;
 
 use super::config::{CalibConfig, Group, Loss};
 use super::fit::{FitError, FitOutcome, FitSettings, fit};
-use super::marker_model::{MarkerModel, MarkerObservation, per_pose_rms_mm};
-use super::model::{EvalError, Model};
-use super::orientation_model::{Observation, OrientationModel, observations};
-use super::params::Parameterisation;
+use super::marker_residuals::{MarkerObservation, MarkerResiduals, per_pose_rms_mm};
+use super::orientation_residuals::{Observation, OrientationResiduals, observations};
+use super::parameterisation::Parameterisation;
 use super::registration;
+use super::residuals::{EvalError, Residuals};
 use crate::dataset::Session;
 use crate::math::so3;
 use crate::math::stats::{Stats, rms};
@@ -145,7 +145,7 @@ pub(crate) fn registration_mask(p: &Parameterisation, free: &[bool]) -> Vec<bool
 /// The model with its best-fit registration from `start` (the `registration` parameters alone,
 /// least squares, as `compare` fits it), evaluated with the full Jacobian at the solution (for the
 /// identifiability analysis and the validation).
-pub(crate) fn best_registration<M: Model + Clone>(
+pub(crate) fn best_registration<M: Residuals + Clone>(
     model: &M,
     start: &DVector<f64>,
     registration: &[bool],
@@ -198,7 +198,7 @@ pub(crate) fn pose_errors(
     let p = Parameterisation::new(*spm.geometry(), camera0, reference0, &config.bounds);
     let free: Vec<bool> = p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect();
     let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(&config, free.clone()) };
-    let model = OrientationModel::new(&p, &observations).with_columns(free);
+    let model = OrientationResiduals::new(&p, &observations).with_columns(free);
     let outcome = fit(&model, &DVector::zeros(p.len()), &settings, &mut |_| {}).map_err(SetError::Fit)?;
     let residuals = &outcome.evaluation.residuals;
     Ok(PoseErrors {
@@ -245,12 +245,12 @@ pub(crate) fn marker_pose_errors(
     };
     let p = Parameterisation::for_markers(params.legs, &registration, &markers, &session.markers, &config.bounds);
     let x0 = DVector::zeros(p.len());
-    let marker_model = MarkerModel::new(&p, &observations);
+    let marker_residuals = MarkerResiduals::new(&p, &observations);
     let (x, evaluation) = if params.camera.is_some() {
-        (x0.clone(), marker_model.evaluate(&x0, None, false).map_err(SetError::Eval)?)
+        (x0.clone(), marker_residuals.evaluate(&x0, None, false).map_err(SetError::Eval)?)
     } else {
         let mask = registration_mask(&p, &vec![true; p.len()]);
-        let fit = best_registration(&marker_model, &x0, &mask, &config).map_err(SetError::Fit)?;
+        let fit = best_registration(&marker_residuals, &x0, &mask, &config).map_err(SetError::Fit)?;
         (fit.x, fit.evaluation)
     };
     let per_pose = per_pose_rms_mm(&observations, &evaluation.residuals);
@@ -282,7 +282,7 @@ pub(crate) fn pose_orientations(
     let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
     let names: Vec<String> = (0..markers.len()).map(|k| format!("m{k}")).collect();
     let p = Parameterisation::for_markers(*legs, &origin, markers, &names, &CalibConfig::default().bounds);
-    let model = MarkerModel::new(&p, observations);
+    let model = MarkerResiduals::new(&p, observations);
     let at_pose = model.evaluate(&DVector::zeros(p.len()), None, false)?.orientations;
     Ok((0..observations.len()).map(|j| at_pose[model.pose_of(j)]).collect())
 }

@@ -50,6 +50,24 @@ pub enum FitLevel {
     Orientations,
 }
 
+impl FitLevel {
+    /// The unit its residuals are read in: `mm` (markers) or `deg` (orientations).
+    pub fn unit(self) -> &'static str {
+        match self {
+            FitLevel::Markers => "mm",
+            FitLevel::Orientations => "deg",
+        }
+    }
+
+    /// What its observations are called: `marker observations` or `poses`.
+    pub(crate) fn observations(self) -> &'static str {
+        match self {
+            FitLevel::Markers => "marker observations",
+            FitLevel::Orientations => "poses",
+        }
+    }
+}
+
 /// What `calibrate` does when the calibrated model does not predict unseen data clearly better
 /// than the nominal one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -24,8 +24,8 @@ use clarabel::solver::{
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::config::{CalibConfig, Loss};
-use super::model::{EvalError, Evaluation, Model};
-use super::params::Parameterisation;
+use super::parameterisation::Parameterisation;
+use super::residuals::{EvalError, Evaluation, Residuals};
 
 /// Median of the norm of a 3-D isotropic Gaussian with unit deviation per axis (Maxwell
 /// distribution): the robust scale of the residual norms is `median / 1.5382`.
@@ -212,7 +212,7 @@ impl<N> Weighting<N> {
     }
 
     /// Whiten by the noise `model` estimates from the residuals at the current weights.
-    pub(crate) fn estimate<M: Model<Noise = N>>(&mut self, model: &M, residuals: &[Vector3<f64>]) {
+    pub(crate) fn estimate<M: Residuals<Noise = N>>(&mut self, model: &M, residuals: &[Vector3<f64>]) {
         let noise = model.estimate_noise(residuals, &self.weights);
         self.whitening = model.whitening(&noise);
         self.noise = Some(noise);
@@ -313,7 +313,7 @@ const UNWHITENED_TOLERANCE: f64 = 0.01;
 ///
 /// # Errors
 /// A [`FitError`] when the start cannot be evaluated, clarabel fails, the budget runs out while the cost still falls or the fit diverges.
-pub(crate) fn fit<M: Model>(
+pub(crate) fn fit<M: Residuals>(
     model: &M,
     x0: &DVector<f64>,
     settings: &FitSettings,
@@ -412,7 +412,7 @@ pub enum Solver {
     Clarabel,
 }
 
-impl<M: Model> Problem<'_, M> {
+impl<M: Residuals> Problem<'_, M> {
     /// The step from `x`: Gauss–Newton where it is feasible, else clarabel's subproblem.
     fn step(
         &self,

@@ -11,8 +11,8 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::marker_model::MarkerObservation;
-use super::orientation_model::Observation;
+use super::marker_residuals::MarkerObservation;
+use super::orientation_residuals::Observation;
 use crate::math::so3;
 use crate::model::CameraRegistration;
 

@@ -7,7 +7,7 @@ use super::agreement::MarkerErrors;
 use super::config::{CalibConfig, FitLevel, Loss};
 use super::fit::{Convergence, IterationLog};
 use super::identify::Identifiability;
-use super::marker_model::StereoNoise;
+use super::marker_residuals::StereoNoise;
 use super::uncertainty::{Correlation, ParameterReport, PredictedError};
 use super::validation::CrossValidation;
 use crate::math::stats::Stats;
@@ -16,7 +16,7 @@ use crate::vision::Method;
 
 /// FDA-vs-vision errors of one parameter set, on the fitted and on the held-out poses.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
-pub struct Errors {
+pub struct ErrorStats {
     /// On the fitted poses, degrees.
     pub fit: Stats,
     /// On the held-out poses, when some were held out, degrees.
@@ -59,11 +59,17 @@ impl Verdict {
     }
 
     /// The verdict on cross-validation `cv`, else on the held-out poses' errors `before`, `after`.
-    pub(crate) fn of(cv: Option<&CrossValidation>, before: &Errors, after: &Errors, config: &CalibConfig) -> Self {
+    pub(crate) fn of(
+        cv: Option<&CrossValidation>,
+        before: &ErrorStats,
+        after: &ErrorStats,
+        config: &CalibConfig,
+    ) -> Self {
         if let Some(cv) = cv {
-            let threshold = if cv.unit == "mm" { config.pass_held_out_mm } else { config.pass_held_out_deg };
-            let unit = if cv.unit == "mm" { " mm" } else { "°" };
-            let what = if cv.unit == "mm" { "markers" } else { "orientations" };
+            let (threshold, unit, what) = match cv.level {
+                FitLevel::Markers => (config.pass_held_out_mm, " mm", "markers"),
+                FitLevel::Orientations => (config.pass_held_out_deg, "°", "orientations"),
+            };
             return Verdict {
                 pass: cv.clearly_better && cv.calibrated_rms <= threshold,
                 summary: format!(
@@ -241,9 +247,9 @@ pub struct CalibrationReport {
     pub cross_validation: Option<CrossValidation>,
     /// Nominal mechanism with its best-fit camera registration, FDA against vision per pose
     /// (poses the per-pose estimator can work on).
-    pub before: Errors,
+    pub before: ErrorStats,
     /// Calibrated mechanism with its registration.
-    pub after: Errors,
+    pub after: ErrorStats,
     /// The calibration fit, iteration by iteration (the refit without the gross errors, when
     /// there is one, after it), each naming its stage.
     pub iterations: Vec<IterationLog>,
@@ -332,8 +338,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         warnings: Vec<&'a str>,
     }
     let markers = report.markers.as_ref();
-    let cv = |unit: &str| {
-        report.cross_validation.as_ref().filter(|cv| cv.unit == unit).map(|cv| [cv.nominal_rms, cv.calibrated_rms])
+    let cv = |level: FitLevel| {
+        report.cross_validation.as_ref().filter(|cv| cv.level == level).map(|cv| [cv.nominal_rms, cv.calibrated_rms])
     };
     let header = Header {
         session: &report.session,
@@ -357,8 +363,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         camera_translation_std_error_m: report.camera_translation_std_error_m,
         markers_rms_before_mm: markers.map(|m| m.before.errors.rms),
         markers_rms_after_mm: markers.map(|m| m.after.errors.rms),
-        cross_validated_rms_mm: cv("mm"),
-        cross_validated_rms_deg: cv("deg"),
+        cross_validated_rms_mm: cv(FitLevel::Markers),
+        cross_validated_rms_deg: cv(FitLevel::Orientations),
         verdict: report.verdict.label(),
         at_bound: report.at_bound.iter().map(String::as_str).collect(),
         warnings: report.warnings.iter().map(String::as_str).collect(),

@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
-use super::params::{Kind, Parameterisation};
+use super::parameterisation::{Kind, Parameterisation};
 use crate::math::so3;
 use crate::model::{LegGeometry, Spm};
 

@@ -9,11 +9,11 @@ use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use super::config::{CalibConfig, FitLevel, Group, Loss};
 use super::fit::{FitSettings, fit};
 use super::identify::Identifiability;
-use super::marker_model::{MarkerModel, MarkerObservation};
-use super::model::{EvalError, Evaluation, Model};
-use super::orientation_model::{Observation, OrientationModel};
-use super::params::Parameterisation;
+use super::marker_residuals::{MarkerObservation, MarkerResiduals};
+use super::orientation_residuals::{Observation, OrientationResiduals};
+use super::parameterisation::Parameterisation;
 use super::pipeline::{Calibration, Fitted, calibrate};
+use super::residuals::{EvalError, Evaluation, Residuals};
 use crate::dataset::Session;
 use crate::math::so3;
 use crate::model::{CameraRegistration, LegGeometry, RobotModel};
@@ -36,10 +36,10 @@ fn the_orientation_level_fit_reaches_the_noise_floor_on_held_out_poses() {
         p.entries.iter().map(|e| matches!(e.kind.group(), Group::CameraRotation | Group::ReferenceRotation)).collect();
     let settings =
         FitSettings { loss: Loss::Huber, step_tolerance: 1e-10, ..FitSettings::from_config(&config, free.clone()) };
-    let model_true = OrientationModel::new(&p, fitted).with_columns(free);
+    let model_true = OrientationResiduals::new(&p, fitted).with_columns(free);
     let registered = fit(&model_true, &DVector::zeros(p.len()), &settings, &mut |_| {}).unwrap();
-    let held = OrientationModel::new(&p, held_out).evaluate(&registered.x, None, false).unwrap();
-    let floor = super::model::rms(&held.residuals).to_degrees();
+    let held = OrientationResiduals::new(&p, held_out).evaluate(&registered.x, None, false).unwrap();
+    let floor = super::residuals::rms(&held.residuals).to_degrees();
     let achieved = calibration.report.after.held_out.unwrap().rms;
     eprintln!("held-out FDA vs vision: calibrated {achieved:.4}°, true parameters {floor:.4}°");
     assert!(achieved <= 1.10 * floor, "calibrated {achieved:.4}° vs floor {floor:.4}°");
@@ -74,7 +74,7 @@ fn evaluate(
     warm: Option<&[Rotation3<f64>]>,
     jacobian: bool,
 ) -> Result<Evaluation, EvalError> {
-    OrientationModel::new(p, observations).evaluate(x, warm, jacobian)
+    OrientationResiduals::new(p, observations).evaluate(x, warm, jacobian)
 }
 
 #[test]
@@ -165,7 +165,7 @@ fn the_analytic_jacobian_matches_central_differences() {
         let p = parameterisation(&session, &model);
         let (observations, failed) = MarkerObservation::of_session(&session, &model.spm);
         assert!(failed.is_empty());
-        let m = MarkerModel::new(&p, &observations);
+        let m = MarkerResiduals::new(&p, &observations);
         // Away from zero, so that every term (left Jacobians, moved axes) is exercised.
         let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
         let at = m.evaluate(&x, None, true).unwrap();
@@ -205,7 +205,7 @@ fn marker_data_identify_every_parameter_of_the_gauge_fixed_parameterisation() {
     let (session, model) = simulated(60, 5, false);
     let p = parameterisation(&session, &model);
     let (observations, _) = MarkerObservation::of_session(&session, &model.spm);
-    let m = MarkerModel::new(&p, &observations);
+    let m = MarkerResiduals::new(&p, &observations);
     let jac = m.evaluate(&DVector::zeros(p.len()), None, true).unwrap().jacobian.unwrap();
     // Scale columns (angles vs metres) before judging the spectrum.
     let scaled = DMatrix::from_fn(jac.nrows(), jac.ncols(), |r, c| jac[(r, c)] / jac.column(c).norm());
@@ -234,7 +234,7 @@ fn cross_validation_by_one_newton_step_matches_refitting_each_fold() {
         train.reference_pose = train.poses[0].id;
         let refit = calibrate(&train, &model, &config, &mut |_| {}).unwrap();
         let test: Vec<_> = observations.iter().filter(|o| fold_of(o.pose) == f).copied().collect();
-        let test_model = MarkerModel::new(&refit.parameterisation, &test);
+        let test_model = MarkerResiduals::new(&refit.parameterisation, &test);
         for (x, sum) in [(&refit.nominal.x, &mut nominal_sq), (&refit.calibrated.x, &mut calibrated_sq)] {
             let eval = test_model.evaluate(x, None, false).unwrap();
             *sum += eval.residuals.iter().map(|r| r.norm_squared() * 1e6).sum::<f64>();
@@ -292,14 +292,17 @@ fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let p = &calibration.parameterisation;
     let x = &calibration.calibrated.x;
     let Fitted::Markers(obs) = &calibration.fitted else { panic!("a marker-level calibration") };
-    let base = MarkerModel::new(p, obs).evaluate(x, None, true).unwrap();
+    let base = MarkerResiduals::new(p, obs).evaluate(x, None, true).unwrap();
     let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
     let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
     let augmented = augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
         let bounds = CalibConfig::default().bounds;
         let q = Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &bounds)
             .with_camera_model(p.camera_model(x), bounds.camera_term);
-        MarkerModel::new(&q, obs).evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false).unwrap().residuals
+        MarkerResiduals::new(&q, obs)
+            .evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false)
+            .unwrap()
+            .residuals
     });
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
@@ -337,7 +340,7 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
     let (first, last) = (observations[0].time_s.unwrap(), observations[observations.len() - 1].time_s.unwrap());
     let observations: Vec<_> =
         observations.into_iter().filter(|o| o.time_s.is_some_and(|t| t > first + 0.02 && t < last - 0.02)).collect();
-    let m = MarkerModel::new(&p, &observations).with_streams(recording.streams.as_ref().unwrap());
+    let m = MarkerResiduals::new(&p, &observations).with_streams(recording.streams.as_ref().unwrap());
     let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-3 * ((i * 5 + 1) as f64).sin());
     let at = m.evaluate(&x, None, true).unwrap();
     let i = p.len() - 1;
@@ -467,7 +470,7 @@ fn a_fit_restarted_at_its_solution_stays_there() {
         let sigma: Vec<f64> = (0..p.len()).map(|i| first.covariance[(i, i)].sqrt()).collect();
         let free: Vec<bool> = sigma.iter().map(|s| *s > 0.0).collect();
         let settings = FitSettings::from_config(&config, free);
-        let again = fit(&MarkerModel::new(p, obs), &first.calibrated.x, &settings, &mut |_| {}).unwrap();
+        let again = fit(&MarkerResiduals::new(p, obs), &first.calibrated.x, &settings, &mut |_| {}).unwrap();
         for i in (0..p.len()).filter(|&i| sigma[i] > 0.0) {
             let moved = (again.x[i] - first.calibrated.x[i]).abs() / sigma[i];
             assert!(moved < 0.1, "{name}, {}: {moved} σ", p.entries[i].name);

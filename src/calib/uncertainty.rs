@@ -8,7 +8,7 @@ use serde::Serialize;
 use super::config::CalibConfig;
 use super::fit::{FitOutcome, weighted_normal};
 use super::identify::{Identifiability, analyse_gram};
-use super::params::Parameterisation;
+use super::parameterisation::Parameterisation;
 use crate::math::so3::WORKSPACE_BANDS_DEG;
 
 /// One angle parameter of the report, in degrees (`change` is the departure from nominal; the

@@ -13,8 +13,14 @@
 use nalgebra::{DMatrix, DVector, Rotation3};
 use serde::Serialize;
 
+use super::config::FitLevel;
 use super::fit::{FitOutcome, weighted_normal_of};
-use super::model::Model;
+use super::residuals::Residuals;
+
+/// A fit level as its unit (`mm`, `deg`), as JSON has always shown it.
+fn unit_of<S: serde::Serializer>(level: &FitLevel, serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.serialize_str(level.unit())
+}
 
 /// The error on unseen data: k-fold cross-validation.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -26,8 +32,10 @@ pub struct CrossValidation {
     /// Held-out observations that the model fitted without their fold could not predict (its
     /// forward kinematics failed from every start): counted for neither model.
     pub unpredicted: usize,
-    /// Unit of the errors: `mm` (markers) or `deg` (orientations).
-    pub unit: &'static str,
+    /// The fit level, and so the unit of the errors: `mm` (markers) or `deg` (orientations); in
+    /// JSON, `unit`.
+    #[serde(rename = "unit", serialize_with = "unit_of")]
+    pub level: FitLevel,
     /// RMS held-out error of the nominal model with its best-fit registration.
     pub nominal_rms: f64,
     /// The same for the calibrated model.
@@ -69,13 +77,13 @@ impl CrossValidation {
 }
 
 /// The groups (stations, else poses) of the model's observations: the most folds there can be.
-pub(crate) fn groups<M: Model>(model: &M) -> usize {
+pub(crate) fn groups<M: Residuals>(model: &M) -> usize {
     let mut seen = std::collections::HashSet::new();
     (0..model.len()).filter(|&j| seen.insert(model.group(j))).count()
 }
 
 /// The fold of each observation: groups (stations, else poses) dealt out in order of appearance.
-pub(crate) fn fold_assignment<M: Model>(model: &M, k: usize) -> Vec<usize> {
+pub(crate) fn fold_assignment<M: Residuals>(model: &M, k: usize) -> Vec<usize> {
     let mut groups: std::collections::HashMap<(bool, u64), usize> = std::collections::HashMap::new();
     (0..model.len())
         .map(|j| {
@@ -88,7 +96,7 @@ pub(crate) fn fold_assignment<M: Model>(model: &M, k: usize) -> Vec<usize> {
 /// k-fold cross-validation of `calibrated` (parameters `free`, with `prior`) against `nominal`
 /// (parameters `registration`) on `model`'s observations; `None` with fewer than two folds or
 /// nothing to predict.
-pub(crate) fn cross_validate<M: Model>(
+pub(crate) fn cross_validate<M: Residuals>(
     model: &M,
     [nominal, calibrated]: [&FitOutcome<M::Noise>; 2],
     [free, registration]: [&[bool]; 2],
@@ -140,7 +148,7 @@ pub(crate) fn cross_validate<M: Model>(
         folds,
         observations: n,
         unpredicted,
-        unit: model.unit(),
+        level: model.level(),
         nominal_rms: rms(&nominal_sq),
         calibrated_rms: rms(&calibrated_sq),
         reduction: mean,
@@ -153,7 +161,7 @@ pub(crate) fn cross_validate<M: Model>(
 }
 
 /// The full fit's orientation of each of `test`'s poses (`rows` of `model`).
-fn warm_start<M: Model, N>(model: &M, test: &M, rows: &[usize], outcome: &FitOutcome<N>) -> Vec<Rotation3<f64>> {
+fn warm_start<M: Residuals, N>(model: &M, test: &M, rows: &[usize], outcome: &FitOutcome<N>) -> Vec<Rotation3<f64>> {
     let mut warm = Vec::with_capacity(test.poses());
     for (a, &full) in rows.iter().enumerate() {
         if warm.len() == test.pose_of(a) {
@@ -215,7 +223,7 @@ mod check_tests {
             folds: 5,
             observations: 100,
             unpredicted: 0,
-            unit: "mm",
+            level: FitLevel::Markers,
             nominal_rms: 4.0,
             calibrated_rms,
             reduction: 10.0,

@@ -51,7 +51,7 @@ impl ExportedModel {
 /// read, the parameters make no manipulator or do not reach home, or the exported model does not
 /// load.
 pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) -> Result<ExportedModel, ModelError> {
-    let warnings = super::agreement::check(model, params, None)?;
+    let warnings = super::consistency::check(model, params, None)?;
     // One line each, and nothing that would end an XML comment.
     let provenance: Vec<String> = provenance
         .iter()

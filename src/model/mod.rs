@@ -1,10 +1,10 @@
 //! SPM geometry and parameters, URDF loading, inverse kinematics, forward displacement
 //! analysis (tracking, continuation, all assembly modes, the per-pose FDA report) and Jacobians.
 
-#[cfg(feature = "full")]
-mod agreement;
 mod assembly;
 mod camera;
+#[cfg(feature = "full")]
+mod consistency;
 #[cfg(feature = "full")]
 mod export;
 mod geometry;

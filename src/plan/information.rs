@@ -14,7 +14,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::calib::{
-    EvalError, MarkerModel, MarkerObservation, Model as _, Parameterisation, StereoNoise, common_rotations,
+    EvalError, MarkerObservation, MarkerResiduals, Parameterisation, Residuals as _, StereoNoise, common_rotations,
 };
 use crate::model::CameraRegistration;
 use crate::sim::{Camera, Candidate};
@@ -66,7 +66,7 @@ impl Information {
             .map(|(c, k)| observation(c, k))
             .collect();
         let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
-        for (c, m) in MarkerModel::new(p, &seen).information_per_pose(&x0, noise)? {
+        for (c, m) in MarkerResiduals::new(p, &seen).information_per_pose(&x0, noise)? {
             per_candidate[c as usize] = m;
         }
         // One observation per pose gives every pose's orientation sensitivity, seen or not.
@@ -85,7 +85,7 @@ impl Information {
                 })
                 .collect();
             // Always there when the Jacobian is asked for.
-            Ok(MarkerModel::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default())
+            Ok(MarkerResiduals::new(p, &every).evaluate(&x0, None, true)?.orientation_jacobians.unwrap_or_default())
         };
         let sensitivities = sensitivities_of(candidates)?;
         let in_workspace = sensitivities_of(workspace)?;

@@ -27,7 +27,7 @@ pub use file::PlannedPose;
 pub(crate) use information::{Information, orientation_errors};
 pub(crate) use route::tour;
 
-use crate::calib::{CalibConfig, Kind, MarkerModel, MarkerObservation, Parameterisation, marker_pose_errors};
+use crate::calib::{CalibConfig, Kind, MarkerObservation, MarkerResiduals, Parameterisation, marker_pose_errors};
 use crate::dataset::Session;
 use crate::model::{CameraModelKind, Parameters, RobotModel};
 use crate::sim::{Candidate, SimConfig};
@@ -465,7 +465,7 @@ fn session_information(
     noise: &crate::calib::StereoNoise,
 ) -> Result<DMatrix<f64>, PlanError> {
     let (observations, _) = MarkerObservation::of_session(session, spm);
-    let per_pose = MarkerModel::new(p, &observations)
+    let per_pose = MarkerResiduals::new(p, &observations)
         .information_per_pose(&nalgebra::DVector::zeros(p.len()), noise)
         .map_err(crate::calib::SetError::Eval)?;
     Ok(per_pose.into_iter().fold(DMatrix::zeros(p.len(), p.len()), |sum, (_, m)| sum + m))

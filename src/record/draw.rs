@@ -5,8 +5,9 @@ use std::path::Path;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use rerun::{Arrows3D, Color, LineStrips3D, Points3D, Scalars, TextDocument, Transform3D};
 
-use super::{RecordError, Scene};
+use super::scene::{FIT_TABLE, RecordError, Scene};
 use crate::model::Spm;
+use crate::report::tables;
 
 /// Radii (m) of the spheres the proximal and distal links move on, as in the nominal model.
 const PROXIMAL_RADIUS: f64 = 0.13;
@@ -205,8 +206,8 @@ impl Logger<'_> {
         self.rec.reset_time();
         if !scene.iterations.is_empty() {
             let table =
-                TextDocument::new(iteration_table(&scene.iterations)).with_media_type(rerun::MediaType::markdown());
-            self.log_static(super::FIT_TABLE, &table)?;
+                TextDocument::new(tables::iterations(&scene.iterations)).with_media_type(rerun::MediaType::markdown());
+            self.log_static(FIT_TABLE, &table)?;
         }
         for it in &scene.iterations {
             self.rec.set_time_sequence("iteration", it.iteration as i64);
@@ -216,25 +217,4 @@ impl Logger<'_> {
         }
         Ok(())
     }
-}
-
-/// The fit's iterations as a markdown table.
-fn iteration_table(iterations: &[crate::calib::IterationLog]) -> String {
-    let mut s = String::from(
-        "# The fit, iteration by iteration\n\nPlots of these columns are on the `iteration` timeline.\n\n\
-         | iteration | cost (whitened) | RMS (° or mm) | step (rad) | radius (rad) | ratio | accepted |\n|---|---|---|---|---|---|---|\n",
-    );
-    for it in iterations {
-        s += &format!(
-            "| {} | {:.6e} | {:.5} | {:.3e} | {:.3e} | {:.3} | {} |\n",
-            it.iteration,
-            it.cost,
-            it.rms,
-            it.step,
-            it.radius,
-            it.ratio,
-            if it.accepted { "yes" } else { "no" }
-        );
-    }
-    s
 }

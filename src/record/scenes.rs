@@ -2,16 +2,16 @@
 //! `plan` put in their recordings.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 
-use nalgebra::{DVector, Rotation3, Vector3};
+use nalgebra::{Rotation3, Vector3};
 
-use super::{PoseFrames, Scene, Series};
+use super::scene::{PoseFrames, Scene, Series};
 use crate::calib::FitLevel as Level;
 use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms_mm, registration};
 use crate::compare::SetComparison;
 use crate::dataset::Session;
 use crate::model::{CameraModel, CameraRegistration, Parameters, RobotModel, Spm};
+use crate::report::tables;
 use crate::vision::{MarkerError, Method, SessionEstimate, VisionError};
 
 /// Why a scene could not be built.
@@ -93,51 +93,6 @@ fn registration(
     Ok(VisionPlacement { camera: rotation, reference: a, registration })
 }
 
-/// A markdown table of a parameter set.
-pub(crate) fn parameters_markdown(title: &str, p: &Parameters) -> String {
-    let mut s = format!("# {title}\n\n| leg | u | z | α1 (°) | α2 (°) | v0 | δ (°) |\n|---|---|---|---|---|---|---|\n");
-    let v = |x: &Vector3<f64>| format!("[{:.5}, {:.5}, {:.5}]", x.x, x.y, x.z);
-    for (i, g) in p.legs.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {:.4} | {:.4} | {} | {:.4} |",
-            i + 1,
-            v(&g.u),
-            v(&g.z),
-            g.alpha1.to_degrees(),
-            g.alpha2.to_degrees(),
-            v(&g.v0),
-            g.delta.to_degrees()
-        );
-    }
-    if !p.camera_model.is_perfect() {
-        let terms: Vec<String> = p
-            .camera_model
-            .kind
-            .terms()
-            .iter()
-            .map(|t| match p.camera_model.std_error(*t) {
-                Some(se) => format!("{} {:.5} ± {se:.5}", t.name(), p.camera_model.value(*t)),
-                None => format!("{} {:.5}", t.name(), p.camera_model.value(*t)),
-            })
-            .collect();
-        let _ = write!(s, "\nCamera model ({}): {}\n", p.camera_model.kind.name(), terms.join(", "));
-    }
-    if let Some(c) = &p.camera {
-        let q = crate::math::so3::to_wxyz(&c.rotation);
-        let _ = write!(
-            s,
-            "\nCamera: R_CB (wxyz) [{:.5}, {:.5}, {:.5}, {:.5}], t_CB {} m\n",
-            q[0],
-            q[1],
-            q[2],
-            q[3],
-            v(&c.translation)
-        );
-    }
-    s
-}
-
 impl Scene<'_> {
     /// `spmcal replay`: the mechanism from the joints (with `params`, else nominal), the markers from
     /// the camera, the MP frames from FDA and vision, and `e_j`.
@@ -174,7 +129,7 @@ impl Scene<'_> {
                         values: errors.per_pose.into_iter().collect(),
                     }],
                     iterations: Vec::new(),
-                    documents: vec![("used".to_string(), parameters_markdown("Parameters used", p))],
+                    documents: vec![("used".to_string(), tables::parameters("Parameters used", p))],
                     fitted_markers: fitted_markers(session, p),
                 })
             }
@@ -216,12 +171,10 @@ fn vision_scene<'a>(
     };
     let placement = registration(session, &spm, estimate, params)?;
     let name = if params.is_some() { "fda_calibrated" } else { "fda_nominal" };
-    let mut documents = vec![(
-        "nominal".to_string(),
-        parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None)),
-    )];
+    let mut documents =
+        vec![("nominal".to_string(), tables::parameters("Nominal parameters", &Parameters::nominal(&model.spm, None)))];
     if let Some(p) = params {
-        documents.push(("used".to_string(), parameters_markdown("Parameters used", p)));
+        documents.push(("used".to_string(), tables::parameters("Parameters used", p)));
     }
     Ok(Scene {
         session,
@@ -251,7 +204,7 @@ impl Scene<'_> {
         let frames =
             truth.map(|t| PoseFrames { name: "truth".into(), rotations: t.orientations.clone() }).into_iter().collect();
         let documents = truth
-            .map(|t| ("truth".to_string(), parameters_markdown("True parameters", &t.parameters)))
+            .map(|t| ("truth".to_string(), tables::parameters("True parameters", &t.parameters)))
             .into_iter()
             .collect();
         Ok(Scene {
@@ -307,15 +260,12 @@ impl Scene<'_> {
 }
 
 /// Per-pose FDA-vs-vision angles (degrees) of a fitted parameter vector, fitted and held-out poses.
-fn residual_series(name: &str, calibration: &Calibration, x: &DVector<f64>) -> Series {
-    use crate::calib::Model as _;
-    let p = &calibration.parameterisation;
+fn residual_series(name: &str, calibration: &Calibration, which: usize) -> Series {
     let mut values = BTreeMap::new();
-    if let Fitted::Orientations { fitted, held_out, .. } = &calibration.fitted {
-        for set in [fitted, held_out] {
-            if let Ok(eval) = crate::calib::OrientationModel::new(p, set).evaluate(x, None, false) {
-                values.extend(set.iter().zip(&eval.residuals).map(|(o, r)| (o.pose, r.norm().to_degrees())));
-            }
+    if let Fitted::Orientations { fitted, held_out, held_out_residuals, .. } = &calibration.fitted {
+        let fit = [&calibration.nominal, &calibration.calibrated][which];
+        for (set, residuals) in [(fitted, &fit.residuals), (held_out, &held_out_residuals[which])] {
+            values.extend(set.iter().zip(residuals).map(|(o, r)| (o.pose, r.norm().to_degrees())));
         }
     }
     Series { name: format!("fda_vs_vision/{name}"), values }
@@ -327,14 +277,6 @@ fn marker_observations_of(calibration: &Calibration) -> &[crate::calib::MarkerOb
         Fitted::Markers(observations) => observations,
         _ => &[],
     }
-}
-
-/// The marker residuals of a marker-level calibration at parameter vector `x` (empty when the
-/// model cannot be evaluated there).
-fn marker_residuals_at(calibration: &Calibration, x: &DVector<f64>) -> Vec<nalgebra::Vector3<f64>> {
-    use crate::calib::Model as _;
-    let model = crate::calib::MarkerModel::new(&calibration.parameterisation, marker_observations_of(calibration));
-    model.evaluate(x, None, false).map(|e| e.residuals).unwrap_or_default()
 }
 
 /// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers.
@@ -381,17 +323,14 @@ impl Scene<'_> {
         if let Fitted::Orientations { vision, .. } = &calibration.fitted {
             frames.push(vision_frames(vision, &p.camera(x), &p.reference(x)));
             series.push(e_series(vision));
-            series.push(residual_series("nominal", calibration, &calibration.nominal.x));
-            series.push(residual_series("calibrated", calibration, x));
+            series.push(residual_series("nominal", calibration, 0));
+            series.push(residual_series("calibrated", calibration, 1));
         } else {
-            let after = marker_residuals_at(calibration, x);
-            series.push(marker_series(
-                "nominal",
-                calibration,
-                &marker_residuals_at(calibration, &calibration.nominal.x),
-            ));
-            series.push(marker_series("calibrated", calibration, &after));
-            series.extend(marker_residuals(session, calibration, &after));
+            // The residuals the fit kept, nominal and calibrated (each at its own latency).
+            let after = &calibration.calibrated.residuals;
+            series.push(marker_series("nominal", calibration, &calibration.nominal.residuals));
+            series.push(marker_series("calibrated", calibration, after));
+            series.extend(marker_residuals(session, calibration, after));
         }
         // The report's predicted error of the calibrated model at each pose (the same figures as
         // `--json`'s `predicted_error_deg` / `predicted_error_mm`).
@@ -405,12 +344,7 @@ impl Scene<'_> {
         }
         let fitted_markers = (!marker_observations_of(calibration).is_empty())
             .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
-        let mut after = parameters_markdown("Calibrated parameters", &calibration.parameters);
-        after.push_str("\n| parameter | change (°) | std error (°) |\n|---|---|---|\n");
-        for r in &calibration.report.parameters {
-            let se = r.std_error_deg.map_or("frozen".to_string(), |s| format!("{s:.4}"));
-            let _ = writeln!(after, "| {} | {:+.4} | {se} |", r.name, r.change_deg);
-        }
+        let after = tables::calibrated_parameters(calibration);
         Ok(Scene {
             session,
             model,
@@ -423,7 +357,7 @@ impl Scene<'_> {
             documents: vec![
                 (
                     "before".to_string(),
-                    parameters_markdown("Nominal parameters", &Parameters::nominal(&model.spm, None)),
+                    tables::parameters("Nominal parameters", &Parameters::nominal(&model.spm, None)),
                 ),
                 ("after".to_string(), after),
             ]
@@ -433,36 +367,12 @@ impl Scene<'_> {
                     .report
                     .predicted_error_deg
                     .as_ref()
-                    .map(|e| ("predicted_error_map".to_string(), region_map(e))),
+                    .map(|e| ("predicted_error_map".to_string(), tables::predicted_error_by_region(e))),
             )
             .collect(),
             fitted_markers,
         })
     }
-}
-
-/// The predicted orientation error by band of tilt and |yaw|, as a markdown table.
-fn region_map(e: &crate::calib::PredictedError) -> String {
-    let band = |b: [f64; 2]| match b[1].is_finite() {
-        true => format!("{:.0}–{:.0}°", b[0], b[1]),
-        false => format!("> {:.0}°", b[0]),
-    };
-    let mut text = format!(
-        "# Predicted error after calibration\n\n{:.4}° RMS over the session's poses (90%: {:.4}–{:.4}°), as `compare` measures it.\n\n| tilt | yaw (abs) | poses | RMS (°) | worst (°) |\n|---|---|---|---|---|\n",
-        e.rms, e.interval_90[0], e.interval_90[1]
-    );
-    for g in &e.by_region {
-        let _ = writeln!(
-            text,
-            "| {} | {} | {} | {:.4} | {:.4} |",
-            band(g.tilt_deg),
-            band(g.yaw_deg),
-            g.poses,
-            g.rms,
-            g.worst
-        );
-    }
-    text
 }
 
 impl Scene<'_> {
@@ -493,7 +403,7 @@ impl Scene<'_> {
         };
         for (label, params) in sets {
             scene.frames.push(fda_frames(&format!("fda_{label}"), &params.spm()?, session));
-            scene.documents.push((label.clone(), parameters_markdown(label, params)));
+            scene.documents.push((label.clone(), tables::parameters(label, params)));
         }
         for r in results {
             scene.series.push(Series { name: comparison_series(r), values: r.per_pose.iter().copied().collect() });

@@ -8,15 +8,16 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use crate::calib::agreement::{
     MarkerErrors, SetError, corrected_for, largest_rotation, model_markers, pose_errors, pose_orientations,
 };
+use crate::calib::calibration::{CalibError, Fitted};
 use crate::calib::config::{CalibConfig, Group};
-use crate::calib::marker_model::{MarkerModel, MarkerObservation};
-use crate::calib::model::Model;
-use crate::calib::params::{Kind, Parameterisation};
-use crate::calib::pipeline::{CalibError, Calibration, Fitted, Level, Origin, Results, Solution};
+use crate::calib::level::{Level, LevelReport, LevelResults, Origin};
+use crate::calib::marker_residuals::{MarkerObservation, MarkerResiduals};
+use crate::calib::parameterisation::{Kind, Parameterisation};
 use crate::calib::registration;
 use crate::calib::report::{
-    CameraModelReport, CameraTermReport, Errors, FastCapture, Latency, MarkerFitReport, MarkerReport,
+    CameraModelReport, CameraTermReport, ErrorStats, FastCapture, Latency, MarkerFitReport, MarkerReport,
 };
+use crate::calib::residuals::Residuals;
 use crate::calib::uncertainty::{
     parameter_reports, predicted_marker_error, predicted_orientation_error, released, std_error,
 };
@@ -109,8 +110,8 @@ impl<'s> MarkerLevel<'s> {
 }
 
 impl Level for MarkerLevel<'_> {
-    type Model<'a>
-        = MarkerModel<'a>
+    type Problem<'a>
+        = MarkerResiduals<'a>
     where
         Self: 'a;
 
@@ -118,8 +119,8 @@ impl Level for MarkerLevel<'_> {
         &self.p
     }
 
-    fn model(&self) -> MarkerModel<'_> {
-        let model = MarkerModel::new(&self.p, &self.observations);
+    fn problem(&self) -> MarkerResiduals<'_> {
+        let model = MarkerResiduals::new(&self.p, &self.observations);
         match self.streams {
             Some(s) => {
                 let inflation = fast_inflation(&self.observations, s, &self.p, self.max_joint_speed_deg_s);
@@ -145,14 +146,14 @@ impl Level for MarkerLevel<'_> {
         self.max_deg
     }
 
-    fn origin(&self, model: &MarkerModel<'_>, j: usize) -> Origin {
+    fn origin(&self, model: &MarkerResiduals<'_>, j: usize) -> Origin {
         let o = &model.observations()[j];
         (o.pose, Some(self.names[o.marker].clone()), o.line)
     }
 
-    fn finish(&self, r: Results<'_, MarkerModel<'_>>) -> Result<Calibration, CalibError> {
+    fn finish(&self, r: LevelResults<'_, MarkerResiduals<'_>>) -> Result<LevelReport, CalibError> {
         let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
-        let observations = r.model.observations();
+        let observations = r.problem.observations();
         let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
         let marker_reports = marker_reports(p, x, cov, free, observations, &self.names);
         let (camera_report, camera_warnings) = self.camera_report(&r);
@@ -188,7 +189,7 @@ impl Level for MarkerLevel<'_> {
         let per_pose = |params: &Parameters| {
             // Nothing for the per-pose estimator (one marker per capture): no corrected copy.
             if vision.is_none() {
-                return Errors { fit: Stats::of_or_zero(&[]), held_out: None };
+                return ErrorStats { fit: Stats::of_or_zero(&[]), held_out: None };
             }
             let corrected = corrected_for(r.session, vision.as_ref(), Method::Kabsch, params).ok().flatten();
             let (session, vision) = match &corrected {
@@ -197,39 +198,36 @@ impl Level for MarkerLevel<'_> {
             };
             let fit = vision.and_then(|v| pose_errors(session, v, params).ok());
             let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();
-            Errors { fit: Stats::of_or_zero(&degrees), held_out: None }
+            ErrorStats { fit: Stats::of_or_zero(&degrees), held_out: None }
         };
-        let mut report = r.report;
-        report.vision_method = Method::Kabsch;
-        report.before = per_pose(&Parameters::nominal(&r.robot.spm, None));
-        report.after = per_pose(&parameters);
-        report.parameters = parameter_reports(p, x, cov, free)
+        let before = per_pose(&Parameters::nominal(&r.robot.spm, None));
+        let after = per_pose(&parameters);
+        let parameters_report = parameter_reports(p, x, cov, free)
             .into_iter()
             .zip(&p.entries)
             .filter(|(_, e)| e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. }))
             .map(|(r, _)| r)
             .collect();
-        let mut pose_ids = vec![0; r.model.poses()];
+        let mut pose_ids = vec![0; r.problem.poses()];
         for (j, o) in observations.iter().enumerate() {
-            pose_ids[r.model.pose_of(j)] = o.pose;
+            pose_ids[r.problem.pose_of(j)] = o.pose;
         }
         let fda: Vec<bool> = p.entries.iter().map(|e| e.kind != Kind::Latency).collect();
         let eval = &r.calibrated.evaluation;
-        report.predicted_error_deg = eval
+        let predicted_error_deg = eval
             .orientation_jacobians
             .as_ref()
             .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
-        report.predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
+        let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
             predicted_marker_error(&r.calibrated, ms, cov, &observation_poses, |j| {
-                eval.orientations[r.model.pose_of(j)]
+                eval.orientations[r.problem.pose_of(j)]
             })
         });
-        report.camera_translation_m = Some(camera.translation.into());
-        report.camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
+        let camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
             Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
         });
-        report.markers = Some(MarkerFitReport {
+        let markers = MarkerFitReport {
             latency: p.entries.iter().position(|e| e.kind == Kind::Latency).map(|i| Latency {
                 value_s: p.latency(x),
                 std_error_s: std_error(cov, free, i),
@@ -237,7 +235,7 @@ impl Level for MarkerLevel<'_> {
             }),
             camera_model: camera_report,
             observations: observations.len(),
-            poses: r.model.poses(),
+            poses: r.problem.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
             after: MarkerErrors::of(&r.calibrated.evaluation.residuals, observations, &self.names),
             stereo_noise: r.calibrated.weighting.noise,
@@ -255,34 +253,44 @@ impl Level for MarkerLevel<'_> {
                     })
                     .collect()
             }),
-        });
-        report.warnings.extend(camera_warnings);
-        let source = report.observations_file();
-        let gross = report.flagged.iter().filter(|f| f.excluded).map(|f| {
+        };
+        let source = self.observations_file();
+        let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
             format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)
         });
-        let mut excluded: Vec<String> = self.excluded.iter().cloned().chain(gross).collect();
-        excluded.append(&mut report.excluded);
-        report.excluded = excluded;
-        report.warnings = self.warnings.iter().cloned().chain(report.warnings).collect();
-        Ok(Calibration {
+        Ok(LevelReport {
             parameters,
-            report,
-            parameterisation: p.clone(),
             fitted: Fitted::Markers(at_fitted_latency(observations.to_vec(), self.streams, p, x)),
-            nominal: Solution::of(&r.nominal),
-            calibrated: Solution::of(&r.calibrated),
-            covariance: r.covariance,
+            vision_method: Some(Method::Kabsch),
+            before,
+            after,
+            held_out_poses: 0,
+            parameters_report,
+            predicted_error_deg,
+            predicted_error_mm,
+            residual_sigma_deg: Vec::new(),
+            camera_translation_m: Some(camera.translation.into()),
+            camera_translation_std_error_m,
+            markers: Some(markers),
+            excluded: self.excluded.iter().cloned().chain(gross).collect(),
+            notes: self.warnings.clone(),
+            findings: camera_warnings,
         })
     }
 }
 
 impl MarkerLevel<'_> {
+    /// The file the observations came from, for messages: a free-motion recording's
+    /// `captures.csv` (it has a latency), else `markers.csv`.
+    fn observations_file(&self) -> &'static str {
+        if self.p.entries.iter().any(|e| e.kind == Kind::Latency) { "captures.csv" } else { "markers.csv" }
+    }
+
     /// The camera model term by term: fitted or held (and why), a held term tested against the
     /// residuals, and what is significant said in words; a held term the residuals want moved is
     /// also a warning (the mechanism took the blame).
-    fn camera_report(&self, r: &Results<'_, MarkerModel<'_>>) -> (CameraModelReport, Vec<String>) {
+    fn camera_report(&self, r: &LevelResults<'_, MarkerResiduals<'_>>) -> (CameraModelReport, Vec<String>) {
         let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
         let fitted = p.camera_model(x);
         let (mut findings, mut warnings) = (Vec::new(), Vec::new());

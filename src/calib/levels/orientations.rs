@@ -5,18 +5,16 @@
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use crate::calib::agreement::degrees;
+use crate::calib::calibration::{CalibError, Fitted};
 use crate::calib::config::{CalibConfig, Group};
-use crate::calib::model::Model;
-use crate::calib::orientation_model::{Observation, OrientationModel, observations};
-use crate::calib::params::Parameterisation;
-use crate::calib::pipeline::{
-    CalibError, Calibration, Fitted, Level, MIN_MOTION_DEG, Origin, Results, Solution, check_enough,
-};
+use crate::calib::level::{Level, LevelReport, LevelResults, MIN_MOTION_DEG, Origin, check_enough};
+use crate::calib::orientation_residuals::{Observation, OrientationResiduals, observations};
+use crate::calib::parameterisation::Parameterisation;
 use crate::calib::registration;
-use crate::calib::report::Errors;
+use crate::calib::report::ErrorStats;
+use crate::calib::residuals::Residuals;
 use crate::calib::uncertainty::{parameter_reports, predicted_orientation_error};
 use crate::dataset::Session;
-use crate::math::stats::Stats;
 use crate::model::{CameraModel, CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::SessionEstimate;
 
@@ -89,8 +87,8 @@ fn free_of(p: &Parameterisation, freeze: &[Group]) -> Vec<bool> {
 }
 
 impl Level for OrientationLevel {
-    type Model<'a>
-        = OrientationModel<'a>
+    type Problem<'a>
+        = OrientationResiduals<'a>
     where
         Self: 'a;
 
@@ -98,8 +96,8 @@ impl Level for OrientationLevel {
         &self.p
     }
 
-    fn model(&self) -> OrientationModel<'_> {
-        OrientationModel::new(&self.p, &self.fitted)
+    fn problem(&self) -> OrientationResiduals<'_> {
+        OrientationResiduals::new(&self.p, &self.fitted)
     }
 
     fn free(&self) -> Vec<bool> {
@@ -110,24 +108,26 @@ impl Level for OrientationLevel {
         self.max_deg
     }
 
-    fn origin(&self, model: &OrientationModel<'_>, j: usize) -> Origin {
+    fn origin(&self, model: &OrientationResiduals<'_>, j: usize) -> Origin {
         (model.observations()[j].pose, None, 0)
     }
 
-    fn finish(&self, r: Results<'_, OrientationModel<'_>>) -> Result<Calibration, CalibError> {
+    fn finish(&self, r: LevelResults<'_, OrientationResiduals<'_>>) -> Result<LevelReport, CalibError> {
         let (p, x, cov) = (&self.p, &r.calibrated.x, &r.covariance);
-        let held = |x: &DVector<f64>| -> Result<Option<Stats>, CalibError> {
+        let held = |x: &DVector<f64>| -> Result<Vec<Vector3<f64>>, CalibError> {
             if self.held_out.is_empty() {
-                return Ok(None);
+                return Ok(Vec::new());
             }
             let eval =
-                OrientationModel::new(p, &self.held_out).evaluate(x, None, false).map_err(CalibError::HeldOut)?;
-            Ok(Some(degrees(&eval.residuals)))
+                OrientationResiduals::new(p, &self.held_out).evaluate(x, None, false).map_err(CalibError::HeldOut)?;
+            Ok(eval.residuals)
         };
-        let mut report = r.report;
-        report.before = Errors { fit: degrees(&r.nominal.evaluation.residuals), held_out: held(&r.nominal.x)? };
-        report.after = Errors { fit: degrees(&r.calibrated.evaluation.residuals), held_out: held(x)? };
-        report.held_out_poses = self.held_out.len();
+        let held_out_residuals = [held(&r.nominal.x)?, held(x)?];
+        let stats = |residuals: &[Vector3<f64>]| (!self.held_out.is_empty()).then(|| degrees(residuals));
+        let before =
+            ErrorStats { fit: degrees(&r.nominal.evaluation.residuals), held_out: stats(&held_out_residuals[0]) };
+        let after =
+            ErrorStats { fit: degrees(&r.calibrated.evaluation.residuals), held_out: stats(&held_out_residuals[1]) };
         // Orientations fix R_CB; t_CB comes from the centre of rotation. When the poses leave the
         // centre undetermined (all about one axis) no registration is written rather than a
         // made-up t_CB.
@@ -143,42 +143,46 @@ impl Level for OrientationLevel {
             camera_model: self.camera_model,
             fit: None,
         };
-        report.parameters = parameter_reports(p, x, cov, &r.free);
         let eval = &r.calibrated.evaluation;
-        let pose_ids: Vec<u64> = r.model.observations().iter().map(|o| o.pose).collect();
+        let pose_ids: Vec<u64> = r.problem.observations().iter().map(|o| o.pose).collect();
         let fda = vec![true; p.len()];
-        report.predicted_error_deg = eval
+        let predicted_error_deg = eval
             .orientation_jacobians
             .as_ref()
             .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
-        report.residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
+        let residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
                 .map(|(m, n, c)| (*m, *n, [0, 1, 2].map(|i| c[(i, i)].max(0.0).sqrt().to_degrees())))
                 .collect()
         });
-        report.camera_translation_m = centre.map(|c| c.position_m);
-        report.camera_translation_std_error_m = centre.map(|c| c.std_error_m);
-        let gross = report
+        let gross = r
             .flagged
             .iter()
             .filter(|f| f.excluded)
             .map(|f| format!("pose {}: gross error ({:.3} deg, {:.1} sigma)", f.pose, f.residual, f.sigmas));
-        let mut excluded: Vec<String> = self.excluded.iter().cloned().chain(gross).collect();
-        excluded.append(&mut report.excluded);
-        report.excluded = excluded;
-        Ok(Calibration {
+        Ok(LevelReport {
             parameters,
-            report,
-            parameterisation: p.clone(),
             fitted: Fitted::Orientations {
-                fitted: r.model.observations().to_vec(),
+                fitted: r.problem.observations().to_vec(),
                 held_out: self.held_out.clone(),
+                held_out_residuals: Box::new(held_out_residuals),
                 vision: Box::new(self.vision.clone()),
             },
-            nominal: Solution::of(&r.nominal),
-            calibrated: Solution::of(&r.calibrated),
-            covariance: r.covariance,
+            vision_method: None,
+            before,
+            after,
+            held_out_poses: self.held_out.len(),
+            parameters_report: parameter_reports(p, x, cov, &r.free),
+            predicted_error_deg,
+            predicted_error_mm: None,
+            residual_sigma_deg,
+            camera_translation_m: centre.map(|c| c.position_m),
+            camera_translation_std_error_m: centre.map(|c| c.std_error_m),
+            markers: None,
+            excluded: self.excluded.iter().cloned().chain(gross).collect(),
+            notes: Vec::new(),
+            findings: Vec::new(),
         })
     }
 }

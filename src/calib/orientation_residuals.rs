@@ -16,8 +16,9 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
-use super::model::{EvalError, Evaluation, Model};
-use super::params::{Kind, Parameterisation};
+use super::config::FitLevel;
+use super::parameterisation::{Kind, Parameterisation};
+use super::residuals::{EvalError, Evaluation, Residuals};
 use super::sensitivity::Frames;
 use crate::dataset::Session;
 use crate::math::so3;
@@ -79,17 +80,17 @@ pub(crate) type ResidualClasses = Vec<(usize, usize, Matrix3<f64>)>;
 
 /// The orientation-level model: one rotation residual per pose, `r_j = log(Q_j A R_jᵀ R_CBᵀ)`.
 #[derive(Debug, Clone)]
-pub(crate) struct OrientationModel<'a> {
+pub(crate) struct OrientationResiduals<'a> {
     p: &'a Parameterisation,
     observations: Vec<Observation>,
     /// Whether the mechanism's Jacobian columns (most of the cost) are computed.
     mechanism: bool,
 }
 
-impl<'a> OrientationModel<'a> {
+impl<'a> OrientationResiduals<'a> {
     /// The model of `observations`.
     pub(crate) fn new(p: &'a Parameterisation, observations: &[Observation]) -> Self {
-        OrientationModel { p, observations: observations.to_vec(), mechanism: true }
+        OrientationResiduals { p, observations: observations.to_vec(), mechanism: true }
     }
 
     /// The observations.
@@ -98,7 +99,7 @@ impl<'a> OrientationModel<'a> {
     }
 }
 
-impl Model for OrientationModel<'_> {
+impl Residuals for OrientationResiduals<'_> {
     type Noise = ResidualClasses;
 
     fn parameterisation(&self) -> &Parameterisation {
@@ -116,7 +117,7 @@ impl Model for OrientationModel<'_> {
 
     fn subset(&self, rows: &[usize]) -> Self {
         let observations = rows.iter().map(|&j| self.observations[j]).collect();
-        OrientationModel { observations, ..*self }
+        OrientationResiduals { observations, ..*self }
     }
 
     fn group(&self, j: usize) -> (bool, u64) {
@@ -136,8 +137,8 @@ impl Model for OrientationModel<'_> {
         180.0f64 / std::f64::consts::PI
     }
 
-    fn unit(&self) -> &'static str {
-        "deg"
+    fn level(&self) -> FitLevel {
+        FitLevel::Orientations
     }
 
     fn estimate_noise(&self, residuals: &[Vector3<f64>], weights: &[f64]) -> ResidualClasses {

@@ -1,11 +1,12 @@
-//! What a fit fits: a [`Model`] of residuals (one 3-vector per observation: a pose's rotation, a
+//! What a fit fits: a [`Residuals`] of residuals (one 3-vector per observation: a pose's rotation, a
 //! marker's position) over a [`Parameterisation`], with the noise model that whitens them. The
 //! orientation-level and marker-level fits are two implementations; the fit, the validation and
 //! the uncertainty are written once against this trait.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
-use super::params::Parameterisation;
+use super::config::FitLevel;
+use super::parameterisation::Parameterisation;
 use crate::model::{FdaError, SpmError};
 
 /// Residuals (and optionally their Jacobian) at a parameter vector.
@@ -47,7 +48,7 @@ pub enum EvalError {
 }
 
 /// Residuals of a parameterisation and the noise model that whitens them.
-pub(crate) trait Model {
+pub(crate) trait Residuals {
     /// What the residuals imply about the measurement noise (feasible GLS): per-class covariances
     /// for orientations, the stereo σ's for markers.
     type Noise: Clone + std::fmt::Debug;
@@ -107,8 +108,13 @@ pub(crate) trait Model {
     /// degrees, metres to millimetres).
     fn unit_scale(&self) -> f64;
 
-    /// The name of that unit: `deg` or `mm`.
-    fn unit(&self) -> &'static str;
+    /// The fit level these residuals belong to (and so their unit, `deg` or `mm`).
+    fn level(&self) -> FitLevel;
+
+    /// The name of the unit a person reads them in: `deg` or `mm`.
+    fn unit(&self) -> &'static str {
+        self.level().unit()
+    }
 
     /// The RMS of the residuals in the unit a person reads them in.
     fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {

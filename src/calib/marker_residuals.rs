@@ -21,8 +21,9 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
-use super::model::{EvalError, Evaluation, Model};
-use super::params::{Kind, Parameterisation};
+use super::config::FitLevel;
+use super::parameterisation::{Kind, Parameterisation};
+use super::residuals::{EvalError, Evaluation, Residuals};
 use super::sensitivity::Frames;
 use crate::dataset::{Session, Streams};
 use crate::math::so3;
@@ -117,7 +118,7 @@ const SIGMA_FLOOR_M: f64 = 1e-7;
 
 /// The marker-level model over a set of observations.
 #[derive(Debug)]
-pub struct MarkerModel<'a> {
+pub struct MarkerResiduals<'a> {
     /// The parameters (a [`Parameterisation::for_markers`]).
     pub p: &'a Parameterisation,
     /// The observations, grouped by pose (consecutive).
@@ -141,10 +142,10 @@ pub struct MarkerModel<'a> {
     inflation: Vec<f64>,
 }
 
-impl Clone for MarkerModel<'_> {
+impl Clone for MarkerResiduals<'_> {
     /// A copy without the spare Jacobian (it is only storage to reuse).
     fn clone(&self) -> Self {
-        MarkerModel {
+        MarkerResiduals {
             observations: self.observations.clone(),
             pose_of: self.pose_of.clone(),
             poses: self.poses.clone(),
@@ -156,7 +157,7 @@ impl Clone for MarkerModel<'_> {
     }
 }
 
-impl<'a> MarkerModel<'a> {
+impl<'a> MarkerResiduals<'a> {
     /// The model of `observations` (consecutive observations of a pose share its FDA).
     pub fn new(p: &'a Parameterisation, observations: &'a [MarkerObservation]) -> Self {
         Self::of(p, std::borrow::Cow::Borrowed(observations))
@@ -174,7 +175,7 @@ impl<'a> MarkerModel<'a> {
         let mut distances: Vec<f64> = observations.iter().map(|o| o.measured.norm()).collect();
         distances.sort_by(f64::total_cmp);
         let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
-        MarkerModel {
+        MarkerResiduals {
             p,
             observations,
             pose_of,
@@ -308,7 +309,7 @@ impl<'a> MarkerModel<'a> {
     }
 }
 
-impl Model for MarkerModel<'_> {
+impl Residuals for MarkerResiduals<'_> {
     type Noise = StereoNoise;
 
     fn parameterisation(&self) -> &Parameterisation {
@@ -326,7 +327,7 @@ impl Model for MarkerModel<'_> {
 
     fn subset(&self, rows: &[usize]) -> Self {
         let observations: Vec<MarkerObservation> = rows.iter().map(|&j| self.observations[j]).collect();
-        let mut model = MarkerModel::of(self.p, std::borrow::Cow::Owned(observations));
+        let mut model = MarkerResiduals::of(self.p, std::borrow::Cow::Owned(observations));
         model.streams = self.streams;
         model.columns.clone_from(&self.columns);
         if !self.inflation.is_empty() {
@@ -420,12 +421,12 @@ impl Model for MarkerModel<'_> {
         1e3
     }
 
-    fn unit(&self) -> &'static str {
-        "mm"
+    fn level(&self) -> FitLevel {
+        FitLevel::Markers
     }
 }
 
-impl MarkerModel<'_> {
+impl MarkerResiduals<'_> {
     /// `∂r/∂x`, `3n × N`.
     fn jacobian(
         &self,

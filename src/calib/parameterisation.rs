@@ -14,7 +14,7 @@
 //! Every parameter is measured from its initial value, so that bounds are boxes. Angles (radians):
 //! per leg the axis tilts (tangent coordinates of the rotation vector that carries the nominal
 //! axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
-//! level, the reference rotation `A = exp(a) A⁰` (see `orientation_model.rs`). The marker level
+//! level, the reference rotation `A = exp(a) A⁰` (see `orientation_residuals.rs`). The marker level
 //! has instead of `A` the camera translation `t_CB` and the markers' positions in P (metres), and
 //! for a free-motion recording the camera's latency (seconds).
 

@@ -2,9 +2,7 @@
 
 use std::fmt;
 
-use super::config::FitLevel;
-use super::fit::Convergence;
-use super::report::{CalibrationReport, CameraModelReport, MarkerFitReport};
+use crate::calib::{CalibrationReport, CameraModelReport, Convergence, FitLevel, MarkerFitReport};
 use crate::math::stats::Stats;
 
 /// How many excluded or flagged items a text report lists before "… and N more".
@@ -182,7 +180,7 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
         }
     }
     if let Some((cv, expected)) = r.cross_validation.as_ref().and_then(|cv| Some((cv, cv.expected_rms?))) {
-        let unit = cv.unit;
+        let unit = cv.level.unit();
         let se = cv.calibrated_ms_std_error / (2.0 * cv.calibrated_rms.max(f64::MIN_POSITIVE));
         writeln!(
             f,
@@ -222,8 +220,8 @@ fn per_pose_lines(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Res
 }
 
 /// How many steps each solver found, e.g. `6 Gauss–Newton, 1 clarabel`.
-fn solver_mix(log: &[super::fit::IterationLog]) -> String {
-    let clarabel = log.iter().filter(|l| l.solver == super::fit::Solver::Clarabel).count();
+fn solver_mix(log: &[crate::calib::IterationLog]) -> String {
+    let clarabel = log.iter().filter(|l| l.solver == crate::calib::Solver::Clarabel).count();
     format!("{} Gauss–Newton, {clarabel} clarabel", log.len() - clarabel)
 }
 

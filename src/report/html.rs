@@ -123,7 +123,7 @@ fn predicted(report: &crate::calib::CalibrationReport) -> String {
             } else {
                 "they disagree beyond their uncertainty: the noise model or the model is wrong"
             },
-            unit = cv.unit
+            unit = cv.level.unit()
         );
     }
     out
