@@ -44,6 +44,7 @@
 //! # #[cfg(feature = "full")]
 //! # {
 //! use spmcal::prelude::*;
+//! use std::path::Path;
 //!
 //! let (session, _warnings) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None)?;
 //! let model = RobotModel::load(&session.model)?;
@@ -71,8 +72,6 @@
 /// The common path in one import: models and parameters, FDA/IK, sessions, calibration and
 /// comparison.
 pub mod prelude {
-    pub use std::path::Path;
-
     pub use crate::math::so3;
     pub use crate::model::{Parameters, Spm};
     #[cfg(feature = "full")]

@@ -96,8 +96,14 @@ pub fn cramer_rao(
     let camera = truth.parameters.camera.expect("a simulated camera");
     let markers0: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
     let bounds = CalibConfig::default().bounds;
-    let p = Parameterisation::for_markers(*model.spm.geometry(), &camera, &markers0, &session.markers, &bounds)
-        .with_camera_model(CameraModel::perfect(camera_model), bounds.camera_term);
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &camera,
+        &markers0,
+        &session.markers,
+        CameraModel::perfect(camera_model),
+        &bounds,
+    );
     let true_markers: Vec<Vector3<f64>> = truth.parameters.markers.iter().map(|m| m.position).collect();
     let gauge =
         TruthInGauge::for_markers(&p, &truth.parameters.legs, &camera, &truth.parameters.camera_model, &true_markers);

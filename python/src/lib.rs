@@ -900,8 +900,14 @@ fn _marker_model<'py>(
     };
     let bounds = Bounds::default();
     let names: Vec<String> = (1..=positions.len()).map(|k| format!("m{k}")).collect();
-    let p = Parameterisation::for_markers(*model.spm.geometry(), &registration, &positions, &names, &bounds)
-        .with_camera_model(CameraModel::of(kind, terms), bounds.camera_term);
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &registration,
+        &positions,
+        &names,
+        CameraModel::of(kind, terms),
+        &bounds,
+    );
     let n = p.len();
     let x = match x {
         None => p.start(),

@@ -23,7 +23,7 @@ use super::residuals::{EvalError, Residuals};
 use crate::dataset::Session;
 use crate::math::so3;
 use crate::math::stats::{Stats, rms};
-use crate::model::{CameraRegistration, Parameters, RobotModel, Spm, SpmError};
+use crate::model::{CameraModel, CameraRegistration, Parameters, RobotModel, Spm, SpmError};
 use crate::vision::SessionEstimate;
 
 /// Per-observation distances (mm) between measured and predicted markers: their statistics, and
@@ -243,7 +243,14 @@ pub(crate) fn marker_pose_errors(
             (start, "best fit to this session")
         }
     };
-    let p = Parameterisation::for_markers(params.legs, &registration, &markers, &session.markers, &config.bounds);
+    let p = Parameterisation::for_markers(
+        params.legs,
+        &registration,
+        &markers,
+        &session.markers,
+        CameraModel::rigid(),
+        &config.bounds,
+    );
     let x0 = DVector::zeros(p.len());
     let marker_residuals = MarkerResiduals::new(&p, &observations);
     let (x, evaluation) = if params.camera.is_some() {
@@ -281,7 +288,14 @@ pub(crate) fn pose_orientations(
 ) -> Result<Vec<Rotation3<f64>>, EvalError> {
     let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
     let names: Vec<String> = (0..markers.len()).map(|k| format!("m{k}")).collect();
-    let p = Parameterisation::for_markers(*legs, &origin, markers, &names, &CalibConfig::default().bounds);
+    let p = Parameterisation::for_markers(
+        *legs,
+        &origin,
+        markers,
+        &names,
+        CameraModel::rigid(),
+        &CalibConfig::default().bounds,
+    );
     let model = MarkerResiduals::new(&p, observations);
     let at_pose = model.evaluate(&DVector::zeros(p.len()), None, false)?.orientations;
     Ok((0..observations.len()).map(|j| at_pose[model.pose_of(j)]).collect())

@@ -157,7 +157,10 @@ pub struct Calibration {
     /// The report.
     pub report: CalibrationReport,
     /// How the parameter vector maps to a geometry.
+    #[cfg(feature = "internals")]
     pub parameterisation: Parameterisation,
+    #[cfg(not(feature = "internals"))]
+    pub(crate) parameterisation: Parameterisation,
     /// What was fitted.
     pub fitted: Fitted,
     /// The nominal mechanism with its best registration.

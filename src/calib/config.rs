@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
-use crate::model::{CameraModel, CameraModelKind, CameraTerm};
+use crate::model::{CameraModel, CameraModelKind, CameraTerm, CameraTerms};
 use crate::vision::Method;
 
 /// A group of parameters that can be frozen at its nominal (or initial) value.
@@ -112,7 +112,7 @@ pub struct CalibConfig {
     /// What to fit: marker observations (default) or per-pose orientations.
     pub fit: FitLevel,
     /// Folds of the cross-validation that measures the error on unseen poses (both fit levels;
-    /// stations, else poses, kept together). 0 or 1: none.
+    /// stations, else poses, kept together), 2 or more; 0: none (the verdict says so); 1 is refused.
     pub folds: usize,
     /// What to do when the calibrated model does not predict unseen data clearly better.
     pub if_not_better: IfNotBetter,
@@ -201,39 +201,6 @@ impl Default for Bounds {
     }
 }
 
-/// The camera model's terms as known before a fit (a perfect camera's by default).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CameraTerms {
-    /// Depths read this many times their length.
-    pub depth_scale: f64,
-    /// Camera y reads this many times its length relative to camera x.
-    pub scale_y: f64,
-    /// Shear between camera x and y.
-    pub shear_xy: f64,
-    /// Shear between camera x and the optical axis.
-    pub shear_xz: f64,
-    /// Shear between camera y and the optical axis.
-    pub shear_yz: f64,
-}
-
-impl Default for CameraTerms {
-    fn default() -> Self {
-        CameraTerms { depth_scale: 1.0, scale_y: 1.0, shear_xy: 0.0, shear_xz: 0.0, shear_yz: 0.0 }
-    }
-}
-
-impl CameraTerms {
-    fn values(&self) -> [f64; 5] {
-        [self.depth_scale, self.scale_y, self.shear_xy, self.shear_xz, self.shear_yz]
-    }
-
-    /// The camera model `kind` with these terms.
-    pub fn model(&self, kind: CameraModelKind) -> CameraModel {
-        CameraModel::of(kind, self.values())
-    }
-}
-
 impl Default for CalibConfig {
     fn default() -> Self {
         CalibConfig {
@@ -319,9 +286,15 @@ impl CalibConfig {
             let reason = format!("`max_iterations` must be from 1 to {MAX_ITERATIONS} (got {})", self.max_iterations);
             return Err(("max_iterations".into(), reason));
         }
+        if self.folds == 1 {
+            let reason = "`folds: 1` is no cross-validation: one fold would hold out every pose and fit on none; \
+                          use 2 or more (5: the default), or 0 to skip it (the verdict then says nothing shows how the \
+                          model predicts new data)";
+            return Err(("folds".into(), reason.into()));
+        }
         if self.folds > MAX_FOLDS {
             let reason = format!(
-                "`folds: {}` is absurd: k-fold cross-validation uses 2 to {MAX_FOLDS} folds (0 or 1: none)",
+                "`folds: {}` is absurd: k-fold cross-validation uses 2 to {MAX_FOLDS} folds (0: none)",
                 self.folds
             );
             return Err(("folds".into(), reason));

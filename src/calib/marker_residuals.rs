@@ -119,7 +119,7 @@ const SIGMA_FLOOR_M: f64 = 1e-7;
 /// The marker-level model over a set of observations.
 #[derive(Debug)]
 pub struct MarkerResiduals<'a> {
-    /// The parameters (a [`Parameterisation::for_markers`]).
+    /// The parameters (a `Parameterisation::for_markers`).
     pub p: &'a Parameterisation,
     /// The observations, grouped by pose (consecutive).
     observations: std::borrow::Cow<'a, [MarkerObservation]>,

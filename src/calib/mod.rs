@@ -22,8 +22,10 @@ mod fit;
 mod identify;
 mod level;
 mod levels;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub))]
 mod marker_residuals;
 mod orientation_residuals;
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub))]
 mod parameterisation;
 mod pipeline;
 pub(crate) mod registration;
@@ -41,11 +43,18 @@ pub use calibration::{CalibError, Calibration, Fitted, Solution};
 pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
+#[cfg(feature = "internals")]
+pub use marker_residuals::MarkerResiduals;
+#[cfg(not(feature = "internals"))]
+pub(crate) use marker_residuals::MarkerResiduals;
 pub(crate) use marker_residuals::per_pose_rms_mm;
-pub use marker_residuals::{MarkerObservation, MarkerResiduals, StereoNoise};
+pub use marker_residuals::{MarkerObservation, StereoNoise};
 pub use orientation_residuals::Observation;
 pub(crate) use orientation_residuals::observations;
+#[cfg(feature = "internals")]
 pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
+#[cfg(not(feature = "internals"))]
+pub(crate) use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 pub use pipeline::calibrate;
 pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,

@@ -239,13 +239,16 @@ impl Parameterisation {
 
     /// The marker-level parameterisation: the mechanism (gauge-fixed as in [`Self::new`]), the
     /// camera registration `R_CB = exp(c) R_CB⁰`, `t_CB = t⁰ + Δt`, and every marker's position
-    /// `p_k = p_k⁰ + Δp_k` in P (named after `names`). No reference rotation: every observation
-    /// is compared with the model directly.
+    /// `p_k = p_k⁰ + Δp_k` in P (named after `names`), and the terms of `camera_model` (its kind's,
+    /// starting at its values, within `bounds.camera_term`; none for a rigid camera). No reference
+    /// rotation: every observation is compared with the model directly. The one constructor of
+    /// the marker-level problem (the fit, `compare`, `plan` and the nominal poses all use it).
     pub fn for_markers(
         initial: [LegGeometry; 3],
         camera0: &crate::model::CameraRegistration,
         markers0: &[Vector3<f64>],
         names: &[String],
+        camera_model: CameraModel,
         bounds: &Bounds,
     ) -> Self {
         let mut p = Parameterisation::new(initial, camera0.rotation, Rotation3::identity(), bounds);
@@ -262,7 +265,7 @@ impl Parameterisation {
                 p.entries.push(entry);
             }
         }
-        p
+        p.with_camera_model(camera_model, bounds.camera_term)
     }
 
     /// The same parameterisation with the camera latency as a parameter, started at `start` and
@@ -275,7 +278,7 @@ impl Parameterisation {
 
     /// The same parameterisation with the terms of `start`'s camera model as parameters, started
     /// at its values and bounded by `bound` either side of them.
-    pub fn with_camera_model(mut self, start: CameraModel, bound: f64) -> Self {
+    fn with_camera_model(mut self, start: CameraModel, bound: f64) -> Self {
         self.camera_model0 = start;
         for term in start.kind.terms() {
             let entry = Entry {

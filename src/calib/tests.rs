@@ -12,11 +12,12 @@ use super::identify::Identifiability;
 use super::marker_residuals::{MarkerObservation, MarkerResiduals};
 use super::orientation_residuals::{Observation, OrientationResiduals};
 use super::parameterisation::Parameterisation;
-use super::pipeline::{Calibration, Fitted, calibrate};
+use super::calibration::{Calibration, Fitted};
+use super::pipeline::calibrate;
 use super::residuals::{EvalError, Evaluation, Residuals};
 use crate::dataset::Session;
 use crate::math::so3;
-use crate::model::{CameraRegistration, LegGeometry, RobotModel};
+use crate::model::{CameraModel, CameraRegistration, LegGeometry, RobotModel};
 use crate::sim::SimConfig;
 
 /// On held-out poses, the calibrated model's FDA agrees with vision within 10% of what the true
@@ -154,6 +155,7 @@ fn parameterisation(session: &Session, model: &RobotModel) -> Parameterisation {
         &truth.parameters.camera.unwrap(),
         &markers,
         &session.markers,
+        CameraModel::rigid(),
         &CalibConfig::default().bounds,
     )
 }
@@ -274,6 +276,7 @@ fn a_coaxial_spm_leaves_free_only_its_own_gauges() {
         &CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() },
         &[],
         &[],
+        CameraModel::rigid(),
         &CalibConfig::default().bounds,
     );
     let names: Vec<&str> = p.entries.iter().map(|e| e.name.as_str()).collect();
@@ -297,8 +300,7 @@ fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
     let augmented = augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
         let bounds = CalibConfig::default().bounds;
-        let q = Parameterisation::for_markers(legs, &camera, &markers, &session.markers, &bounds)
-            .with_camera_model(p.camera_model(x), bounds.camera_term);
+        let q = Parameterisation::for_markers(legs, &camera, &markers, &session.markers, p.camera_model(x), &bounds);
         MarkerResiduals::new(&q, obs)
             .evaluate(&DVector::zeros(q.len()), Some(&base.orientations), false)
             .unwrap()
@@ -332,6 +334,7 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
         &truth.parameters.camera.unwrap(),
         &markers,
         &recording.markers,
+        CameraModel::rigid(),
         &CalibConfig::default().bounds,
     )
     .with_latency(0.04, 0.2);
@@ -424,8 +427,14 @@ fn a_camera_term_in_a_direction_the_data_cannot_determine_is_held() {
     let spm = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap().spm;
     let camera = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::new(0.0, 0.0, 0.8) };
     let bounds = CalibConfig::default().bounds;
-    let p = Parameterisation::for_markers(*spm.geometry(), &camera, &[Vector3::zeros()], &["m".into()], &bounds)
-        .with_camera_model(crate::model::CameraModel::perfect(crate::model::CameraModelKind::DepthScale), 0.1);
+    let p = Parameterisation::for_markers(
+        *spm.geometry(),
+        &camera,
+        &[Vector3::zeros()],
+        &["m".into()],
+        crate::model::CameraModel::perfect(crate::model::CameraModelKind::DepthScale),
+        &bounds,
+    );
     let index = |name: &str| p.entries.iter().position(|e| e.name == name).unwrap();
     let (depth, t_z) = (index("camera.depth_scale"), index("camera.t_z"));
     let generic = |rows: usize| {

@@ -216,7 +216,7 @@ impl FoldNormals {
 
 #[cfg(test)]
 mod check_tests {
-    use super::CrossValidation;
+    use super::{CrossValidation, FitLevel};
 
     fn cv(calibrated_rms: f64, se: f64) -> CrossValidation {
         CrossValidation {

@@ -96,7 +96,7 @@ pub(crate) fn pair_frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
 
 /// The rotation that carries the frame of the pair `(a1, b1)` onto that of `(a2, b2)`: `a1 ↦ a2`
 /// exactly, and `b1` into the half-plane of `b2` (exactly onto it when the angles agree).
-pub fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vector3<f64>) -> Rotation3<f64> {
+pub(crate) fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vector3<f64>) -> Rotation3<f64> {
     Rotation3::from_matrix_unchecked(pair_frame(a2, b2) * pair_frame(a1, b1).transpose())
 }
 

@@ -224,6 +224,43 @@ impl CameraModel {
     }
 }
 
+/// The camera model's terms by name, as configs give them: the start (or known correction) of a
+/// calibration's camera model, the simulated camera's distortion (a perfect camera's by default).
+/// The one definition of the terms' names; [`CameraModel`] holds them with a kind and standard
+/// errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraTerms {
+    /// Depths read this many times their length.
+    pub depth_scale: f64,
+    /// Camera y reads this many times its length relative to camera x.
+    pub scale_y: f64,
+    /// Shear between camera x and y.
+    pub shear_xy: f64,
+    /// Shear between camera x and the optical axis.
+    pub shear_xz: f64,
+    /// Shear between camera y and the optical axis.
+    pub shear_yz: f64,
+}
+
+impl Default for CameraTerms {
+    fn default() -> Self {
+        CameraTerms { depth_scale: 1.0, scale_y: 1.0, shear_xy: 0.0, shear_xz: 0.0, shear_yz: 0.0 }
+    }
+}
+
+impl CameraTerms {
+    /// The values in the order of [`CameraTerm::ALL`].
+    pub(crate) fn values(&self) -> [f64; 5] {
+        [self.depth_scale, self.scale_y, self.shear_xy, self.shear_xz, self.shear_yz]
+    }
+
+    /// The camera model `kind` with these terms.
+    pub fn model(&self, kind: CameraModelKind) -> CameraModel {
+        CameraModel::of(kind, self.values())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use nalgebra::Vector3;

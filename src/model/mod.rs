@@ -24,6 +24,8 @@ mod urdf_check;
 
 pub use assembly::AssemblyMode;
 pub use camera::{CameraModel, CameraModelKind, CameraTerm};
+// Named only where configs hold it (`CalibConfig::camera_terms`): reachable, not a separate API item.
+pub(crate) use camera::CameraTerms;
 #[cfg(feature = "full")]
 pub use export::{ExportedModel, export};
 pub use geometry::{GeometryError, HomeBranch, LegGeometry};

@@ -361,6 +361,7 @@ mod tests {
             &camera,
             &markers,
             &names,
+            crate::model::CameraModel::rigid(),
             &CalibConfig::default().bounds,
         );
         let info = Information::of(&p, &camera, &pool, &pool, &config.camera.stereo_noise()).unwrap();

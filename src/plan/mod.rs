@@ -271,8 +271,7 @@ impl Plan {
         let (p, info, prior) = loop {
             let kind = if camera_note.is_some() { CameraModelKind::Rigid } else { settings.camera_model };
             let camera_model = params.camera_model.with_kind(kind);
-            let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, &bounds)
-                .with_camera_model(camera_model, bounds.camera_term);
+            let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, camera_model, &bounds);
             let info = Information::of(&p, &camera, &pool, workspace, &noise).map_err(crate::calib::SetError::Eval)?;
             let prior = match augment {
                 Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,

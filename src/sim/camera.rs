@@ -5,7 +5,7 @@ use rand::Rng;
 use rand_distr::{Distribution, Normal};
 
 use super::config::Camera;
-use crate::model::{CameraModel, CameraModelKind, CameraRegistration};
+use crate::model::{CameraModel, CameraModelKind, CameraRegistration, CameraTerms};
 
 // The camera's settings are read with the rest of the config (`config`); what the camera does
 // with them is here.
@@ -20,8 +20,14 @@ impl Camera {
     /// The camera model the settings make: affine when a scale of y or a shear is set, a depth
     /// scale when only that is, else a perfect camera.
     pub fn model(&self) -> CameraModel {
-        let values = [self.depth_scale, self.scale_y, self.shear_xy, self.shear_xz, self.shear_yz];
-        let set = CameraModel::of(CameraModelKind::Affine, values);
+        let terms = CameraTerms {
+            depth_scale: self.depth_scale,
+            scale_y: self.scale_y,
+            shear_xy: self.shear_xy,
+            shear_xz: self.shear_xz,
+            shear_yz: self.shear_yz,
+        };
+        let set = terms.model(CameraModelKind::Affine);
         set.with_kind(CameraModelKind::smallest(|t| set.value(t) != t.perfect()))
     }
 

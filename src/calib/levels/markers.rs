@@ -82,9 +82,14 @@ impl<'s> MarkerLevel<'s> {
             CameraModelKind::Rigid => CameraModelKind::DepthScale,
             kind => kind,
         };
-        let p =
-            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &session.markers, &config.bounds)
-                .with_camera_model(config.camera_terms.model(carried), config.bounds.camera_term);
+        let p = Parameterisation::for_markers(
+            *spm.geometry(),
+            &registration,
+            &markers0,
+            &session.markers,
+            config.camera_terms.model(carried),
+            &config.bounds,
+        );
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
         let streams = session.streams.as_deref();
         let p = match streams {
