@@ -3,9 +3,11 @@
 //! dropped, numbers replaced by NaN, huge or negative ones — and every loader (and the estimator
 //! and the FDA on whatever loads) must return a result or an error, never panic or hang.
 //!
-//! The suite runs a bounded number of cases per file kind; run longer with, e.g.,
-//! `PROPTEST_CASES=20000 cargo test --release --test fuzz`. A crash it finds is kept by proptest in
-//! `tests/fuzz.proptest-regressions` and replayed first on every run; make each one a test too.
+//! The suite runs 1,500 cases per file kind and 1,500 random calibration settings (`FILE_CASES`,
+//! `CONFIG_CASES`: 35 s for the whole target in release mode on a 2-core machine shared with other
+//! builds); run longer with, e.g., `PROPTEST_CASES=20000 cargo test --release --test fuzz`. A
+//! crash it finds is kept by proptest in `tests/fuzz.proptest-regressions` and replayed first on
+//! every run; make each one a test too.
 
 use std::path::Path;
 
@@ -164,13 +166,23 @@ fn fuzz_file<T, E>(source: &str, name: &str, edits: &[Mutation], read: impl Fn(&
     read(&path).ok()
 }
 
-/// Cases per file kind: 48 in the suite, `PROPTEST_CASES` for a longer run.
-fn cases() -> u32 {
-    std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(48)
+/// Cases per file kind in the suite: as many as keep the whole target well within a minute in
+/// release mode on a 2-core machine. Measured per case: 15 ms for a recording (the slowest kind),
+/// 7 ms for a session, under 4 ms for the others. The whole target (two test threads) took 35 s
+/// at 2,000 with a load average of 2.2 but 63–67 s at 3–3.7 (other builds running), and 35 s at
+/// 1,500 under that heavier load.
+const FILE_CASES: u32 = 1_500;
+/// Cases of random calibration settings in the suite (each a calibration of the 20-pose session,
+/// most refused at once: 2.7 ms a case).
+const CONFIG_CASES: u32 = 1_500;
+
+/// `PROPTEST_CASES` for a longer run, else the suite's `cases`.
+fn cases(suite: u32) -> u32 {
+    std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(suite)
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(FILE_CASES), ..ProptestConfig::default() })]
 
     #[test]
     fn mutated_sessions_never_panic(file in prop::sample::select(vec!["session.yaml", "joints.csv", "markers.csv"]), e in edits()) {
@@ -238,7 +250,7 @@ fn value() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(CONFIG_CASES), ..ProptestConfig::default() })]
 
     /// Every combination of calibration settings gives an error or a result, never a panic.
     #[test]
