@@ -32,13 +32,37 @@ pub(crate) fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRo
     let lookup = MarkerLookup::new(names);
     let out = table.read_all(|row, _| {
         let (pose, marker) = (row.index(0)?, lookup.marker(row, 1)?);
-        let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
+        let position = marker_position(row, 2)?;
         Ok(MarkerRow { pose, marker, position, line: row.line })
     })?;
     if let Some(((pose, marker), line)) = first_repeat(out.iter().map(|r| ((r.pose, r.marker), r.line))) {
         return Err(table.error_at(line, 1, format!("marker `{}` of pose {pose} appears twice", names[marker])));
     }
     Ok(out)
+}
+
+/// The largest marker coordinate accepted (m): a stereo camera measures markers within a few
+/// metres. A bigger number is no measurement (millimetres given as metres, a corrupt row), and far
+/// beyond it (1e200) the distances between markers overflow to infinity.
+pub(crate) const MAX_COORDINATE_M: f64 = 100.0;
+
+/// The marker position in the three columns from `first` (`x_m`, `y_m`, `z_m`): finite numbers
+/// within [`MAX_COORDINATE_M`] of the camera, else an error at the row and column.
+pub(crate) fn marker_position(row: &Row<'_>, first: usize) -> Result<Vector3<f64>, FileError> {
+    let mut position = Vector3::zeros();
+    for (i, value) in position.iter_mut().enumerate() {
+        *value = row.number(first + i)?;
+        if value.abs() > MAX_COORDINATE_M {
+            return Err(row.error(
+                first + i,
+                format!(
+                    "{} m is no marker position: a camera measures markers within {MAX_COORDINATE_M} m (millimetres given as metres?)",
+                    crate::io::files::number(*value)
+                ),
+            ));
+        }
+    }
+    Ok(position)
 }
 
 /// `markers.csv` text, with full precision.

@@ -28,6 +28,7 @@ use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
 use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
 use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
+use crate::math::constellation::{self, MARKER_NOISE_M};
 use crate::model::{CameraModel, Parameters};
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
@@ -210,14 +211,15 @@ impl Session {
         check_slots(file.markers.len(), readings.len(), "poses in joints.csv").map_err(|r| at("markers", r))?;
         let rows = rows?;
         let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
+        let mut warnings = Vec::new();
+        check_station_markers(&poses, &file.markers, &markers_path, &mut warnings)?;
         // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
-        // Default: the first pose that sees enough markers for the estimator, else the first.
-        let default_reference = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
-        let reference_pose = file.reference_pose.unwrap_or(default_reference);
+        // Default: the first pose whose markers fix an orientation, else the first that sees
+        // enough markers for the estimator, else the first.
+        let reference_pose = file.reference_pose.unwrap_or_else(|| default_reference(&poses));
         if !poses.iter().any(|p| p.id == reference_pose) {
             return Err(at("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")));
         }
-        let warnings = Vec::new();
         let truth = truth?;
         let session = Session {
             name: file.name,
@@ -463,6 +465,73 @@ fn check_stations(poses: &[SessionPose], path: &Path) -> Result<(), FileError> {
                 + "; a session that would not load is not written (simulated: lower `capture.motion_deg`)";
             return Err(FileError::new(path, reason));
         }
+    }
+    Ok(())
+}
+
+/// The first pose whose markers fix an orientation (at least three, no two coincident, not on a
+/// line: [`constellation::check`]), else the first that sees three, else the first.
+fn default_reference(poses: &[SessionPose]) -> u64 {
+    let fixes = |p: &&SessionPose| {
+        let points: Vec<_> = p.markers.iter().flatten().copied().collect();
+        constellation::check(&points, MARKER_NOISE_M).is_ok()
+    };
+    let enough = |p: &&SessionPose| p.seen() >= MIN_MARKERS;
+    poses.iter().filter(enough).find(fixes).or_else(|| poses.iter().find(enough)).unwrap_or(&poses[0]).id
+}
+
+fn names_of(names: &[String], ks: &[usize]) -> String {
+    ks.iter().map(|&k| format!("`{}`", names[k])).collect::<Vec<_>>().join(", ")
+}
+
+/// A station (the captures meant as one pose, one marker at a time) that captures a marker twice
+/// and another never is refused at the second capture's row: a mislabelled capture, most likely
+/// (the per-pose estimator would merge the first sighting and drop the other, and the fit would
+/// take the wrong label as a gross error). A marker captured twice where every marker was captured
+/// (a retake) is data: both captures are used by the marker-level fit, the first by the per-pose
+/// estimator, and a warning says so.
+///
+/// # Errors
+/// A [`FileError`] at the `markers.csv` line of the second capture of the repeated marker.
+fn check_station_markers(
+    poses: &[SessionPose],
+    names: &[String],
+    markers_path: &Path,
+    warnings: &mut Vec<Warning>,
+) -> Result<(), FileError> {
+    // The captures (pose index, marker line) of each marker of each station, in file order.
+    let mut stations: BTreeMap<u64, Vec<Vec<(usize, usize)>>> = BTreeMap::new();
+    for (i, pose) in poses.iter().enumerate() {
+        let Some(station) = pose.station else { continue };
+        let sightings = stations.entry(station).or_insert_with(|| vec![Vec::new(); names.len()]);
+        for (k, m) in pose.markers.iter().enumerate() {
+            if m.is_some() {
+                sightings[k].push((i, pose.marker_lines[k]));
+            }
+        }
+    }
+    for (station, sightings) in &stations {
+        let Some(twice) = sightings.iter().position(|s| s.len() > 1) else { continue };
+        let never: Vec<usize> = (0..names.len()).filter(|&k| sightings[k].is_empty()).collect();
+        let (first, second) = (sightings[twice][0], sightings[twice][1]);
+        let captures = format!(
+            "station {station} captures marker `{}` twice (markers.csv lines {} and {}, poses {} and {})",
+            names[twice], first.1, second.1, poses[first.0].id, poses[second.0].id
+        );
+        if !never.is_empty() {
+            let reason = format!(
+                "{captures} and {} never: a mislabelled capture? Fix its label if it was meant as {}, or delete the capture you do not want if it was a retake",
+                names_of(names, &never),
+                names_of(names, &never[..1])
+            );
+            return Err(FileError::new(markers_path, reason).at_line(second.1).in_column("marker"));
+        }
+        warnings.push(Warning {
+            path: markers_path.to_path_buf(),
+            line: second.1,
+            pose: poses[second.0].id,
+            message: format!("{captures}: a retake? The marker-level fit uses both; the per-pose estimator the first"),
+        });
     }
     Ok(())
 }

@@ -127,7 +127,7 @@ pub(crate) fn read_captures(path: &Path, names: &[String]) -> Result<Vec<Capture
             );
         }
         let marker = lookup.marker(row, 1)?;
-        let position = Vector3::new(row.number(2)?, row.number(3)?, row.number(4)?);
+        let position = super::markers::marker_position(row, 2)?;
         Ok(Capture { time_s, marker, position, line: row.line })
     })?;
     // Time never goes back, so a repeat is within one frame: its time stamp's bits and marker.

@@ -13,7 +13,7 @@ use std::path::Path;
 use saphyr_parser::{Event, Parser};
 use serde::de::DeserializeOwned;
 
-use crate::io::files::{FileError, read_text};
+use crate::io::files::FileError;
 
 /// Largest YAML input accepted: every spmcal YAML file is a few kilobytes.
 pub(crate) const MAX_BYTES: usize = 1 << 20;
@@ -102,10 +102,7 @@ fn join(prefix: &str, key: &str) -> String {
 /// Scan `text` within the limits, reject duplicate keys, and index the keys' lines.
 pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
     if text.len() > MAX_BYTES {
-        return Err(FileError::new(
-            path,
-            format!("{} bytes is too large for a YAML settings file (limit {MAX_BYTES})", text.len()),
-        ));
+        return Err(too_large(path, format!("{} bytes", text.len())));
     }
     let mut lines = HashMap::new();
     // Bytes of paths made so far: each is made once, so the work is linear in this bound.
@@ -204,10 +201,31 @@ pub(crate) fn scan(path: &Path, text: &str) -> Result<KeyLines, FileError> {
     Ok(KeyLines(lines))
 }
 
-/// Read a YAML file into `T` within the limits, with the lines of its keys.
+/// Read a YAML file into `T` within the limits, with the lines of its keys. A file above
+/// [`MAX_BYTES`] is refused before it is read (at most one byte more than the limit is read).
 pub(crate) fn read<T: DeserializeOwned>(path: &Path) -> Result<(T, KeyLines), FileError> {
-    let text = read_text(path)?;
+    let text = read_bounded(path)?;
     parse(path, &text)
+}
+
+/// The text of a YAML input, at most [`MAX_BYTES`] of it: a bigger file (or a device that never
+/// ends) is refused after reading one byte past the limit, never read whole.
+pub(crate) fn read_bounded(path: &Path) -> Result<String, FileError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| FileError::new(path, format!("cannot read: {e}")))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_BYTES as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| FileError::new(path, format!("cannot read: {e}")))?;
+    if bytes.len() > MAX_BYTES {
+        return Err(too_large(path, format!("more than {MAX_BYTES} bytes")));
+    }
+    // The message `read_to_string` gives, as every other text file's.
+    String::from_utf8(bytes).map_err(|_| FileError::new(path, "cannot read: stream did not contain valid UTF-8"))
+}
+
+fn too_large(path: &Path, size: String) -> FileError {
+    FileError::new(path, format!("{size} is too large for a YAML settings file (limit {MAX_BYTES} bytes)"))
 }
 
 /// Parse YAML `text` (read from `path`) into `T`, with the lines of its keys.

@@ -2,23 +2,76 @@
 //! matched by name, poses that cannot be estimated listed with their reason.
 
 use std::collections::HashMap;
+use std::path::PathBuf;
 
 use nalgebra::Vector3;
 
 use super::centre::{CentreOfRotation, centre_of_rotation};
 use super::pose::{MarkerError, Method, PoseEstimate, Reference};
 use crate::dataset::{MIN_MARKERS, Session, SessionPose};
+use crate::math::constellation::Degeneracy;
 use crate::math::so3;
 
-/// A pose the estimator could not use, and why.
+/// A pose the estimator could not use, and why; located, where the session was read from files, at
+/// the file and line of the marker row the reason is about (`markers.csv:14: pose 3: …`; a
+/// free-motion recording's `captures.csv` by its path).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("pose {pose}: {reason}")]
+#[error("{}pose {pose}: {reason}{}", place(.file, *.line), role(*.reference, *.pose))]
 #[non_exhaustive]
 pub struct VisionError {
     /// Pose id.
     pub pose: u64,
     /// Why it was skipped.
     pub reason: MarkerError,
+    /// The file the pose's markers came from: a recording's `captures.csv`, else `markers.csv` of
+    /// the session folder; `None` for a session made in memory.
+    pub file: Option<PathBuf>,
+    /// The line of that file the reason is about (the second of two coincident markers, else the
+    /// pose's first marker row); 0 when unknown or about the file as a whole.
+    pub line: usize,
+    /// Whether the pose is the session's reference pose (which makes the error the estimate's).
+    pub reference: bool,
+}
+
+/// What the reference pose is for, when the error is about it.
+fn role(reference: bool, pose: u64) -> String {
+    match reference {
+        true => format!(
+            "; pose {pose} is the reference pose, from which the per-pose estimator measures every pose: it needs one whose markers fix an orientation (`reference_pose` in session.yaml)"
+        ),
+        false => String::new(),
+    }
+}
+
+/// `file:line: `, `file: ` or nothing.
+fn place(file: &Option<PathBuf>, line: usize) -> String {
+    match (file, line) {
+        (Some(file), 0) => format!("{}: ", file.display()),
+        (Some(file), line) => format!("{}:{line}: ", file.display()),
+        (None, _) => String::new(),
+    }
+}
+
+impl VisionError {
+    /// The error `reason` about `pose` of `session`, located at the marker row it is about.
+    /// `used` are the markers (indices into the session's) the estimate used, in order: a
+    /// degeneracy names them by their place in that list.
+    fn at(session: &Session, pose: &SessionPose, used: &[usize], reason: MarkerError) -> VisionError {
+        let line_of = |k: usize| pose.marker_lines.get(k).copied().filter(|&l| l > 0);
+        let row = match &reason {
+            MarkerError::Degenerate(Degeneracy::Coincident { second, .. }) => {
+                used.get(second.saturating_sub(1)).and_then(|&k| line_of(k))
+            }
+            _ => (0..pose.markers.len()).filter(|&k| pose.markers[k].is_some()).find_map(line_of),
+        };
+        let file = match &session.streams {
+            Some(streams) => Some(streams.captures_path.clone()),
+            None if row.is_some() => Some(PathBuf::from("markers.csv")),
+            None => None,
+        };
+        let reference = pose.id == session.reference_pose && !matches!(reason, MarkerError::NoPoseWithThree { .. });
+        VisionError { pose: pose.id, reason, file, line: row.unwrap_or(0), reference }
+    }
 }
 
 /// The estimates of a session.
@@ -60,14 +113,17 @@ impl SessionEstimate {
 
 fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
     if let Some(best) = session.poses.iter().max_by_key(|p| p.seen()).filter(|p| p.seen() < MIN_MARKERS) {
-        return Err(VisionError { pose: best.id, reason: MarkerError::NoPoseWithThree { most: best.seen() } });
+        let mut e = VisionError::at(session, best, &[], MarkerError::NoPoseWithThree { most: best.seen() });
+        // About the file as a whole, not one row of it.
+        e.line = 0;
+        return Err(e);
     }
     let reference = session.reference();
     // Poses are estimated independently: big sessions in two halves, one per core.
     let half = if session.poses.len() >= PARALLEL_ABOVE { session.poses.len() / 2 } else { 0 };
     let (first, second) = session.poses.split_at(half);
     let (first, second) =
-        crate::in_parallel(|| estimate_some(first, reference, method), || estimate_some(second, reference, method));
+        crate::in_parallel(|| estimate_some(session, first, method), || estimate_some(session, second, method));
     let (mut all, second) = (first?, second?);
     all.poses.extend(second.poses);
     all.method_difference.extend(second.method_difference);
@@ -95,7 +151,8 @@ struct Estimates {
 
 /// Estimate `poses` against `reference`, each from the markers both saw (one factorisation of the
 /// reference per set of markers). A failure of the reference pose itself is an error.
-fn estimate_some(poses: &[SessionPose], reference: &SessionPose, method: Method) -> Result<Estimates, VisionError> {
+fn estimate_some(session: &Session, poses: &[SessionPose], method: Method) -> Result<Estimates, VisionError> {
+    let reference = session.reference();
     let markers = reference.markers.len();
     let mut factors: HashMap<Vec<usize>, Reference> = HashMap::new();
     let mut out = Estimates {
@@ -108,7 +165,7 @@ fn estimate_some(poses: &[SessionPose], reference: &SessionPose, method: Method)
     for pose in poses {
         used.clear();
         used.extend((0..markers).filter(|&k| pose.markers[k].is_some() && reference.markers[k].is_some()));
-        let fail = |reason| VisionError { pose: pose.id, reason };
+        let fail = |reason| VisionError::at(session, pose, &used, reason);
         let factor = match factors.get(used.as_slice()) {
             Some(f) => f,
             None => {

@@ -54,8 +54,10 @@ pub(crate) fn bag_files(bag: &Path) -> Result<Vec<PathBuf>, FileError> {
         return Ok(vec![bag.to_path_buf()]);
     }
     let metadata = bag.join("metadata.yaml");
-    if let Ok(text) = std::fs::read_to_string(&metadata) {
-        let value: serde_yaml::Value = serde_yaml::from_str(&text).map_err(|e| FileError::from_yaml(&metadata, &e))?;
+    if metadata.is_file() {
+        // Within the limits every YAML input is held to (depth, size, aliases), scanned in linear
+        // time before serde_yaml sees it.
+        let (value, _) = crate::io::yaml::read::<serde_yaml::Value>(&metadata)?;
         let info = &value["rosbag2_bagfile_information"];
         if let Some(storage) = info["storage_identifier"].as_str().filter(|s| *s != "mcap") {
             return Err(FileError::new(

@@ -173,6 +173,48 @@ case("session_nested_bomb", session(**{"session.yaml": "name: " + "{a: " * 5000}
 case("session_reference_not_a_pose", session(**{"session.yaml": SESSION.replace("reference_pose: 0", "reference_pose: 99")}), ["estimate", "--dataset", "{case}"], f"session.yaml:{line_of(SESSION, 'reference_pose:')}: column `reference_pose`: reference pose 99 is not in joints.csv")
 
 
+# --- Issue 33, bad inputs: linear-time YAML, refusals that name file and line, no silent accepts ---
+# 100,000 nested brackets: `calibrate` reads session.yaml for the model it names before the session
+# reader does (that first read was serde_yaml's, quadratic in the depth: 42 s); now both stop at
+# the 17th level. tests/bad_inputs.rs times 10^5 against 2*10^5 levels of every YAML input.
+case("yaml_session_100k_brackets", session(**{"session.yaml": "name: " + "[" * 100_000}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "session.yaml:1: nested more than 16 levels deep")
+case("yaml_companion_nested", model(companion="markers_m: " + "[" * 5000), FDA_MODEL, "m.yaml:1: nested more than 16 levels deep")
+case("yaml_params_nested", {"p.yaml": "legs: " + "{a: " * 5000}, FDA_PARAMS, "p.yaml:1: nested more than 16 levels deep")
+case("yaml_sim_config_nested", {"s.yaml": "camera: " + "[" * 5000}, SIMC, "s.yaml:1: nested more than 16 levels deep")
+BAG_ARGS = ["calibrate", "--dataset", "{case}/rec", "--model", "models/agile_wrist.urdf", "--out", "{tmp}/p.yaml"]
+case("bag_metadata_nested", {"rec/metadata.yaml": "rosbag2_bagfile_information: " + "[" * 5000}, BAG_ARGS, "rec/metadata.yaml:1: nested more than 16 levels deep")
+case("bag_mapping_nested", {"rec/spmcal.yaml": "joints: " + "[" * 5000, "rec/metadata.yaml": "rosbag2_bagfile_information:\n  storage_identifier: mcap\n"}, BAG_ARGS, "rec/spmcal.yaml:1: nested more than 16 levels deep")
+case("bag_metadata_duplicate_key", {"rec/metadata.yaml": "rosbag2_bagfile_information:\n  version: 5\n  version: 6\n"}, BAG_ARGS, "rec/metadata.yaml:3: duplicate key `rosbag2_bagfile_information.version` (first at line 2)")
+
+# The reference pose's markers: the per-pose estimator's refusal names the markers.csv row (the
+# second of two coincident markers, else the pose's first), never only "pose 0". The session still
+# loads: the marker-level fit needs no reference pose.
+case("session_reference_coincide_located", session(**{"markers.csv": "\n".join(near) + "\n"}), ["estimate", "--dataset", "{case}"], "markers.csv:3: pose 0: markers #1 and #2 are 0.100 mm apart, within 3.0 mm (3 × the 1 mm marker noise): they coincide; pose 0 is the reference pose, from which the per-pose estimator measures every pose")
+line_markers = ref[:]
+for k, offset in ((2, 0.05), (3, 0.10), (4, 0.15)):
+    line_markers[k] = f"0,m{k},{x + offset},{y + 1e-5 * k},{z}"
+case("session_reference_collinear", session(**{"markers.csv": "\n".join(line_markers) + "\n"}), ["estimate", "--dataset", "{case}"], ["markers.csv:2: pose 0: the markers lie within", "mm (RMS) of a line", "the rotation about that line is unobservable; pose 0 is the reference pose"])
+two_seen = [l for l in ref if not (l.startswith("0,m3,") or l.startswith("0,m4,"))]
+case("session_reference_two_markers", session(**{"markers.csv": "\n".join(two_seen) + "\n"}), ["compare", "--dataset", "{case}", "--params", "datasets/agile_wrist_sim_20/truth.yaml"], "markers.csv:2: pose 0: 2 markers seen in both this pose and the reference; at least 3 are needed; pose 0 is the reference pose")
+huge = ref[:]
+huge[3] = replace_once(huge[3], huge[3].split(",")[3], "1e200")
+case("session_marker_coordinate_overflows", session(**{"markers.csv": "\n".join(huge) + "\n"}), ["estimate", "--dataset", "{case}"], "markers.csv:4: column `y_m`: 1e200 m is no marker position: a camera measures markers within 100 m")
+mm = ref[:]
+mm[5] = ",".join(mm[5].split(",")[:4] + ["755.9"])
+case("session_marker_in_millimetres", session(**{"markers.csv": "\n".join(mm) + "\n"}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "markers.csv:6: column `z_m`: 755.9 m is no marker position: a camera measures markers within 100 m (millimetres given as metres?)")
+
+# A station (sequential capture) that captures one marker twice and another never: refused at the
+# second capture's row. (A retake, where every marker was captured too, loads with a warning:
+# tests/sessions.rs.)
+SEQ = "datasets/agile_wrist_sequential_200/"
+SEQ_SESSION = read(SEQ + "session.yaml").replace("../../models", "../../../../models")
+SEQ_MARKERS = read(SEQ + "markers.csv")
+case("session_station_marker_twice_another_never", {"session.yaml": SEQ_SESSION, "joints.csv": read(SEQ + "joints.csv"), "markers.csv": replace_once(SEQ_MARKERS, "\n2,m3,", "\n2,m1,")}, ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "markers.csv:4: column `marker`: station 0 captures marker `m1` twice (markers.csv lines 2 and 4, poses 0 and 2) and `m3` never: a mislabelled capture?")
+
+# `folds`: 1 is no cross-validation (refused at its key); 0 is a choice the verdict states.
+case("calib_one_fold", {"c.yaml": "folds: 1\n"}, CAL, "c.yaml:1: column `folds`: `folds: 1` is no cross-validation: one fold would hold out every pose and fit on none")
+case("calib_no_folds_said", {"c.yaml": "folds: 0\n"}, CAL, ["verdict: WARN: no unseen poses were predicted (cross-validation needs `folds` of at least 2, got 0)", "wrote {tmp}/existing.yaml"], status="ok")
+
 def main():
     # Only the folders this script makes are rewritten: the hand-made cases beside them
     # (clobber_*, agree_*, model_*, limits_*, …) are kept.
