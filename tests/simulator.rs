@@ -10,6 +10,11 @@ use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
+/// The bands of a χ² (`mean_square_band`).
+#[path = "common/z_scores.rs"]
+#[allow(dead_code)] // shared by the tests, each using part of it
+mod z_scores;
+
 fn config() -> SimConfig {
     SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap()
 }
@@ -86,24 +91,41 @@ fn markers_are_misplaced_in_the_truth_and_sequential_captures_drift() {
     config.capture.sequential = true;
     config.capture.motion_deg = 0.3;
     let model = RobotModel::load(&config.model).unwrap();
+    // Each marker moved by N(0, σ = 3 mm) per axis, a new draw per seed: over 20 seeds × 4 markers
+    // × 3 axes the mean square over σ² is χ²₂₄₀ / 240, within 0.73–1.32 with probability 99.9%
+    // (`z_scores`; 0.90 measured); a misplacement missing (0), 1.5× (2.25) or doubled (4) leaves
+    // it. (One seed's 12 draws allow 0.15–2.9: a doubled misplacement could pass.)
+    let sigma = config.truth.marker_position_m;
+    let (mut sq, mut draws) = (0.0, 0.0);
+    for seed in 0..20 {
+        let mut c = config.clone();
+        c.seed = 50_000 + seed;
+        let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
+        let truth = session.truth.as_ref().unwrap();
+        let moved = truth.parameters.markers.iter().zip(&model.markers).map(|(t, m)| (t.position - m.position));
+        sq += moved.map(|d| d.norm_squared()).sum::<f64>() / (sigma * sigma);
+        draws += 3.0 * model.markers.len() as f64;
+    }
+    let (lo, hi) = z_scores::mean_square_band(draws);
+    assert!((lo..=hi).contains(&(sq / draws)), "misplacement: mean square / σ² = {} outside [{lo}, {hi}]", sq / draws);
+    // Consecutive captures of a station differ by the drift: a random walk of N(0, 0.3°) per axis
+    // per capture (per skipped capture too), its squared angle 3σ² a step: the steps' mean square
+    // over σ² per degree of freedom within its 99.9% χ² band (261 degrees of freedom here:
+    // 0.74–1.31; 0.96 measured): a drift 1.5× too large or small, or a new station's jump,
+    // leaves it; never zero.
     let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
     let truth = session.truth.as_ref().unwrap();
-    // Each marker moved by N(0, 3 mm) per axis: over 4 markers × 3 axes the RMS is near 3 mm.
-    let sq: f64 = truth
-        .parameters
-        .markers
-        .iter()
-        .zip(&model.markers)
-        .map(|(t, m)| (t.position - m.position).norm_squared())
-        .sum();
-    let rms = (sq / (3.0 * model.markers.len() as f64)).sqrt();
-    assert!(rms > 0.5e-3 && rms < 8e-3, "{rms}");
-    // Consecutive captures of a station differ by the drift: a random walk of 0.3° per axis,
-    // so about 0.3·√3 ≈ 0.5° per step; never zero, never a new station's jump.
+    let step_sigma = config.capture.motion_deg.to_radians();
+    let marker = |p: &spmcal::dataset::SessionPose| p.markers.iter().position(Option::is_some).unwrap();
+    let (mut sq, mut dof) = (0.0, 0.0);
     for pair in session.poses.windows(2).filter(|w| w[0].station == w[1].station) {
-        let step = so3::geodesic_angle(&truth.orientations[&pair[0].id], &truth.orientations[&pair[1].id]).to_degrees();
-        assert!(step > 0.0 && step < 2.5, "{step}");
+        let step = so3::geodesic_angle(&truth.orientations[&pair[0].id], &truth.orientations[&pair[1].id]);
+        assert!(step > 0.0);
+        sq += (step / step_sigma).powi(2);
+        dof += 3.0 * (marker(&pair[1]) - marker(&pair[0])) as f64;
     }
+    let (lo, hi) = z_scores::mean_square_band(dof);
+    assert!((lo..=hi).contains(&(sq / dof)), "drift: {} outside [{lo}, {hi}] ({dof} dof)", sq / dof);
 }
 
 #[test]
