@@ -372,3 +372,18 @@ fn the_estimators_refusals_name_the_marker_row() {
     assert_eq!((e.file.as_deref(), e.line), (Some(Path::new("markers.csv")), 3), "{e}");
     assert!(e.to_string().starts_with("markers.csv:3: pose 0: markers #1 and #2 are 0.100 mm apart"), "{e}");
 }
+
+/// A marker coordinate beyond 100 m is refused where it is read, in each kind of input that holds
+/// marker positions: `markers.csv` (the corpus), and a bag's `/markers` point, named by topic and
+/// message — never left to overflow the distances between markers (`1e200` made "NaN mm apart").
+#[test]
+fn an_absurd_marker_coordinate_is_refused_where_it_is_read() {
+    let dir = session_copy("datasets/agile_wrist_sim_20", |_, text| text);
+    let (mut session, _) = spmcal::dataset::Session::load(dir.path(), None).unwrap();
+    session.poses[2].markers[1] = Some(nalgebra::Vector3::new(0.01, 1e200, 0.7));
+    let bag = dir.path().join("rec.mcap");
+    session.write_bag(&bag).unwrap();
+    let e = spmcal::dataset::Session::load(&bag, None).unwrap_err().to_string();
+    assert!(e.contains("rec.mcap") && e.contains("topic `/markers`, message"), "{e}");
+    assert!(e.contains("1e200 m is beyond the 100 m a camera measures markers within"), "{e}");
+}

@@ -405,6 +405,15 @@ impl Decoder<'_> {
         if !position.iter().all(|v| v.is_finite()) {
             return Err(self.at(channel, &format!("the point {position:?} is not finite")));
         }
+        // As markers.csv and captures.csv bound a coordinate: beyond it, no measurement.
+        let limit = crate::dataset::markers::MAX_COORDINATE_M;
+        if let Some(v) = position.iter().find(|v| v.abs() > limit) {
+            let reason = format!(
+                "the point {position:?} is no marker position: {} m is beyond the {limit} m a camera measures markers within (millimetres given as metres?)",
+                crate::io::files::number(*v)
+            );
+            return Err(self.at(channel, &reason));
+        }
         // One topic carries the markers of a frame at one stamp: time may repeat there.
         let time_s = self.time(channel, m.header.stamp, log_ns, false).map_err(|r| self.at(channel, &r))?;
         let line = self.channels[channel].count;
