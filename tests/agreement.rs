@@ -103,7 +103,7 @@ fn with_station(line: &str, station: &str) -> String {
 fn stations_must_be_given_and_their_captures_one_pose() {
     // The shipped sequential session (a drift of 0.2° per axis between captures) loads.
     let (session, _) = Session::load(Path::new("datasets/agile_wrist_sequential_200"), None).unwrap();
-    assert!(session.poses.iter().all(|p| p.station.is_some()));
+    assert!(!session.poses.is_empty() && session.poses.iter().all(|p| p.station.is_some()));
     let tmp = tempfile::tempdir().unwrap();
     // An empty station is refused at its line, like `nan`, and so is a fraction.
     for (k, (bad, expected)) in

@@ -53,7 +53,7 @@ proptest! {
         let r = so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt));
         let joints = spm.ik(&r).unwrap();
         let modes = spm.all_modes(&joints);
-        prop_assert!(modes.iter().all(|m| m.residual < 1e-12));
+        prop_assert!(!modes.is_empty() && modes.iter().all(|m| m.residual < 1e-12));
         let working = modes.iter().find(|m| so3::geodesic_angle(&m.rotation, &r) < 1e-10);
         prop_assert!(working.is_some_and(|m| m.all_working()));
     }

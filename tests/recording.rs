@@ -35,6 +35,13 @@ fn scalars(chunks: &[Chunk], entity: &str, timeline: &'static str) -> BTreeMap<i
         .filter(|c| c.entity_path().to_string() == format!("/{entity}") || c.entity_path().to_string() == entity)
     {
         let Some(times) = c.timelines().get(&timeline.into()) else { continue };
+        // A time per row where the chunk holds the scalars: a shorter column of values would
+        // otherwise drop rows unseen.
+        let rows = c.iter_slices::<f64>(component).count();
+        if rows == 0 {
+            continue;
+        }
+        assert_eq!(times.times_raw().len(), rows, "{entity} on {timeline}");
         for (t, v) in times.times_raw().iter().zip(c.iter_slices::<f64>(component)) {
             out.insert(*t, v[0]);
         }

@@ -67,7 +67,8 @@ fn write_then_read_gives_the_same_session() {
     let (back, warnings) = Session::load(&out, None).unwrap();
     assert!(warnings.is_empty());
     // Sequential capture: a pose per capture, the station recorded.
-    assert!(back.poses.iter().all(|p| p.seen() <= 1 && p.station.is_some()));
+    assert_eq!(back.poses.len(), session.poses.len());
+    assert!(!back.poses.is_empty() && back.poses.iter().all(|p| p.seen() <= 1 && p.station.is_some()));
     assert_eq!(back.name, session.name);
     assert_eq!(back.markers, session.markers);
     assert_eq!(back.reference_pose, 0);

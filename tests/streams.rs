@@ -90,6 +90,7 @@ fn a_recording_of_a_sessions_readings_calibrates_as_the_session_at_its_latency()
     let (recording, warnings) = Session::load(dir.path(), None).unwrap();
     assert!(recording.streams.is_some());
     // At latency 0 the first frames fall before the encoder stream: left out and said so.
+    assert!(!warnings.is_empty(), "the frames before the encoder stream left out without a word");
     assert!(warnings.iter().all(|w| w.message.contains("outside the encoder stream")), "{warnings:?}");
     let config = CalibConfig { folds: 0, ..CalibConfig::default() };
     let direct = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
@@ -297,6 +298,7 @@ fn compare_and_replay_work_at_the_marker_level_on_a_one_marker_per_frame_recordi
     ];
     let method = spmcal::vision::Method::Kabsch;
     let compared = spmcal::compare::compare(&recording, &model, &sets, method, None).unwrap();
+    assert_eq!(compared.len(), sets.len());
     assert!(compared.iter().all(|c| c.level == spmcal::calib::FitLevel::Markers && c.unit == "mm"));
     let (nominal, calibrated) = (&compared[0], &compared[1]);
     eprintln!("markers: nominal {:.3} mm, calibrated {:.3} mm", nominal.errors.rms, calibrated.errors.rms);
