@@ -352,6 +352,16 @@ impl SimConfig {
                 return Err((key.into(), format!("`{key}` must be positive (got {value})")));
             }
         }
+        // The conditioning index (the Jacobian's smallest over largest singular value) is at most
+        // 1: a threshold of 1 or more rejects every pose, which the simulator would find out only
+        // after all its attempts.
+        if self.workspace.min_conditioning >= 1.0 {
+            let reason = format!(
+                "`workspace.min_conditioning` must be below 1 (got {}): the conditioning index is at most 1 (1 only at an exactly isotropic pose), so no pose would pass",
+                self.workspace.min_conditioning
+            );
+            return Err(("workspace.min_conditioning".into(), reason));
+        }
         if self.poses == 0 || self.poses > MAX_POSES {
             let reason = format!("`poses` (or `--poses`) must be from 1 to {MAX_POSES} (got {})", self.poses);
             return Err(("poses".into(), reason));

@@ -215,6 +215,10 @@ case("session_station_marker_twice_another_never", {"session.yaml": SEQ_SESSION,
 case("calib_one_fold", {"c.yaml": "folds: 1\n"}, CAL, "c.yaml:1: column `folds`: `folds: 1` is no cross-validation: one fold would hold out every pose and fit on none")
 case("calib_no_folds_said", {"c.yaml": "folds: 0\n"}, CAL, ["verdict: WARN: no unseen poses were predicted (cross-validation needs `folds` of at least 2, got 0)", "wrote {tmp}/existing.yaml"], status="ok")
 
+# A conditioning threshold that no pose can meet (the index is at most 1) is refused at its key
+# before the simulator spends its attempts. (One below 1 that this model never reaches is found
+# only by trying: sim_gives_up, whose message names the key to loosen.)
+case("sim_conditioning_never_met", {"s.yaml": replace_once(SIM, "min_conditioning: 0.2", "min_conditioning: 1.5")}, SIMC, f"s.yaml:{line_of(SIM, 'min_conditioning:')}: column `workspace.min_conditioning`: `workspace.min_conditioning` must be below 1 (got 1.5): the conditioning index is at most 1")
 def main():
     # Only the folders this script makes are rewritten: the hand-made cases beside them
     # (clobber_*, agree_*, model_*, limits_*, …) are kept.
