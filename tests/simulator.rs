@@ -102,7 +102,7 @@ fn markers_are_misplaced_in_the_truth_and_sequential_captures_drift() {
         c.seed = 50_000 + seed;
         let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
         let truth = session.truth.as_ref().unwrap();
-        let moved = truth.parameters.markers.iter().zip(&model.markers).map(|(t, m)| (t.position - m.position));
+        let moved = truth.parameters.markers.iter().zip(&model.markers).map(|(t, m)| t.position - m.position);
         sq += moved.map(|d| d.norm_squared()).sum::<f64>() / (sigma * sigma);
         draws += 3.0 * model.markers.len() as f64;
     }
