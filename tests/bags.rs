@@ -218,7 +218,8 @@ fn a_split_bag_reads_its_files_in_order_and_their_clocks_must_follow() {
     write_bag(&dir.join("rec_2.mcap"), first, "cdr");
     write_bag(&dir.join("rec_10.mcap"), second, "cdr");
     let (session, _) = Session::load(&dir, Some(Path::new(MODEL))).unwrap();
-    assert_eq!(session.streams.as_ref().unwrap().encoder_count(), 200);
+    let readings = messages.iter().filter(|m| m.0 == "/joint_states").count();
+    assert_eq!(session.streams.as_ref().unwrap().encoder_count(), readings);
     let swapped = tmp("split-swapped");
     write_bag(&swapped.join("rec_1.mcap"), second, "cdr");
     write_bag(&swapped.join("rec_2.mcap"), first, "cdr");
