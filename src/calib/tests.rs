@@ -6,13 +6,13 @@ use std::path::Path;
 
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
+use super::calibration::{Calibration, Fitted};
 use super::config::{CalibConfig, FitLevel, Group, Loss};
 use super::fit::{FitSettings, fit};
 use super::identify::Identifiability;
 use super::marker_residuals::{MarkerObservation, MarkerResiduals};
 use super::orientation_residuals::{Observation, OrientationResiduals};
 use super::parameterisation::Parameterisation;
-use super::calibration::{Calibration, Fitted};
 use super::pipeline::calibrate;
 use super::residuals::{EvalError, Evaluation, Residuals};
 use crate::dataset::Session;
@@ -246,9 +246,10 @@ fn cross_validation_by_one_newton_step_matches_refitting_each_fold() {
     let (nominal, calibrated) = ((nominal_sq / n).sqrt(), (calibrated_sq / n).sqrt());
     eprintln!("refit {nominal:.5} / {calibrated:.5} mm, one step {:.5} / {:.5} mm", cv.nominal_rms, cv.calibrated_rms);
     // The one-step estimate is second-order exact; the refits re-estimate the noise model per
-    // fold, which the one step keeps: agreement to 1% of the held-out error.
-    assert!((cv.calibrated_rms / calibrated - 1.0).abs() < 0.01, "{} vs {calibrated}", cv.calibrated_rms);
-    assert!((cv.nominal_rms / nominal - 1.0).abs() < 0.01, "{} vs {nominal}", cv.nominal_rms);
+    // fold, which the one step keeps. Deterministic (a fixed session): 1.6e-4 (calibrated) and
+    // 5e-5 (nominal) of the held-out error measured; required within 5e-4, a 3× margin.
+    assert!((cv.calibrated_rms / calibrated - 1.0).abs() < 5e-4, "{} vs {calibrated}", cv.calibrated_rms);
+    assert!((cv.nominal_rms / nominal - 1.0).abs() < 5e-4, "{} vs {nominal}", cv.nominal_rms);
 }
 
 #[test]

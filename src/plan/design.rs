@@ -378,13 +378,11 @@ mod tests {
         );
         // Both near the optimum, each within its own equivalence ratio of it (the theorem's
         // bound: φ(w) − φ* ≤ (ratio − 1) φ(w)); the cone program's weights are as good as
-        // clarabel's interior point leaves them (ratio 1.0015 here since the workspace weighting
-        // leaves out the common rotations and so is singular), and must be close to optimal too.
-        assert!(cone.equivalence_ratio < 1.01, "{}", cone.equivalence_ratio);
-        // The polish of `Plan::design` takes the cone program's weights to the tolerance.
-        let polished =
-            multiplicative_from(&info.per_candidate, &info.workspace, &zero, cone.weights.clone(), 1e-4, 100_000);
-        assert!(polished.equivalence_ratio <= 1.0 + 1e-4 && polished.criterion <= cone.criterion, "{polished:?}");
+        // clarabel's interior point leaves them (ratio 1.0015 measured, since the workspace
+        // weighting leaves out the common rotations and so is singular): at most 1.005, a 3×
+        // margin on its excess.
+        assert!(cone.equivalence_ratio < 1.005, "{}", cone.equivalence_ratio);
+        // Their criteria differ by no more than the two gaps together (1.6e-3 of φ here; 4.7e-4 measured).
         let bound = (design.equivalence_ratio - 1.0).max(0.0) + (cone.equivalence_ratio - 1.0).max(0.0);
         assert!(
             (design.criterion - cone.criterion).abs() <= bound * cone.criterion,
@@ -392,10 +390,18 @@ mod tests {
             design.criterion,
             cone.criterion
         );
-        assert!(cone.equivalence_ratio < 1.01, "{}", cone.equivalence_ratio);
-        // The polish of `Plan::design` takes the cone program's weights to the tolerance.
+        // The polish of `Plan::design` takes the cone program's weights to the tolerance; it and
+        // the multiplicative algorithm from the uniform design, two routes each certified within
+        // 1e-4 of φ* by the theorem, agree to 2e-4 of φ.
         let polished =
             multiplicative_from(&info.per_candidate, &info.workspace, &zero, cone.weights.clone(), 1e-4, 100_000);
+        eprintln!(
+            "polished φ = {:.6e}: {:.2e} of the multiplicative design's",
+            polished.criterion,
+            (polished.criterion / design.criterion - 1.0).abs()
+        );
         assert!(polished.equivalence_ratio <= 1.0 + 1e-4 && polished.criterion <= cone.criterion, "{polished:?}");
+        let (a, b) = (polished.criterion, design.criterion);
+        assert!((a - b).abs() <= 2e-4 * b, "polished {a} vs multiplicative {b}");
     }
 }
