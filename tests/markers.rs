@@ -117,7 +117,7 @@ fn standard_errors_are_honest_and_misplaced_markers_are_recovered() {
     eprintln!("all parameters: {}\nmarkers: {}", z.summary(), marker_z.summary());
     // Honest: each statistic within the band honest σ's keep with probability 99.9% (`z_scores`:
     // 340 z's, correlated within a session). The misplaced markers (120 coordinates, 3 mm off where
-    // their σ is 0.04–0.12 mm: a fit that did not move them would leave z's of 25–75) are recovered within
+    // their σ is 0.03–0.16 mm: a fit that did not move them would leave z's of ~20–100) are recovered within
     // their own standard errors, by the same bands.
     assert_eq!((z.len(), marker_z.len()), (340, 120));
     z.assert_honest("marker-level fit, 10 sessions");
