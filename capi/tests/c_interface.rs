@@ -1,7 +1,21 @@
 //! The C interface from C: the committed header is cbindgen's, and `tests/track.c`, compiled by
 //! the system C compiler against the static library, loads a parameters file, tracks 10,000
-//! steps without one allocation (malloc/calloc/realloc wrapped and counted) and gives the same
-//! orientations as `Spm::track` in Rust, bit for bit. Skips (saying so) without a C compiler.
+//! steps without one allocation (malloc/calloc/realloc wrapped and counted). What each check of
+//! its output shows:
+//!
+//! - **Bit for bit with `Spm::track`** (Rust, from the C program's own readings): the C
+//!   interface passes the readings and the previous orientation through unchanged and returns
+//!   what the library computes — no conversion, copy or ordering fault. It cannot catch a fault
+//!   of the tracking itself: `spmcal_track` calls `Spm::track`, so both sides are the same code.
+//! - **The readings are the program's trajectory** (recomputed here from its formula): the loop
+//!   tracked the motion it was meant to, not, say, a reading left at zero.
+//! - **IK of every tracked orientation gives the readings back to 1e-10 rad** (Rust's `Spm::ik`):
+//!   an independent fact about the tracking. IK is closed-form per leg on the home branches and
+//!   shares nothing with the tracking's Newton iteration on the loop closures; an orientation off
+//!   the readings' pose (a lagging step, another assembly mode, a stalled iteration) does not give
+//!   them back.
+//!
+//! Skips (saying so) without a C compiler.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -81,6 +95,33 @@ fn tracks_as_rust_does(program: &Path, parameters: &Path) {
         let from_c = [line[3], line[4], line[5], line[6]];
         assert_eq!(q.map(f64::to_bits), from_c.map(f64::to_bits), "step {}", k + 1);
     }
+    // Independent of the tracking: the readings are track.c's trajectory (1 kHz), and the
+    // closed-form IK of each orientation the C program tracked gives its readings back.
+    let trajectory = |k: usize| {
+        let t = k as f64 / 1000.0;
+        [0.30 * (0.9 * t).sin(), 0.25 * (1.3 * t + 1.0).sin() - 0.21, 0.20 * (0.7 * t + 2.0).sin() - 0.18]
+    };
+    let (mut worst_reading, mut worst_ik, mut farthest) = (0.0f64, 0.0f64, 0.0f64);
+    let start = so3::from_wxyz([lines[0][3], lines[0][4], lines[0][5], lines[0][6]]).unwrap();
+    for (k, line) in lines.iter().enumerate() {
+        let expected = trajectory(k);
+        worst_reading = (0..3).map(|i| (line[i] - expected[i]).abs()).fold(worst_reading, f64::max);
+        let r = so3::from_wxyz([line[3], line[4], line[5], line[6]]).unwrap();
+        let back = spm.ik(&r).unwrap();
+        worst_ik = (0..3).map(|i| wrap(back[i] - line[i]).abs()).fold(worst_ik, f64::max);
+        farthest = farthest.max(so3::geodesic_angle(&r, &start));
+    }
+    eprintln!("readings off the trajectory by {worst_reading:.1e}; IK round trip {worst_ik:.1e} rad");
+    assert!(worst_reading < 1e-12, "the C program's readings are not its trajectory: {worst_reading:e}");
+    assert!(worst_ik < 1e-10, "IK of the tracked orientations misses the readings by {worst_ik:e} rad");
+    // And the trajectory moves the platform (a check of a motionless loop would be void).
+    assert!(farthest > 0.1, "the tracked orientations stay within {farthest} rad of the first");
+}
+
+/// An angle difference wrapped into (-π, π].
+fn wrap(a: f64) -> f64 {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    a - two_pi * (a / two_pi).round()
 }
 
 /// A fresh folder under the system's temporary folder (no dependency for one directory).
