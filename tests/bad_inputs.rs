@@ -369,8 +369,12 @@ fn the_estimators_refusals_name_the_marker_row() {
     let first = session.poses[reference].markers[0].unwrap();
     session.poses[reference].markers[1] = Some(first + nalgebra::Vector3::new(1e-4, 0.0, 0.0));
     let e = spmcal::vision::SessionEstimate::of(&session, spmcal::vision::Method::Kabsch).unwrap_err();
-    assert_eq!((e.file.as_deref(), e.line), (Some(Path::new("markers.csv")), 3), "{e}");
-    assert!(e.to_string().starts_with("markers.csv:3: pose 0: markers #1 and #2 are 0.100 mm apart"), "{e}");
+    // The file in full (the session's folder joined), so that a message read away from the command
+    // line still says which session.
+    let markers = dir.path().join("markers.csv");
+    assert_eq!((e.file.as_deref(), e.line), (Some(markers.as_path()), 3), "{e}");
+    let start = format!("{}:3: pose 0: markers #1 and #2 are 0.100 mm apart", markers.display());
+    assert!(e.to_string().starts_with(&start), "{e}");
 }
 
 /// A marker coordinate beyond 100 m is refused where it is read, in each kind of input that holds

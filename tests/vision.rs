@@ -189,10 +189,11 @@ fn session_errors_name_the_pose_and_poses_with_three_markers_say_so() {
     let result = SessionEstimate::of(&session, Method::Paper).unwrap();
     let skipped: Vec<String> = result.skipped.iter().map(|s| s.to_string()).collect();
     assert_eq!(skipped.len(), 2, "{skipped:?}");
-    // Each located at its markers.csv row: `markers.csv:57: pose 14: …`.
+    // Each located at its markers.csv row, the file in full: `<folder>/markers.csv:57: pose 14: …`.
+    let file = format!("{}:", dir.path().join("markers.csv").display());
     let line = |id: u64| {
         let at = format!(": pose {id}: ");
-        skipped.iter().find(|s| s.starts_with("markers.csv:") && s.contains(&at)).cloned().unwrap_or_default()
+        skipped.iter().find(|s| s.starts_with(&file) && s.contains(&at)).cloned().unwrap_or_default()
     };
     assert!(line(ids[0]).contains("2 markers seen in both"), "{skipped:?}");
     assert!(line(ids[1]).contains("the putative rotation has determinant"), "{skipped:?}");

@@ -22,10 +22,12 @@ mod fit;
 mod identify;
 mod level;
 mod levels;
-#[cfg_attr(not(feature = "internals"), allow(unreachable_pub))]
+// Without `internals`, what only the studies and tests use is neither reachable nor used here.
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod marker_residuals;
 mod orientation_residuals;
-#[cfg_attr(not(feature = "internals"), allow(unreachable_pub))]
+// Without `internals`, what only the studies and tests use is neither reachable nor used here.
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod parameterisation;
 mod pipeline;
 pub(crate) mod registration;
@@ -54,7 +56,7 @@ pub(crate) use orientation_residuals::observations;
 #[cfg(feature = "internals")]
 pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 #[cfg(not(feature = "internals"))]
-pub(crate) use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
+pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,

@@ -89,6 +89,9 @@ pub struct Session {
     /// The encoder and camera streams of a free-motion recording, from which `poses` were made
     /// (one per camera frame, joints interpolated at the frame's time less the latency).
     pub streams: Option<std::sync::Arc<Streams>>,
+    /// The folder the session was read from, so that messages about its rows name their file in
+    /// full; `None` for a session made in memory (simulated, planned, read from a bag).
+    pub folder: Option<PathBuf>,
 }
 
 /// A pose left out of the session, and why (a free-motion recording's camera frame that falls
@@ -197,6 +200,7 @@ impl Session {
                 poses: Vec::new(),
                 truth: read_truth(dir)?,
                 streams: Some(std::sync::Arc::new(streams)),
+                folder: Some(dir.to_path_buf()),
             };
             return Ok(session.at_latency(0.0));
         }
@@ -230,6 +234,7 @@ impl Session {
             poses,
             truth,
             streams: None,
+            folder: Some(dir.to_path_buf()),
         };
         Ok((session, warnings))
     }
@@ -275,6 +280,7 @@ impl Session {
             poses,
             truth: None,
             streams: None,
+            folder: None,
         })
     }
 

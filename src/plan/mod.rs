@@ -418,6 +418,7 @@ impl Plan {
             poses,
             truth: None,
             streams: None,
+            folder: None,
         }
     }
 

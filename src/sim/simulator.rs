@@ -506,6 +506,7 @@ impl Simulator<'_> {
             poses,
             truth: Some(Truth { parameters, orientations: truth }),
             streams: None,
+            folder: None,
         })
     }
 
@@ -640,6 +641,7 @@ impl Simulator<'_> {
             poses: Vec::new(),
             truth: Some(Truth { parameters: self.truth_parameters(Some(r.latency_s)), orientations: BTreeMap::new() }),
             streams: Some(std::sync::Arc::new(streams)),
+            folder: None,
         };
         Ok(session.at_latency(r.latency_s).0)
     }

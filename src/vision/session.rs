@@ -66,7 +66,9 @@ impl VisionError {
         };
         let file = match &session.streams {
             Some(streams) => Some(streams.captures_path.clone()),
-            None if row.is_some() => Some(PathBuf::from("markers.csv")),
+            None if row.is_some() => {
+                Some(session.folder.as_ref().map_or_else(|| PathBuf::from("markers.csv"), |f| f.join("markers.csv")))
+            }
             None => None,
         };
         let reference = pose.id == session.reference_pose && !matches!(reason, MarkerError::NoPoseWithThree { .. });

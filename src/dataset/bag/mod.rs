@@ -83,8 +83,17 @@ pub(crate) fn load(
         },
         mapping.path.as_ref().map_or(String::new(), |p| format!("; mapping {}", p.display()))
     ));
-    let session =
-        Session { name, description, model, markers, reference_pose: 0, poses: Vec::new(), truth: None, streams: None };
+    let session = Session {
+        name,
+        description,
+        model,
+        markers,
+        reference_pose: 0,
+        poses: Vec::new(),
+        truth: None,
+        streams: None,
+        folder: None,
+    };
     let mut captures = data.captures;
     // Topics interleave by receive time: order the captures by their own time (stable).
     captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
