@@ -4,8 +4,8 @@
 //! and the FDA on whatever loads) must return a result or an error, never panic or hang.
 //!
 //! The suite runs 1,500 cases per file kind and 1,500 random calibration settings (`FILE_CASES`,
-//! `CONFIG_CASES`: 35 s for the whole target in release mode on a 2-core machine shared with other
-//! builds); run longer with, e.g., `PROPTEST_CASES=20000 cargo test --release --test fuzz`. A
+//! `CONFIG_CASES`: 35–45 s for the whole target in release mode on a 2-core machine shared with
+//! other builds); run longer with, e.g., `PROPTEST_CASES=20000 cargo test --release --test fuzz`. A
 //! crash it finds is kept by proptest in `tests/fuzz.proptest-regressions` and replayed first on
 //! every run; make each one a test too.
 
@@ -169,8 +169,8 @@ fn fuzz_file<T, E>(source: &str, name: &str, edits: &[Mutation], read: impl Fn(&
 /// Cases per file kind in the suite: as many as keep the whole target well within a minute in
 /// release mode on a 2-core machine. Measured per case: 15 ms for a recording (the slowest kind),
 /// 7 ms for a session, under 4 ms for the others. The whole target (two test threads) took 35 s
-/// at 2,000 with a load average of 2.2 but 63–67 s at 3–3.7 (other builds running), and 35 s at
-/// 1,500 under that heavier load.
+/// at 2,000 with a load average of 2.2 but 63–67 s at 3–3.7 (other builds running), and 35 s and
+/// 43 s at 1,500 (loads 3.1 and 2.0).
 const FILE_CASES: u32 = 1_500;
 /// Cases of random calibration settings in the suite (each a calibration of the 20-pose session,
 /// most refused at once: 2.7 ms a case).
