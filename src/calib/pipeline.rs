@@ -180,6 +180,14 @@ fn run<L: Level>(
         cross_validate(&problem, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
     let mut warnings: Vec<String> = camera_warnings.collect();
+    if config.folds == 0 {
+        // A legitimate quick run, but the one check of unseen poses is gone: say so.
+        warnings.push(
+            "cross-validation was not run (`folds: 0`): nothing but the held-out poses, if any, shows how the \
+             calibrated model predicts unseen data"
+                .to_string(),
+        );
+    }
     // Each residual's expected squared prediction error: the self-check's and the level's report's.
     let predicted_ms = super::uncertainty::residual_mean_squares(&calibrated, &covariance);
     if let (Some(cv), Some(predicted)) = (cross_validation.as_mut(), predicted_ms.as_ref()) {

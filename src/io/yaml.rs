@@ -28,7 +28,7 @@ pub(crate) const MAX_ALIASES: usize = 64;
 pub(crate) const MAX_PATH_BYTES: usize = 16 * MAX_BYTES;
 
 /// The line of every key of a YAML document, by path.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct KeyLines(HashMap<String, usize>);
 
 impl KeyLines {

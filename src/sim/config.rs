@@ -33,10 +33,35 @@ impl Trajectory {
     }
 }
 
+/// Where a config was read from, and its keys' lines (nothing for a config made in code). Two
+/// configs are equal whatever their source.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Source(pub(crate) Option<(PathBuf, crate::io::yaml::KeyLines)>);
+
+impl PartialEq for Source {
+    fn eq(&self, _: &Source) -> bool {
+        true
+    }
+}
+
+impl Source {
+    /// `error`, located at `key`'s line of the file the config came from (unchanged without one).
+    pub(crate) fn locate(&self, key: &str, error: String) -> Result<crate::io::FileError, String> {
+        match &self.0 {
+            Some((path, keys)) => Ok(keys.error(path, key, error)),
+            None => Err(error),
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 /// Settings of a simulated session; every field has a default (a partial file works).
 pub struct SimConfig {
+    /// The file the config was read from, with its keys' lines, so that a problem found only when
+    /// simulating (no pose meets a setting) names the file and the key's line; not part of its value.
+    #[serde(skip)]
+    pub(crate) source: Source,
     /// Session name.
     pub name: String,
     /// The URDF model, relative to the config file (default: `models/agile_wrist.urdf` relative to
@@ -222,6 +247,7 @@ impl Default for SimConfig {
     /// The settings of `configs/simulate_agile_wrist.yaml`.
     fn default() -> Self {
         SimConfig {
+            source: Source::default(),
             name: "simulated".into(),
             model: PathBuf::new(),
             poses: 400,
@@ -305,7 +331,9 @@ impl SimConfig {
     /// # Errors
     /// A [`FileError`] naming the line and key of the first problem.
     pub fn read(path: &Path) -> Result<Self, FileError> {
-        let mut config: SimConfig = crate::io::yaml::read_checked(path, SimConfig::check)?;
+        let (mut config, keys): (SimConfig, _) = crate::io::yaml::read(path)?;
+        config.check().map_err(|(key, reason)| keys.error(path, &key, reason))?;
+        config.source = Source(Some((path.to_path_buf(), keys)));
         config.model = if config.model.as_os_str().is_empty() {
             PathBuf::from(DEFAULT_MODEL)
         } else {

@@ -75,6 +75,9 @@ impl std::fmt::Display for SimSummary {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum SimError {
+    #[error("{0}")]
+    /// A setting of the config file that no pose can meet, located at its key's line.
+    Config(crate::io::FileError),
     #[error("the true geometry drawn is not a valid manipulator (spreads too large?): {0}")]
     /// The drawn true geometry is not a valid manipulator.
     Geometry(#[from] SpmError),
@@ -345,9 +348,17 @@ impl SimConfig {
         let mut sim =
             Simulator { config: self, model, spm, camera, markers, scene: CollisionScene::new(model), rng, summary };
         let session = match &self.recording {
-            Some(r) => sim.record_streams(r, progress)?,
-            None => sim.run(progress)?,
+            Some(r) => sim.record_streams(r, progress),
+            None => sim.run(progress),
         };
+        // A setting no pose can meet is the config's: say so at its key's line.
+        let session = session.map_err(|e| match e {
+            SimError::TooFewPoses { key, .. } => match self.source.locate(key, e.to_string()) {
+                Ok(located) => SimError::Config(located),
+                Err(_) => e,
+            },
+            other => other,
+        })?;
         Ok((session, sim.summary))
     }
 }
