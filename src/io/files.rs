@@ -180,6 +180,7 @@ pub(crate) fn parent_folder(path: &Path) -> &Path {
     }
 }
 
+#[cfg(feature = "full")] // the lean core reads its files through io::yaml
 /// Read a whole text file, naming it in the error.
 ///
 /// # Errors

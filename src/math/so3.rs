@@ -94,6 +94,7 @@ pub(crate) fn pair_frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::from_columns(&[e1, e2, e1.cross(&e2)])
 }
 
+#[cfg(feature = "full")] // the simulator and the gauge use it; the lean core does not
 /// The rotation that carries the frame of the pair `(a1, b1)` onto that of `(a2, b2)`: `a1 ↦ a2`
 /// exactly, and `b1` into the half-plane of `b2` (exactly onto it when the angles agree).
 pub(crate) fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2: &Vector3<f64>) -> Rotation3<f64> {
@@ -201,6 +202,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "full")]
     fn carry_maps_one_pair_onto_another() {
         let r = exp(&Vector3::new(0.3, -1.1, 0.4));
         let (a, b) = (Vector3::new(0.2, 0.9, -0.3), Vector3::new(-0.5, 0.1, 0.8));

@@ -224,6 +224,7 @@ impl CameraModel {
     }
 }
 
+#[cfg(feature = "full")] // configs hold it; the lean core reads none
 /// The camera model's terms by name, as configs give them: the start (or known correction) of a
 /// calibration's camera model, the simulated camera's distortion (a perfect camera's by default).
 /// The one definition of the terms' names; [`CameraModel`] holds them with a kind and standard
@@ -243,12 +244,14 @@ pub struct CameraTerms {
     pub shear_yz: f64,
 }
 
+#[cfg(feature = "full")]
 impl Default for CameraTerms {
     fn default() -> Self {
         CameraTerms { depth_scale: 1.0, scale_y: 1.0, shear_xy: 0.0, shear_xz: 0.0, shear_yz: 0.0 }
     }
 }
 
+#[cfg(feature = "full")]
 impl CameraTerms {
     /// The values in the order of [`CameraTerm::ALL`].
     pub(crate) fn values(&self) -> [f64; 5] {

@@ -25,6 +25,7 @@ mod urdf_check;
 pub use assembly::AssemblyMode;
 pub use camera::{CameraModel, CameraModelKind, CameraTerm};
 // Named only where configs hold it (`CalibConfig::camera_terms`): reachable, not a separate API item.
+#[cfg(feature = "full")]
 pub(crate) use camera::CameraTerms;
 #[cfg(feature = "full")]
 pub use export::{ExportedModel, export};
