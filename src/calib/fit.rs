@@ -162,7 +162,8 @@ pub enum FitError {
         status: String,
     },
     #[error(
-        "the fit was still improving after `max_iterations` = {iterations} iterations (last step {step:.3e}, radius {radius:.3e}, in the parameters' units; cost still falling by {relative_decrease:.1e} per iteration): raise `max_iterations`"
+        "the fit did not converge within `max_iterations` = {iterations} iterations (last step {step:.3e}, radius {radius:.3e}, in the parameters' units; {}): raise `max_iterations`",
+        if *.judged { format!("the cost still falling by {relative_decrease:.1e} per iteration") } else { "too few iterations to tell a minimum from progress".to_string() }
     )]
     /// The iteration budget ran out while the cost was still falling.
     IterationLimit {
@@ -174,6 +175,9 @@ pub enum FitError {
         radius: f64,
         /// Relative cost decrease per iteration at the end.
         relative_decrease: f64,
+        /// Whether enough iterations were done to tell a stall from progress (else the budget was
+        /// simply too small to judge).
+        judged: bool,
     },
     #[error("the fit diverged at iteration {iteration}: {reason}")]
     /// The cost or the step became non-finite.
@@ -378,7 +382,8 @@ fn iteration_limit(log: &[IterationLog], radius: f64) -> Result<Convergence, Fit
         return Ok(Convergence::StalledAtMinimum);
     }
     let (iterations, step) = (log.len() as u32, last.map_or(0.0, |l| l.step));
-    Err(FitError::IterationLimit { iterations, step, radius, relative_decrease })
+    let judged = window.len() == STALL_WINDOW;
+    Err(FitError::IterationLimit { iterations, step, radius, relative_decrease, judged })
 }
 
 /// The trust region between iterations: its radius, and the normal equations of the current

@@ -126,7 +126,18 @@ fn run<L: Level>(
     let max_deg = level.motion_deg();
     if max_deg < MIN_MOTION_DEG {
         let weak = if regularised.is_empty() { &identifiability.weakest } else { &identifiability.unidentifiable };
-        return Err(CalibError::NoMotion { max_deg, unidentifiable: weak.iter().map(Direction::describe).collect() });
+        // Directions that read alike (the same parameters, either sign) are named once: with no
+        // motion the null space is wide and its basis arbitrary.
+        let mut unidentifiable: Vec<String> = Vec::new();
+        let mut seen: Vec<String> = Vec::new();
+        for described in weak.iter().map(Direction::describe) {
+            let what = described.split(" (").next().unwrap_or(&described).replace(['+', '-'], "");
+            if !seen.contains(&what) {
+                seen.push(what);
+                unidentifiable.push(described);
+            }
+        }
+        return Err(CalibError::NoMotion { max_deg, unidentifiable });
     }
     if !regularised.is_empty() && config.unidentifiable == Unidentifiable::Refuse {
         return Err(CalibError::Unidentifiable(regularised));
