@@ -209,6 +209,12 @@ fn anchor(
     Some(full)
 }
 
+/// A `use` declaration: its visibility and its paths written out.
+type UseDeclaration = (String, Vec<String>);
+
+/// A file read: its module path, the path's segments, its `use` declarations and its other code.
+type Parsed = (String, Vec<String>, Vec<UseDeclaration>, String);
+
 /// One source tree's imports between files.
 struct Tree {
     modules: BTreeMap<String, PathBuf>,
@@ -221,7 +227,7 @@ impl Tree {
     fn read(src: &Path) -> Tree {
         let modules = modules(src);
         let mut tree = Tree { modules, reexports: BTreeMap::new(), edges: BTreeMap::new() };
-        let parsed: Vec<(String, Vec<String>, Vec<(String, Vec<String>)>, String)> = tree
+        let parsed: Vec<Parsed> = tree
             .modules
             .iter()
             .map(|(module, path)| {

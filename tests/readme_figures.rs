@@ -67,8 +67,11 @@ fn rounds_to(candidate: f64, shown: f64, decimals: usize) -> bool {
     (candidate * scale).round() == (shown * scale).round()
 }
 
+/// A table row: its line in the README and its cells.
+type Row = (usize, Vec<String>);
+
 /// The README's tables that name their results file: (file, rows of cells below the header).
-fn marked_tables(readme: &str) -> Vec<(String, Vec<(usize, Vec<String>)>)> {
+fn marked_tables(readme: &str) -> Vec<(String, Vec<Row>)> {
     let lines: Vec<&str> = readme.lines().collect();
     let mut tables = Vec::new();
     for (k, line) in lines.iter().enumerate() {
