@@ -9,6 +9,7 @@ use clap::{CommandFactory, Parser};
 use cli::{Cli, Command};
 
 fn main() -> ExitCode {
+    cli::end_cleanly_on_signals();
     cli::exit(match Cli::parse().command {
         Command::Ik(args) => cli::ik::run(args),
         Command::Fda(args) => cli::fda::run(args),

@@ -77,6 +77,23 @@ pub(crate) enum Command {
 }
 
 /// The exit code of a command, its error printed on standard error.
+/// On Ctrl-C (SIGINT) or SIGTERM, end as a shell expects (exit 130 / 143, one line saying so) and
+/// leave nothing behind: every output is staged in a temporary file until it is complete, and those
+/// are removed first (no destructor runs when a signal ends the process). Outputs already put in
+/// place stay whole (each was renamed into place complete).
+pub(crate) fn end_cleanly_on_signals() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else { return };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            spmcal::io::StagedFile::discard_unfinished();
+            let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
+            eprintln!("interrupted ({name}): stopped; no temporary file left, no output half-written");
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
 pub(crate) fn exit(result: anyhow::Result<()>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -80,6 +80,36 @@ pub(crate) fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), FileError
 pub struct StagedFile {
     destination: PathBuf,
     tmp: tempfile::NamedTempFile,
+    _unfinished: Unfinished,
+}
+
+/// The temporary files of the staged files not yet put in place or dropped: what a process ended
+/// by a signal must remove ([`StagedFile::discard_unfinished`]), since no destructor runs then.
+#[cfg(feature = "full")]
+static UNFINISHED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// A temporary file's place in [`UNFINISHED`], given up when the staged file is put in place or
+/// dropped.
+#[cfg(feature = "full")]
+#[derive(Debug)]
+struct Unfinished(PathBuf);
+
+#[cfg(feature = "full")]
+impl Unfinished {
+    fn register(path: &Path) -> Unfinished {
+        UNFINISHED.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(path.to_path_buf());
+        Unfinished(path.to_path_buf())
+    }
+}
+
+#[cfg(feature = "full")]
+impl Drop for Unfinished {
+    fn drop(&mut self) {
+        let mut list = UNFINISHED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(at) = list.iter().position(|p| *p == self.0) {
+            list.swap_remove(at);
+        }
+    }
 }
 
 #[cfg(feature = "full")]
@@ -98,7 +128,20 @@ impl StagedFile {
             .suffix(".tmp")
             .tempfile_in(parent_folder(path))
             .map_err(|e| FileError::new(path, format!("cannot write here: {e}")))?;
-        Ok(StagedFile { destination: path.to_path_buf(), tmp })
+        let unfinished = Unfinished::register(tmp.path());
+        Ok(StagedFile { destination: path.to_path_buf(), tmp, _unfinished: unfinished })
+    }
+
+    /// Remove the temporary file of every staged file not yet put in place, for a process about to
+    /// end without running destructors (a signal): afterwards no destination has changed and no
+    /// temporary file is left. New staged files cannot be created after it (the list stays locked
+    /// until the process ends).
+    pub fn discard_unfinished() {
+        let list = UNFINISHED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        for path in list.iter() {
+            let _ = std::fs::remove_file(path);
+        }
+        std::mem::forget(list);
     }
 
     /// The temporary file, for writers that open a path themselves.
@@ -146,7 +189,7 @@ impl StagedFile {
     /// # Errors
     /// The rename fails.
     pub fn persist(self) -> Result<(), FileError> {
-        let StagedFile { destination, tmp } = self;
+        let StagedFile { destination, tmp, _unfinished } = self;
         tmp.persist(&destination).map_err(|e| FileError::new(&destination, format!("cannot write: {}", e.error)))?;
         Ok(())
     }
