@@ -23,6 +23,6 @@ fn main() -> ExitCode {
         Command::Export(args) => cli::export::run(args),
         Command::Convert(args) => cli::convert::run(args),
         Command::Completions(args) => cli::completions::completions(args, Cli::command()),
-        Command::Man => cli::completions::man(Cli::command()),
+        Command::Man(args) => cli::completions::man(args, Cli::command()),
     })
 }

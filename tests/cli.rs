@@ -376,6 +376,24 @@ fn completions_man_page_and_version_come_from_the_command_line_itself() {
     let run = spmcal(&["man"]);
     let page = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success() && page.contains(".TH spmcal 1") && page.contains("calibrate"), "{page}");
+    // `--out-dir`: a page for every command the main page names, each with every option of its
+    // command (the main page's `spmcal-<command>(1)` references resolve).
+    let dir = tempfile::tempdir().unwrap();
+    let run = spmcal(&["man", "--out-dir", dir.path().to_str().unwrap()]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let main_page = std::fs::read_to_string(dir.path().join("spmcal.1")).unwrap();
+    let mut named = 0;
+    for command in ["ik", "fda", "check", "simulate", "estimate", "calibrate", "compare", "replay", "plan", "export"] {
+        assert!(main_page.contains(&format!("spmcal\\-{command}(1)")), "{command} not named: {main_page}");
+        let page = std::fs::read_to_string(dir.path().join(format!("spmcal-{command}.1"))).unwrap();
+        assert!(page.contains(&format!(".TH spmcal-{command} 1")), "{page}");
+        named += 1;
+    }
+    assert_eq!(named, 10);
+    let calibrate = std::fs::read_to_string(dir.path().join("spmcal-calibrate.1")).unwrap();
+    for option in ["dataset", "model", "config", "out", "report", "rrd", "json", "verbose"] {
+        assert!(calibrate.contains(&format!("\\fB\\-\\-{option}\\fR")), "--{option} undocumented: {calibrate}");
+    }
     let run = spmcal(&["--version"]);
     let version = String::from_utf8_lossy(&run.stdout);
     assert!(version.starts_with(&format!("spmcal {} (commit ", env!("CARGO_PKG_VERSION"))), "{version}");

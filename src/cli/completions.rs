@@ -22,9 +22,46 @@ pub(crate) fn completions(args: CompletionsArgs, mut command: clap::Command) -> 
     out(&String::from_utf8_lossy(&script))
 }
 
-/// The manual page (roff) on standard output.
-pub(crate) fn man(command: clap::Command) -> Result<()> {
+#[derive(Args)]
+pub(crate) struct ManArgs {
+    /// Write the pages into this folder, one per command (`spmcal.1`, `spmcal-calibrate.1`, …),
+    /// instead of printing the main page.
+    #[arg(long)]
+    pub(crate) out_dir: Option<std::path::PathBuf>,
+}
+
+/// The manual page (roff) on standard output, or every command's page written into a folder.
+pub(crate) fn man(args: ManArgs, command: clap::Command) -> Result<()> {
+    let Some(dir) = args.out_dir else {
+        return out(&String::from_utf8_lossy(&render(command)?));
+    };
+    if !dir.is_dir() {
+        anyhow::bail!("{}: no such folder (--out-dir)", dir.display());
+    }
+    // The main page names `spmcal-<command>(1)` for each command: write those pages beside it.
+    // (clap takes names as `&'static str`: the dozen short ones are leaked, once per run.)
+    let leak = |s: String| -> &'static str { Box::leak(s.into_boxed_str()) };
+    let version = leak(command.get_version().unwrap_or_default().to_string());
+    let pages: Vec<(String, clap::Command)> = std::iter::once(("spmcal".to_string(), command.clone()))
+        .chain(command.get_subcommands().filter(|c| c.get_name() != "help").map(|c| {
+            let name = format!("spmcal-{}", c.get_name());
+            (name.clone(), c.clone().name(leak(name)).version(version))
+        }))
+        .collect();
+    let mut written = Vec::new();
+    for (name, page) in pages {
+        let path = dir.join(format!("{name}.1"));
+        let mut file = spmcal::io::StagedFile::create(&path)?;
+        file.write(&render(page)?)?;
+        file.commit()?;
+        written.push(path.display().to_string());
+    }
+    out(&format!("wrote {} manual pages: {}\n", written.len(), written.join(", ")))
+}
+
+/// One command's page in roff.
+fn render(command: clap::Command) -> Result<Vec<u8>> {
     let mut page = Vec::new();
     clap_mangen::Man::new(command).render(&mut page)?;
-    out(&String::from_utf8_lossy(&page))
+    Ok(page)
 }

@@ -72,8 +72,9 @@ pub(crate) enum Command {
     Convert(convert::ConvertArgs),
     /// Print the shell completion script for `shell` (bash, zsh, fish, elvish, powershell).
     Completions(completions::CompletionsArgs),
-    /// Print the manual page (roff; e.g. `spmcal man > spmcal.1`).
-    Man,
+    /// Print the manual page (roff; e.g. `spmcal man > spmcal.1`), or with `--out-dir` write a page
+    /// per command (`spmcal.1`, `spmcal-calibrate.1`, …) with every option.
+    Man(completions::ManArgs),
 }
 
 /// The exit code of a command, its error printed on standard error.
