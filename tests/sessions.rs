@@ -97,3 +97,34 @@ fn write_then_read_gives_the_same_session() {
     let err = back.write(dir.path()).unwrap_err().to_string();
     assert!(err.contains("refusing to write"), "{err}");
 }
+
+/// Joint readings in degrees under `theta*_rad` columns load with a warning that says so, at the
+/// first reading beyond a turn (the fit alone would only see poses near singularities); the
+/// shipped sessions, in radians, load without it.
+#[test]
+fn joints_in_degrees_are_said_to_be_degrees() {
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["session.yaml", "markers.csv", "joints.csv"] {
+        std::fs::copy(Path::new("datasets/agile_wrist_sim_20").join(file), dir.path().join(file)).unwrap();
+    }
+    let model = Path::new("models/agile_wrist.urdf");
+    let (_, warnings) = Session::load(dir.path(), Some(model)).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let joints = std::fs::read_to_string(dir.path().join("joints.csv")).unwrap();
+    let mut lines = joints.lines();
+    let mut degrees = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let mut fields: Vec<String> = line.split(',').map(String::from).collect();
+        for f in &mut fields[1..4] {
+            *f = format!("{}", f.parse::<f64>().unwrap().to_degrees());
+        }
+        degrees += &format!("{}\n", fields.join(","));
+    }
+    std::fs::write(dir.path().join("joints.csv"), degrees).unwrap();
+    let (session, warnings) = Session::load(dir.path(), Some(model)).unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let first = session.poses.iter().find(|p| p.joints.amax() > std::f64::consts::TAU).unwrap();
+    assert_eq!((warnings[0].line, warnings[0].pose), (first.line, first.id));
+    let text = warnings[0].to_string();
+    assert!(text.contains("joints.csv:") && text.contains("are the readings in degrees?"), "{text}");
+}

@@ -217,6 +217,7 @@ impl Session {
         let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
         let mut warnings = Vec::new();
         check_station_markers(&poses, &file.markers, &markers_path, &mut warnings)?;
+        warnings.extend(beyond_a_turn(&poses, &joints_path));
         // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
         // Default: the first pose whose markers fix an orientation, else the first that sees
         // enough markers for the estimator, else the first.
@@ -488,6 +489,24 @@ fn default_reference(poses: &[SessionPose]) -> u64 {
 
 fn names_of(names: &[String], ks: &[usize]) -> String {
     ks.iter().map(|&k| format!("`{}`", names[k])).collect::<Vec<_>>().join(", ")
+}
+
+/// The first reading more than a turn from zero, as a warning: a joint of an SPM seldom turns that
+/// far, and a reading of 18 in a `_rad` column is most often 18 degrees (the fit would then see
+/// poses near singularities, not a unit mistake).
+fn beyond_a_turn(poses: &[SessionPose], joints_path: &Path) -> Option<Warning> {
+    let pose = poses.iter().find(|p| p.joints.amax() > std::f64::consts::TAU)?;
+    let largest = poses.iter().map(|p| p.joints.amax()).fold(0.0, f64::max);
+    Some(Warning {
+        path: joints_path.to_path_buf(),
+        line: pose.line,
+        pose: pose.id,
+        message: format!(
+            "a joint reads {:.3} rad, more than a turn (the largest reading is {largest:.3}): are the readings in \
+             degrees? The `theta*_rad` columns are radians",
+            pose.joints.amax()
+        ),
+    })
 }
 
 /// A station (the captures meant as one pose, one marker at a time) that captures a marker twice
