@@ -60,7 +60,7 @@ pub(crate) struct LevelResults<'a, M: Residuals> {
     pub(crate) nominal: FitOutcome<M::Noise>,
     pub(crate) calibrated: FitOutcome<M::Noise>,
     pub(crate) free: Vec<bool>,
-    pub(crate) covariance: DMatrix<f64>,
+    pub(crate) covariance: &'a DMatrix<f64>,
     /// Each residual's expected squared prediction error `tr(J_j Cov J_jᵀ)` (unit²), when the
     /// calibrated evaluation has its Jacobian.
     pub(crate) predicted_ms: Option<Vec<f64>>,

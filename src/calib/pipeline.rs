@@ -237,7 +237,7 @@ fn run<L: Level>(
         nominal,
         calibrated,
         free: determined,
-        covariance,
+        covariance: &covariance,
         predicted_ms,
         flagged: &flagged,
     };
@@ -245,7 +245,6 @@ fn run<L: Level>(
     let level_of = results.problem.level();
     let (nominal, calibrated) = (Solution::of(&results.nominal), Solution::of(&results.calibrated));
     let (iterations, convergence) = (results.calibrated.log.clone(), results.calibrated.status);
-    let covariance = results.covariance.clone();
     let part = level.finish(results)?;
     clock.lap("report", 0);
     // The one report, assembled here from the pipeline's findings and the level's part.

@@ -294,11 +294,16 @@ pub struct CalibrationReport {
 }
 
 impl CalibrationReport {
-    /// The file the marker observations came from, for messages: a free-motion recording's
-    /// `captures.csv` (it has a latency), else `markers.csv`.
+    /// The file the marker observations came from, for messages ([`observations_file`]).
     pub(crate) fn observations_file(&self) -> &'static str {
-        if self.markers.as_ref().is_some_and(|m| m.latency.is_some()) { "captures.csv" } else { "markers.csv" }
+        observations_file(self.markers.as_ref().is_some_and(|m| m.latency.is_some()))
     }
+}
+
+/// The file marker observations come from, for messages: a free-motion recording's (it has a
+/// latency) `captures.csv`, else `markers.csv`.
+pub(crate) fn observations_file(recording: bool) -> &'static str {
+    if recording { "captures.csv" } else { "markers.csv" }
 }
 
 /// The `fit:` header of the parameters file.

@@ -16,6 +16,7 @@ use crate::calib::parameterisation::{Kind, Parameterisation};
 use crate::calib::registration;
 use crate::calib::report::{
     CameraModelReport, CameraTermReport, ErrorStats, FastCapture, Latency, MarkerFitReport, MarkerReport,
+    observations_file,
 };
 use crate::calib::residuals::Residuals;
 use crate::calib::uncertainty::{
@@ -157,7 +158,7 @@ impl Level for MarkerLevel<'_> {
     }
 
     fn finish(&self, r: LevelResults<'_, MarkerResiduals<'_>>) -> Result<LevelReport, CalibError> {
-        let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
+        let (p, x, cov, free) = (&self.p, &r.calibrated.x, r.covariance, &r.free);
         let observations = r.problem.observations();
         let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
         let marker_reports = marker_reports(p, x, cov, free, observations, &self.names);
@@ -259,7 +260,7 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         };
-        let source = self.observations_file();
+        let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency));
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
             format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)
@@ -286,17 +287,11 @@ impl Level for MarkerLevel<'_> {
 }
 
 impl MarkerLevel<'_> {
-    /// The file the observations came from, for messages: a free-motion recording's
-    /// `captures.csv` (it has a latency), else `markers.csv`.
-    fn observations_file(&self) -> &'static str {
-        if self.p.entries.iter().any(|e| e.kind == Kind::Latency) { "captures.csv" } else { "markers.csv" }
-    }
-
     /// The camera model term by term: fitted or held (and why), a held term tested against the
     /// residuals, and what is significant said in words; a held term the residuals want moved is
     /// also a warning (the mechanism took the blame).
     fn camera_report(&self, r: &LevelResults<'_, MarkerResiduals<'_>>) -> (CameraModelReport, Vec<String>) {
-        let (p, x, cov, free) = (&self.p, &r.calibrated.x, &r.covariance, &r.free);
+        let (p, x, cov, free) = (&self.p, &r.calibrated.x, r.covariance, &r.free);
         let fitted = p.camera_model(x);
         let (mut findings, mut warnings) = (Vec::new(), Vec::new());
         let terms: Vec<CameraTermReport> = p

@@ -113,7 +113,7 @@ impl Level for OrientationLevel {
     }
 
     fn finish(&self, r: LevelResults<'_, OrientationResiduals<'_>>) -> Result<LevelReport, CalibError> {
-        let (p, x, cov) = (&self.p, &r.calibrated.x, &r.covariance);
+        let (p, x, cov) = (&self.p, &r.calibrated.x, r.covariance);
         let held = |x: &DVector<f64>| -> Result<Vec<Vector3<f64>>, CalibError> {
             if self.held_out.is_empty() {
                 return Ok(Vec::new());
