@@ -406,6 +406,7 @@ impl Session {
                 line: k + 1,
                 marker_lines: vec![0; marker_names.len()],
                 station: None,
+                pixels: Vec::new(),
             });
         }
         let session =

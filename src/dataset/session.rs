@@ -51,6 +51,22 @@ pub struct SessionPose {
     pub marker_lines: Vec<usize>,
     /// The station (captures the operator meant as one pose), when recorded.
     pub station: Option<u64>,
+    /// What each camera of the session's rig saw at this pose, pixel by pixel (empty for a
+    /// session of points); `markers` then holds the points the rig triangulates from them.
+    pub pixels: Vec<SeenPixel>,
+}
+
+/// A marker seen by one camera of a rig (`pixels.csv`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeenPixel {
+    /// Marker index (as in the session's `markers`).
+    pub marker: usize,
+    /// Camera index (as in the rig's `cameras`).
+    pub camera: usize,
+    /// `(u, v)` (px).
+    pub pixel: nalgebra::Vector2<f64>,
+    /// Line of `pixels.csv` (0 when not read from a file).
+    pub line: usize,
 }
 
 impl SessionPose {
@@ -92,6 +108,8 @@ pub struct Session {
     /// The folder the session was read from, so that messages about its rows name their file in
     /// full; `None` for a session made in memory (simulated, planned, read from a bag).
     pub folder: Option<PathBuf>,
+    /// The camera rig of a session seen through its pixels (`cameras.yaml`), as the file gives it.
+    pub rig: Option<std::sync::Arc<crate::model::Rig>>,
 }
 
 /// A pose left out of the session, and why (a free-motion recording's camera frame that falls
@@ -192,6 +210,7 @@ impl Session {
             let frames = streams.captures.chunk_by(|a, b| a.time_s == b.time_s).count();
             check_slots(file.markers.len(), frames, "camera frames in captures.csv").map_err(|r| at("markers", r))?;
             let session = Session {
+                rig: None,
                 name: file.name,
                 description: file.description,
                 model,
@@ -227,6 +246,7 @@ impl Session {
         }
         let truth = truth?;
         let session = Session {
+            rig: None,
             name: file.name,
             description: file.description,
             model,
@@ -273,6 +293,7 @@ impl Session {
         }
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
         Ok(Session {
+            rig: None,
             name: name.to_string(),
             description: None,
             model: model.to_path_buf(),
@@ -338,6 +359,7 @@ impl Session {
                 continue;
             };
             let mut pose = SessionPose {
+                pixels: Vec::new(),
                 id: poses.len() as u64,
                 joints,
                 time_s: Some(time),
@@ -667,6 +689,7 @@ fn assemble_poses(
     let mut poses: Vec<SessionPose> = readings
         .iter()
         .map(|r| SessionPose {
+            pixels: Vec::new(),
             id: r.pose,
             joints: r.joints,
             time_s: r.time_s,

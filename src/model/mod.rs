@@ -14,6 +14,8 @@ mod modes;
 mod params;
 #[cfg(feature = "full")]
 mod perturb;
+#[cfg(feature = "full")]
+mod rig;
 mod spm;
 #[cfg(feature = "full")]
 mod survey;
@@ -35,6 +37,8 @@ pub use modes::{FdaPose, ModeReport};
 pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters};
 #[cfg(feature = "full")]
 pub use perturb::GeometrySpread;
+#[cfg(feature = "full")]
+pub use rig::{DistortionModel, Lens, Projection, Rig, RigCamera, RigProjection, RigTerm};
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
 pub use survey::ModelSurvey;

@@ -400,6 +400,7 @@ impl Plan {
             .poses
             .iter()
             .map(|p| crate::dataset::SessionPose {
+                pixels: Vec::new(),
                 id: p.step,
                 joints: p.joints,
                 time_s: None,
@@ -410,6 +411,7 @@ impl Plan {
             })
             .collect();
         Session {
+            rig: None,
             name: "plan".into(),
             description: Some(format!("a capture plan of {} poses", self.poses.len())),
             model: model.urdf_path.clone(),

@@ -509,6 +509,7 @@ impl Simulator<'_> {
         });
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
         Ok(Session {
+            rig: None,
             name: self.config.name.clone(),
             description: Some(description),
             model: self.model.urdf_path.clone(),
@@ -639,6 +640,7 @@ impl Simulator<'_> {
         self.summary.poses_with_too_few_markers = 0;
         let streams = Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures };
         let session = Session {
+            rig: None,
             name: self.config.name.clone(),
             description: Some(self.config.description.clone().unwrap_or_else(|| {
                 format!(
@@ -774,6 +776,7 @@ impl Simulator<'_> {
         }
         let n = markers.len();
         SessionPose {
+            pixels: Vec::new(),
             id,
             joints: readings,
             time_s: Some(id as f64 * self.config.capture.interval_s),

@@ -84,6 +84,7 @@ pub(crate) fn load(
         mapping.path.as_ref().map_or(String::new(), |p| format!("; mapping {}", p.display()))
     ));
     let session = Session {
+        rig: None,
         name,
         description,
         model,
@@ -247,6 +248,7 @@ fn static_session(session: Session, poses: Vec<RestingPose>) -> Result<Session, 
                 })
                 .collect();
             SessionPose {
+                pixels: Vec::new(),
                 id: id as u64,
                 joints,
                 time_s: Some(time_s),
