@@ -367,7 +367,7 @@ impl Residuals for MarkerResiduals<'_> {
         let legs = p.legs(x);
         let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
         let (camera, translation) = (p.camera(x), p.translation(x));
-        let k = p.camera_model(x).matrix();
+        let camera_model = p.camera_model(x);
         let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
         let joints = self.joints(x)?;
         let mut orientations = Vec::with_capacity(self.poses.len());
@@ -383,7 +383,9 @@ impl Residuals for MarkerResiduals<'_> {
             .observations
             .iter()
             .zip(&self.pose_of)
-            .map(|(o, &pose)| o.measured - k * (camera * (orientations[pose] * markers[o.marker]) + translation))
+            .map(|(o, &pose)| {
+                o.measured - camera_model.distort(&(camera * (orientations[pose] * markers[o.marker]) + translation))
+            })
             .collect();
         let mut eval = Evaluation { residuals, orientations, jacobian: None, orientation_jacobians: None };
         if with_jacobian {
@@ -438,7 +440,7 @@ impl MarkerResiduals<'_> {
     ) -> DMatrix<f64> {
         let p = self.p;
         let jc = so3::left_jacobian(&p.registration_vectors(x).0);
-        let (k, translation) = (p.camera_model(x).matrix(), p.translation(x));
+        let (camera_model, translation) = (p.camera_model(x), p.translation(x));
         let mechanism = self.mechanism_needed();
         let shape = (3 * self.observations.len(), p.len());
         let mut jac = match self.spare.take() {
@@ -451,6 +453,8 @@ impl MarkerResiduals<'_> {
         for (j, o) in self.observations.iter().enumerate() {
             let pose = self.pose_of[j];
             let rp = orientations[pose] * markers[o.marker];
+            let y = camera * rp + translation;
+            let k = camera_model.jacobian(&y);
             let mech = k * camera.matrix() * rp.cross_matrix();
             let in_camera = k * (camera * rp).cross_matrix() * jc;
             let rotation = k * camera.matrix() * orientations[pose].matrix();
@@ -465,7 +469,7 @@ impl MarkerResiduals<'_> {
                     Kind::Camera { k: axis } => in_camera.column(axis).into(),
                     Kind::Translation { k: axis } => -k.column(axis),
                     Kind::Marker { marker, k: axis } if marker == o.marker => -rotation.column(axis),
-                    Kind::CameraTerm { term } => -term.derivative(&(camera * rp + translation)),
+                    Kind::CameraTerm { term } => -camera_model.term_derivative(term, &y),
                     Kind::Latency if !mechanism => mech * sensitivities[pose].column(i),
                     _ => continue,
                 };

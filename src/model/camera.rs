@@ -218,6 +218,17 @@ impl CameraModel {
         self.matrix() * x
     }
 
+    /// `∂(K x)/∂x` at `x`: how the reported position moves with the point (the fit carries every
+    /// parameter but the camera model's own through it).
+    pub fn jacobian(&self, _x: &Vector3<f64>) -> Matrix3<f64> {
+        self.matrix()
+    }
+
+    /// How the reported position of `x` moves with `term`.
+    pub fn term_derivative(&self, term: CameraTerm, x: &Vector3<f64>) -> Vector3<f64> {
+        term.derivative(x)
+    }
+
     /// Where a point the camera reports at `m` is: `K⁻¹ m` (`None` when `K` is singular).
     pub fn undistort(&self, m: &Vector3<f64>) -> Option<Vector3<f64>> {
         self.matrix().try_inverse().map(|k| k * m)
