@@ -75,14 +75,20 @@ fn main() {
                     let e2 = study::calibration_error(&s, &fitted, &tests);
                     let rep = &fitted.report;
                     println!(
-                        "seed {seed} {label}: error {e:.4}° (gauge {e2:.4}°) predicted {:?} rms {:.3} {} in {:?}",
+                        "seed {seed} {label}: error {e:.4}° (gauge {e2:.4}°) predicted {:?} in {:?} iterations {} warnings {:?}",
                         rep.predicted_error_deg.as_ref().map(|p| p.rms),
-                        rep.after.fit.rms,
-                        "",
-                        t.elapsed()
+                        t.elapsed(),
+                        rep.iterations.len(),
+                        rep.warnings
                     );
                 }
                 Err(e) => println!("seed {seed} {label}: {e}"),
+            }
+            if std::env::var("SHOW").is_ok() {
+                let config = CalibConfig { folds: 0, ..CalibConfig::default() };
+                if let Ok(fitted) = spmcal::calib::calibrate(&s, &model, &config, &mut |_| {}) {
+                    println!("{}", fitted.report);
+                }
             }
         }
         // The points the wrong rig triangulates, rigid/default camera model.
@@ -96,10 +102,13 @@ fn main() {
             pose.pixels.clear();
         }
         let config = CalibConfig { folds: 0, ..CalibConfig::default() };
+        let t = std::time::Instant::now();
         if let Ok(fitted) = spmcal::calib::calibrate(&points, &model, &config, &mut |_| {}) {
             println!(
-                "seed {seed} triangulated (default camera model): {:.4}°",
-                study::calibration_error_up_to_common_rotations(&points, &fitted, &tests)
+                "seed {seed} triangulated (default camera model): {:.4}° in {:?} iterations {}",
+                study::calibration_error_up_to_common_rotations(&points, &fitted, &tests),
+                t.elapsed(),
+                fitted.report.iterations.len()
             );
         }
     }

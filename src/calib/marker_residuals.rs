@@ -551,6 +551,9 @@ impl MarkerResiduals<'_> {
     }
 }
 
+/// A prediction, its derivative with respect to the point, and a pixel's projection.
+type Observed = (Vector3<f64>, Matrix3<f64>, Option<RigProjection>);
+
 /// What observation `o` predicts for the point `y` (cam0's frame): the position the camera model
 /// reports, or the pixel (`(u, v, 0)`) where its camera of `rig` sees it; with `∂/∂y` and the
 /// pixel's projection.
@@ -559,7 +562,7 @@ fn observe(
     y: &Vector3<f64>,
     camera_model: &CameraModel,
     rig: Option<&Rig>,
-) -> Result<(Vector3<f64>, Matrix3<f64>, Option<RigProjection>), EvalError> {
+) -> Result<Observed, EvalError> {
     match (o.camera, rig) {
         (Some(c), Some(rig)) => {
             let q = rig.project(c, y).ok_or(EvalError::BehindCamera { pose: o.pose, camera: c })?;

@@ -61,7 +61,7 @@ pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,
-    MarkerFitReport, MarkerReport, StageReport, Verdict,
+    MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;

@@ -1,7 +1,10 @@
 //! The camera rig's terms in the fit: which ones a session refines, the rig at a parameter
 //! vector, and how a pixel moves with each term.
 //!
-//! A term is measured from the file's value (`cameras.yaml`), like every other parameter. The
+//! A term is measured from the file's value (`cameras.yaml`), like every other parameter; an
+//! intrinsic in units of the camera's focal length (`Δfu / fu⁰`: a principal point's shift is
+//! then the angle it turns the view by), so that the fit's trust region, which compares every
+//! parameter with an angle, takes a pixel's change as the small thing it is. The
 //! extrinsics are each camera's pose relative to cam0, `z = R_c y + t_c`: `R_c = exp(ω) R_c⁰`,
 //! and for camera 1 `t_c = L n`, `n` the unit direction `normalize(n⁰ + β₀ e₀ + β₁ e₁)` with the
 //! baseline's length `L` held at the file's value (the rig's metric scale, which an SPM's
@@ -69,12 +72,12 @@ pub(crate) fn all_terms(rig: &Rig) -> Vec<RigTerm> {
     terms
 }
 
-/// The bound of a term's change: intrinsics within 10 % of the focal length, coefficients within
+/// The bound of a term's change (in the fit's units): intrinsics within 10 % of the focal length, coefficients within
 /// ±0.5, rotations within 5°, translations within 5 cm — far beyond a rig calibration's error,
 /// short of a different rig.
 fn bound(rig: &Rig, term: RigTerm) -> f64 {
     match term {
-        RigTerm::Intrinsic { camera, .. } => 0.1 * rig.cameras[camera].lens.intrinsics[0].abs(),
+        RigTerm::Intrinsic { .. } => 0.1,
         RigTerm::Distortion { .. } => 0.5,
         RigTerm::Rotation { .. } => 5f64.to_radians(),
         RigTerm::Translation { camera: 1, .. } => 0.05 / rig.baseline_m().max(1e-6),
@@ -112,7 +115,9 @@ impl Parameterisation {
             .collect();
         for &(term, value) in &terms {
             match term {
-                RigTerm::Intrinsic { camera, k } => rig.cameras[camera].lens.intrinsics[k] += value,
+                RigTerm::Intrinsic { camera, k } => {
+                    rig.cameras[camera].lens.intrinsics[k] += value * focal(rig0, camera)
+                }
                 RigTerm::Distortion { camera, k } => rig.cameras[camera].lens.distortion[k] += value,
                 RigTerm::Rotation { .. } | RigTerm::Translation { .. } => {}
             }
@@ -144,6 +149,11 @@ fn extrinsics(rig0: &Rig, terms: &[(RigTerm, f64)], c: usize) -> (Isometry3<f64>
     };
     let pose = Isometry3::from_parts(Translation3::from(translation), UnitQuaternion::from_rotation_matrix(&rotation));
     (pose, omega, direction)
+}
+
+/// The unit of camera `camera`'s intrinsic terms in the fit: its focal length `fu⁰` (px).
+pub(crate) fn focal(rig0: &Rig, camera: usize) -> f64 {
+    rig0.cameras[camera].lens.intrinsics[0].abs()
 }
 
 fn value(terms: &[(RigTerm, f64)], term: RigTerm) -> f64 {
@@ -219,7 +229,7 @@ pub(crate) fn pixel_derivatives(
         })
         .map(|(i, term)| {
             let d = match term {
-                RigTerm::Intrinsic { k, .. } => lens.d_intrinsics[k],
+                RigTerm::Intrinsic { camera, k } => lens.d_intrinsics[k] * focal(rig0, camera),
                 RigTerm::Distortion { k, .. } => lens.d_distortion[k],
                 RigTerm::Rotation { k, .. } => lens.d_point * d_rotation.column(k),
                 RigTerm::Translation { camera: 1, k } => lens.d_point * direction.derivative(&beta, k),
@@ -228,4 +238,60 @@ pub(crate) fn pixel_derivatives(
             (i, d)
         })
         .collect()
+}
+
+/// A term's unit for a person and the factor from the fit's unit to it: intrinsics in px (the
+/// fit's are focal lengths), coefficients as they are, rotations and camera 1's baseline direction
+/// in degrees, a further camera's translation in mm.
+pub(crate) fn display(rig0: &Rig, term: RigTerm) -> (&'static str, f64) {
+    match term {
+        RigTerm::Intrinsic { camera, .. } => ("px", focal(rig0, camera)),
+        RigTerm::Distortion { .. } => ("", 1.0),
+        RigTerm::Rotation { .. } | RigTerm::Translation { camera: 1, .. } => ("deg", 180.0 / std::f64::consts::PI),
+        RigTerm::Translation { .. } => ("mm", 1e3),
+    }
+}
+
+/// The report of the rig of `p` at `x`: every term (fitted or held), the baseline held, each
+/// camera's pixel noise.
+pub(crate) fn report(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    std_error: impl Fn(usize) -> Option<f64>,
+    noise: Option<&crate::calib::StereoNoise>,
+) -> Option<crate::calib::report::RigReport> {
+    let rig0 = p.rig0.as_deref()?;
+    let refined = p.rig(x)?;
+    let terms = all_terms(rig0)
+        .into_iter()
+        .map(|term| {
+            let (unit, scale) = display(rig0, term);
+            let entry = p.entries.iter().position(|e| e.kind == Kind::Rig { term });
+            let file_value = match term {
+                RigTerm::Intrinsic { camera, k } => Some(rig0.cameras[camera].lens.intrinsics[k]),
+                RigTerm::Distortion { camera, k } => Some(rig0.cameras[camera].lens.distortion[k]),
+                _ => None,
+            };
+            let std_error = entry.and_then(&std_error).map(|s| s * scale);
+            crate::calib::report::RigTermReport {
+                name: term.name(rig0),
+                unit,
+                file_value,
+                change: entry.map_or(0.0, |i| x[i] * scale),
+                held: std_error.is_none(),
+                std_error,
+            }
+        })
+        .collect();
+    let pixel_noise_px = rig0
+        .cameras
+        .iter()
+        .enumerate()
+        .map(|(c, cam)| {
+            let sigma = noise.and_then(|n| n.pixel_px.get(c).copied()).unwrap_or(f64::NAN);
+            let error = noise.and_then(|n| n.pixel_std_error_px.get(c).copied()).unwrap_or(f64::NAN);
+            (cam.name.clone(), sigma, error)
+        })
+        .collect();
+    Some(crate::calib::report::RigReport { baseline_held_m: rig0.baseline_m(), terms, pixel_noise_px, refined })
 }

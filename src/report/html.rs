@@ -123,7 +123,7 @@ fn predicted(report: &crate::calib::CalibrationReport) -> String {
             } else {
                 "they disagree beyond their uncertainty: the noise model or the model is wrong"
             },
-            unit = cv.level.unit()
+            unit = cv.unit
         );
     }
     out

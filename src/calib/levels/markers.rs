@@ -234,7 +234,7 @@ impl Level for MarkerLevel<'_> {
             .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
         let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
-            predicted_marker_error(&r.calibrated, ms, cov, &observation_poses, |j| {
+            predicted_marker_error(&r.calibrated, r.problem.unit_scale(), ms, cov, &observation_poses, |j| {
                 eval.orientations[r.problem.pose_of(j)]
             })
         });
@@ -252,7 +252,13 @@ impl Level for MarkerLevel<'_> {
             poses: r.problem.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
             after: MarkerErrors::of(&r.calibrated.evaluation.residuals, observations, &self.names),
-            stereo_noise: r.calibrated.weighting.noise,
+            rig: crate::calib::rig_terms::report(
+                p,
+                x,
+                |i| std_error(cov, free, i),
+                r.calibrated.weighting.noise.as_ref(),
+            ),
+            stereo_noise: r.calibrated.weighting.noise.clone(),
             markers: marker_reports,
             fast_captures: self.streams.map_or_else(Vec::new, |s| {
                 observations
@@ -268,7 +274,7 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         };
-        let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency));
+        let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency), p.rig0.is_some());
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
             format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)
