@@ -1,7 +1,9 @@
 //! `spmcal._spmcal`: the native half of the `spmcal` Python package (pyo3 + rust-numpy, stable
 //! ABI). Arrays in and out (`(n, 3)` joints in rad, `(n, 4)` quaternions `qw, qx, qy, qz`,
-//! `(n, 3, 3)` matrices); every error a Python exception under `SpmcalError` whose message is the
-//! command line's. `spmcal/__init__.py` re-exports it with its types (`_spmcal.pyi`).
+//! `(n, 3, 3)` matrices; any array-like in, `arrays`); a `Model` wherever a model or parameters
+//! are expected (`args`); every error a Python exception under `SpmcalError` whose one-line
+//! message is the command line's (`errors`); the parameters in the report's units (`table`).
+//! `spmcal/__init__.py` re-exports it with its types (`_spmcal.pyi`, `_types.py`).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -469,7 +471,17 @@ fn calib_config(
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<CalibConfig> {
     let to_value = |obj: &Bound<'_, PyAny>| -> PyResult<serde_yaml::Value> {
-        let json: String = py.import("json")?.call_method1("dumps", (obj,))?.extract()?;
+        // numpy scalars and arrays (np.int64(5), np.float32(1.5)) as the Python values they hold.
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("default", py.import("operator")?.call_method1("methodcaller", ("tolist",))?)?;
+        let json: String = py
+            .import("json")?
+            .call_method("dumps", (obj,), Some(&kwargs))
+            .map_err(|e| {
+                let reason = e.value(py).to_string();
+                ConfigError::new_err(format!("settings are numbers, strings, lists or dicts of them: {reason}"))
+            })?
+            .extract()?;
         serde_json::from_str(&json).map_err(|e| ConfigError::new_err(e.to_string()))
     };
     let mut value = match config {

@@ -326,3 +326,13 @@ def test_export_returns_what_it_wrote(tmp_path: Path) -> None:
     with pytest.raises(spmcal.FileError, match=r"params\.yaml: is an input of this call: refusing to overwrite it$"):
         spmcal.export(tmp_path / "params.yaml", tmp_path / "params.urdf", model=MODEL)
     assert not (tmp_path / "params.urdf").exists()
+
+
+def test_numpy_scalars_are_settings_as_python_numbers_are() -> None:
+    session = spmcal.Session.load(SESSION)
+    plain = spmcal.calibrate(session, folds=5, pass_held_out_mm=0.5)
+    from_numpy = spmcal.calibrate(session, folds=np.int64(5), pass_held_out_mm=np.float32(0.5))
+    assert np.array_equal(plain.covariance, from_numpy.covariance)
+    assert plain.verdict_reason == from_numpy.verdict_reason  # the threshold, 0.500 mm, is in it
+    with pytest.raises(spmcal.ConfigError, match="^settings are numbers, strings, lists or dicts of them: "):
+        spmcal.calibrate(session, folds=object())
