@@ -749,7 +749,13 @@ fn params_list<'py>(params: &Bound<'py, PyAny>) -> PyResult<Vec<Bound<'py, PyAny
     if model_arg(params, "params").is_ok() {
         return Ok(vec![params.clone()]);
     }
-    params.try_iter()?.collect()
+    let Ok(items) = params.try_iter() else {
+        let given = params.get_type().name().map_or_else(|_| "object".to_string(), |n| n.to_string());
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "params: expected a spmcal.Model, the path of a parameters file, or a list of them, got {given}"
+        )));
+    };
+    items.collect()
 }
 
 /// Simulate a session with ground truth from the settings file `config` (`seed`, `poses`

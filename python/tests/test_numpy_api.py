@@ -186,6 +186,12 @@ def test_a_model_argument_of_another_type_or_without_urdf_says_so(tmp_path: Path
     with pytest.raises(TypeError) as raised:
         spmcal.calibrate(session, model=3)  # type: ignore[arg-type]
     assert str(raised.value) == "model: expected a spmcal.Model or the path of a model's URDF (str or os.PathLike), got int"
+    with pytest.raises(TypeError) as not_params:
+        spmcal.compare(session, params=[2.5])  # type: ignore[list-item]
+    assert str(not_params.value) == \
+        "params[0]: expected a spmcal.Model or the path of a parameters file (str or os.PathLike), got float"
+    with pytest.raises(TypeError, match="^params: expected a spmcal.Model, the path of a parameters file, or a list"):
+        spmcal.compare(session, params=7)  # type: ignore[arg-type]
     calibration = spmcal.calibrate(session)
     calibration.save(tmp_path / "params.yaml")
     text = (tmp_path / "params.yaml").read_text().replace(f"model: {MODEL}", "model: elsewhere/agile_wrist.urdf")
