@@ -1002,6 +1002,7 @@ fn _marker_model<'py>(
             marker,
             joints: *theta,
             measured: *measured,
+            camera: None,
             line: 0,
             station: None,
             time_s: None,
@@ -1013,6 +1014,8 @@ fn _marker_model<'py>(
         lateral_std_error_m: 0.0,
         depth_m: 1.0,
         depth_std_error_m: 0.0,
+        pixel_px: Vec::new(),
+        pixel_std_error_px: Vec::new(),
     };
     let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;

@@ -8,7 +8,7 @@
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use spmcal::calib::{Calibration, CalibrationReport, Kind, MarkerFitReport};
-use spmcal::model::CameraTerm;
+use spmcal::model::{CameraTerm, RigTerm};
 
 /// One parameter as the report shows it.
 pub(crate) struct Row {
@@ -20,13 +20,26 @@ pub(crate) struct Row {
     status: String,
 }
 
-/// The unit of a parameter vector entry (the covariance's).
+/// The unit of a parameter vector entry (the covariance's). Every kind by name, so that a new
+/// kind is a compile error here rather than a silent `rad`.
 pub(crate) fn internal_unit(kind: Kind) -> &'static str {
     match kind {
+        Kind::ActuatedTilt { .. }
+        | Kind::Alpha1 { .. }
+        | Kind::Alpha2 { .. }
+        | Kind::Offset { .. }
+        | Kind::PlatformTilt { .. }
+        | Kind::Camera { .. }
+        | Kind::Reference { .. } => "rad",
         Kind::Translation { .. } | Kind::Marker { .. } => "m",
         Kind::Latency => "s",
         Kind::CameraTerm { .. } => "",
-        _ => "rad",
+        Kind::Rig { term } => match term {
+            RigTerm::Intrinsic { .. } => "px",
+            RigTerm::Distortion { .. } => "",
+            RigTerm::Rotation { .. } => "rad",
+            RigTerm::Translation { .. } => "m",
+        },
     }
 }
 
