@@ -89,10 +89,10 @@ fn session_yaml() -> String {
 /// cameras, except — when `one_camera` — by cam0 alone.
 fn rows(rig: &Rig, at: &str, i: usize, one_camera: bool) -> String {
     let mut out = String::new();
-    for k in 0..4 {
+    for (k, name) in MARKERS.iter().enumerate() {
         for c in 0..if one_camera { 1 } else { 2 } {
             let p = pixel(rig, c, &point(i, k));
-            out += &format!("{at},{},cam{c},{:?},{:?}\n", MARKERS[k], p.x, p.y);
+            out += &format!("{at},{name},cam{c},{:?},{:?}\n", p.x, p.y);
         }
     }
     out
@@ -318,8 +318,11 @@ fn a_camchain_written_by_spmcal_reads_back_identically() {
     assert_eq!(text(3), text(2));
 }
 
+/// A camera's pose relative to the one before it: rotation vector (rad) and translation (m).
+type Pose = (Vector3<f64>, Vector3<f64>);
+
 /// The numbers `make_camchain.py` wrote, as Rust reads the same decimal text.
-fn pyyaml_rig() -> [(Lens, Option<(Vector3<f64>, Vector3<f64>)>); 3] {
+fn pyyaml_rig() -> [(Lens, Option<Pose>); 3] {
     let radtan = DistortionModel::Radtan;
     let lens = |intrinsics, distortion_model, distortion| Lens {
         intrinsics,

@@ -177,7 +177,8 @@ impl Session {
 
     /// The session with the captures of each station merged into one pose, as the per-pose
     /// estimator needs (one marker at a time gives no pose with three): the station's first
-    /// capture's id, reading and time, and every marker it saw (the first sighting of each).
+    /// capture's id, reading and time, and every marker it saw (the first sighting of each, with
+    /// that sighting's pixels).
     /// Poses without a station stay as they are. The motion between captures is then blamed on
     /// the mechanism — the reason the marker-level fit uses every capture's own reading.
     pub fn by_station(&self) -> Session {

@@ -270,7 +270,7 @@ impl File<'_> {
             );
             return Err(self.error(&at("camera_model"), reason));
         }
-        let intrinsics = self.numbers::<4>(m, name, "intrinsics", "[fu, fv, pu, pv] (px)")?;
+        let intrinsics = self.numbers::<4>(m, name, "intrinsics", "[fu, fv, pu, pv] in pixels")?;
         if let Some(i) = (0..2).find(|&i| intrinsics[i] <= 0.0) {
             let reason = format!("`{name}`: focal length {} = {} px must be positive", ["fu", "fv"][i], intrinsics[i]);
             return Err(self.error(&format!("{}[{i}]", at("intrinsics")), reason));
@@ -362,7 +362,7 @@ impl File<'_> {
     fn resolution(&self, m: &Mapping, name: &str) -> Result<[u32; 2], FileError> {
         let key = "resolution";
         let at = format!("{name}.{key}");
-        let value = self.get(m, name, key, "[width, height] (px)")?;
+        let value = self.get(m, name, key, "[width, height] in pixels")?;
         let items = match value {
             Value::Sequence(items) if items.len() == 2 => items,
             _ => return Err(self.error(&at, format!("`{at}` must be [width, height]: two positive integers (px)"))),
@@ -421,7 +421,7 @@ impl File<'_> {
         }
         if departure > ROTATION_TOLERANCE || (det - 1.0).abs() > ROTATION_TOLERANCE {
             return Err(not_a_rotation(format!(
-                "RᵀR departs from the identity by {departure:.2e} and det R is {det:.9} (a rotation's depart by at most {ROTATION_TOLERANCE:e})"
+                "RᵀR departs from the identity by {departure:.2e} and det R is {det:.9} (at most {ROTATION_TOLERANCE:e} for a rotation)"
             )));
         }
         canonical_rotation(r).ok_or_else(|| not_a_rotation("it has no nearest rotation".into()))
