@@ -33,6 +33,7 @@ mod pipeline;
 pub(crate) mod registration;
 mod report;
 mod residuals;
+mod rig_terms;
 mod sensitivity;
 #[cfg(test)]
 mod tests;
@@ -64,6 +65,7 @@ pub use report::{
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;
+pub use rig_terms::RigTermGroup;
 pub use uncertainty::{Correlation, ParameterReport, PredictedError, RegionError};
 pub(crate) use uncertainty::{common_rotations, predicted_orientation_error};
 pub use validation::CrossValidation;

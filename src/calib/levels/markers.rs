@@ -76,11 +76,15 @@ impl<'s> MarkerLevel<'s> {
             })
             .collect();
         let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
-        let registration = registration::from_markers(&observations, &nominal_r, &markers0)
-            .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
-        let camera_model = config.camera_model;
+        let registration = match session.rig.as_deref() {
+            Some(rig) => registration::from_pixels(&observations, &nominal_r, &markers0, rig),
+            None => registration::from_markers(&observations, &nominal_r, &markers0),
+        }
+        .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
+        // Pixels are seen through the rig, which is refined instead of a camera model.
+        let camera_model = if session.rig.is_some() { CameraModelKind::Rigid } else { config.camera_model };
         let carried = match camera_model {
-            CameraModelKind::Rigid => CameraModelKind::DepthScale,
+            CameraModelKind::Rigid if session.rig.is_none() => CameraModelKind::DepthScale,
             kind => kind,
         };
         let p = Parameterisation::for_markers(
@@ -91,6 +95,10 @@ impl<'s> MarkerLevel<'s> {
             config.camera_terms.model(carried),
             &config.bounds,
         );
+        let p = match &session.rig {
+            Some(rig) => p.with_rig(rig.clone(), &config.rig_terms),
+            None => p,
+        };
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
         let streams = session.streams.as_deref();
         let p = match streams {
