@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 use super::joints::{JointReading, StationSpans, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
-pub(crate) use super::pixels::SeenPixel;
+use super::pixels::SeenPixel;
 use super::pixels::{
     PixelRow, check_rows, pose_pixels_csv, read_pose_pixels, timed_pixels_csv, triangulate, unmet_message,
 };
