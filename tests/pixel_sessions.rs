@@ -9,6 +9,9 @@
 
 use std::path::Path;
 
+#[path = "common/outside_tool.rs"]
+mod outside_tool;
+
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector2, Vector3};
 use spmcal::dataset::Session;
 use spmcal::model::{DistortionModel, Lens, Rig, RigCamera};
@@ -552,4 +555,63 @@ fn a_simulated_pixel_session_written_to_files_calibrates_as_in_memory() {
 
 fn session_pixel(rig: &Rig, camera: usize, y: &Vector3<f64>) -> spmcal::dataset::SeenPixel {
     spmcal::dataset::SeenPixel { marker: 0, camera, pixel: pixel(rig, camera, y), line: 0 }
+}
+
+/// Kalibr reads camchains with PyYAML (YAML 1.1), to which `1e-7` is a string: every number of a
+/// camchain spmcal writes must be, to PyYAML, a float (an integer for the resolution) of the very
+/// value spmcal wrote — the value spmcal reads back (its text is the shortest that reads back).
+#[test]
+fn pyyaml_reads_every_number_of_a_camchain_spmcal_writes_as_spmcal_does() {
+    let mut rig = rig();
+    rig.cameras[0].lens.distortion = [-0.12, 1e-7, 7.3e-7, -2.5e-12];
+    rig.cameras[1].lens.intrinsics = [1e3, 901.0, 636.4, 402.1];
+    let dir = write_folder(&static_files(&rig));
+    let (mut session, _) = Session::load(dir.path(), None).unwrap();
+    session.rig = Some(std::sync::Arc::new(rig));
+    let out = tempfile::tempdir().unwrap();
+    session.write(out.path()).unwrap();
+    let script = format!(
+        r#"
+import yaml
+chain = yaml.safe_load(open({:?}))
+for name in sorted(chain, key=lambda n: int(n[3:])):
+    cam = chain[name]
+    rows = [cam["intrinsics"], cam["distortion_coeffs"]] + cam.get("T_cn_cnm1", [])
+    print(" ".join(type(x).__name__ + ":" + repr(x) for row in rows for x in row))
+    print(" ".join(type(x).__name__ + ":" + repr(x) for x in cam["resolution"]))
+"#,
+        out.path().join("cameras.yaml").display().to_string()
+    );
+    let output = match std::process::Command::new("python3").arg("-c").arg(&script).output() {
+        Ok(o) if String::from_utf8_lossy(&o.stderr).contains("No module named 'yaml'") => {
+            return outside_tool::missing("Python's PyYAML", "pip install pyyaml");
+        }
+        Ok(o) => o,
+        Err(_) => return outside_tool::missing("python3", "install Python 3 with pip install pyyaml"),
+    };
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let text = String::from_utf8(output.stdout).unwrap();
+    let mut lines = text.lines();
+    for camera in &session.rig.as_deref().unwrap().cameras {
+        let m = camera.from_previous.to_homogeneous();
+        let mut numbers: Vec<f64> = camera.lens.intrinsics.iter().chain(&camera.lens.distortion).copied().collect();
+        if camera.name != "cam0" {
+            numbers.extend((0..4).flat_map(|r| (0..4).map(move |c| m[(r, c)])));
+        }
+        let floats: Vec<f64> = lines
+            .next()
+            .unwrap()
+            .split(' ')
+            .map(|f| {
+                f.strip_prefix("float:").unwrap_or_else(|| panic!("{}: `{f}` is not a float to PyYAML", camera.name))
+            })
+            .map(|f| f.parse().unwrap())
+            .collect();
+        assert_eq!(
+            floats.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            numbers.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
+        let resolution = camera.lens.resolution.map(|n| format!("int:{n}")).join(" ");
+        assert_eq!(lines.next(), Some(resolution.as_str()));
+    }
 }
