@@ -11,6 +11,6 @@ mod streams;
 pub use joints::JointReading;
 pub use orientations::OrientationRecord;
 pub(crate) use session::MIN_MARKERS;
-pub use session::{Session, SessionPose, Truth, Warning};
+pub use session::{SeenPixel, Session, SessionPose, Truth, Warning};
 pub use streams::Streams;
 pub(crate) use streams::{Capture, EncoderSample};

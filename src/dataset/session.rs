@@ -83,6 +83,9 @@ pub struct Truth {
     pub parameters: Parameters,
     /// True MP orientation of each pose (P → B).
     pub orientations: BTreeMap<u64, Rotation3<f64>>,
+    /// The true rig of a session seen through its pixels (`truth_cameras.yaml`), where the
+    /// session's own (`cameras.yaml`) is what its calibration file states.
+    pub rig: Option<crate::model::Rig>,
 }
 
 /// A joint-plus-vision session.
@@ -185,6 +188,7 @@ impl Session {
         let truth = self.truth.as_ref().map(|t| Truth {
             parameters: t.parameters.clone(),
             orientations: poses.iter().filter_map(|p| t.orientations.get(&p.id).map(|r| (p.id, *r))).collect(),
+            rig: t.rig.clone(),
         });
         Session { poses, reference_pose, truth, ..self.clone() }
     }
@@ -724,5 +728,5 @@ fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
     } else {
         BTreeMap::new()
     };
-    Ok(Some(Truth { parameters, orientations }))
+    Ok(Some(Truth { parameters, orientations, rig: None }))
 }

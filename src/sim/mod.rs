@@ -3,9 +3,11 @@
 
 mod camera;
 mod config;
+mod rig;
 mod scene;
 mod simulator;
 
+pub use rig::{Miscalibration, RigCameraSettings, RigSettings};
 pub use config::{Camera, CaptureSettings, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
 pub(crate) use config::{PlanRow, PlanSource};
 pub(crate) use simulator::Candidate;
