@@ -94,7 +94,12 @@ fn the_pixels_are_the_true_rigs_images_of_the_true_markers_within_the_noise() {
     let n = 2.0 * count as f64;
     let (lo, hi) = z_scores::mean_square_band(n);
     let rms = (square / n).sqrt();
-    println!("{count} pixels: whitened RMS {rms:.4} (band {:.4}–{:.4}), mean {:?}", lo.sqrt(), hi.sqrt(), sum / count as f64);
+    println!(
+        "{count} pixels: whitened RMS {rms:.4} (band {:.4}–{:.4}), mean {:?}",
+        lo.sqrt(),
+        hi.sqrt(),
+        sum / count as f64
+    );
     assert!((lo.sqrt()..=hi.sqrt()).contains(&rms), "whitened RMS {rms}");
     assert!((sum / count as f64).amax() < 3.29 / (count as f64).sqrt());
 }

@@ -7,8 +7,8 @@ mod rig;
 mod scene;
 mod simulator;
 
-pub use rig::{Miscalibration, RigCameraSettings, RigSettings};
 pub use config::{Camera, CaptureSettings, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
 pub(crate) use config::{PlanRow, PlanSource};
+pub use rig::{Miscalibration, RigCameraSettings, RigSettings};
 pub(crate) use simulator::Candidate;
 pub use simulator::{SimError, SimSummary};

@@ -190,7 +190,11 @@ impl RigSettings {
             if c == 0 {
                 continue;
             }
-            let turn = if c == 1 { so3::exp(&Vector3::from(m.rotation_deg).map(f64::to_radians)) } else { Rotation3::identity() };
+            let turn = if c == 1 {
+                so3::exp(&Vector3::from(m.rotation_deg).map(f64::to_radians))
+            } else {
+                Rotation3::identity()
+            };
             let rotation = turn * camera.from_previous.rotation.to_rotation_matrix();
             // The centre in the previous camera's frame, `c = −Rᵀ t`, scaled.
             let centre = -(camera.from_previous.rotation.inverse() * camera.from_previous.translation.vector);
@@ -226,11 +230,15 @@ impl RigCameraSettings {
     fn check(&self, c: usize) -> Result<(), Problem> {
         let [fu, fv, pu, pv] = self.intrinsics;
         if !(fu.is_finite() && fv.is_finite() && fu > 0.0 && fv > 0.0 && pu.is_finite() && pv.is_finite()) {
-            let reason = format!("`intrinsics` [fu, fv, pu, pv] must be finite with positive focal lengths (got {:?})", self.intrinsics);
+            let reason = format!(
+                "`intrinsics` [fu, fv, pu, pv] must be finite with positive focal lengths (got {:?})",
+                self.intrinsics
+            );
             return Err(("intrinsics".into(), reason));
         }
         if distortion_model(&self.distortion_model).is_none() {
-            let reason = format!("`distortion_model` must be `radtan` or `equidistant` (got `{}`)", self.distortion_model);
+            let reason =
+                format!("`distortion_model` must be `radtan` or `equidistant` (got `{}`)", self.distortion_model);
             return Err(("distortion_model".into(), reason));
         }
         if let Some(k) = self.distortion_coeffs.iter().find(|k| !(k.is_finite() && k.abs() <= 1.0)) {
@@ -240,7 +248,10 @@ impl RigCameraSettings {
             return Err(("resolution".into(), "`resolution` [width, height] must be at least one pixel each".into()));
         }
         if let Some(s) = self.pixel_sigma_px.filter(|s| !(s.is_finite() && *s >= 0.0)) {
-            return Err(("pixel_sigma_px".into(), format!("`pixel_sigma_px` must be a finite, non-negative number (got {s})")));
+            return Err((
+                "pixel_sigma_px".into(),
+                format!("`pixel_sigma_px` must be a finite, non-negative number (got {s})"),
+            ));
         }
         let turned = self.toe_in_deg != 0.0 || self.rotation_deg != [0.0; 3];
         if c == 0 && (self.baseline_m != 0.0 || turned) {
@@ -248,7 +259,10 @@ impl RigCameraSettings {
             return Err(("baseline_m".into(), reason.into()));
         }
         if c > 0 && !(self.baseline_m.is_finite() && self.baseline_m > 0.0 && self.baseline_m <= 10.0) {
-            let reason = format!("`baseline_m` (its centre's distance to the previous camera's, along its x axis) must lie in (0, 10] m (got {})", self.baseline_m);
+            let reason = format!(
+                "`baseline_m` (its centre's distance to the previous camera's, along its x axis) must lie in (0, 10] m (got {})",
+                self.baseline_m
+            );
             return Err(("baseline_m".into(), reason));
         }
         let angle = Vector3::from(self.rotation_deg).norm();
@@ -256,7 +270,10 @@ impl RigCameraSettings {
             return Err(("toe_in_deg".into(), format!("`toe_in_deg` must lie within ±45° (got {})", self.toe_in_deg)));
         }
         if !(angle.is_finite() && angle < 45.0) {
-            return Err(("rotation_deg".into(), format!("`rotation_deg` must turn the camera less than 45° (got {angle}°)")));
+            return Err((
+                "rotation_deg".into(),
+                format!("`rotation_deg` must turn the camera less than 45° (got {angle}°)"),
+            ));
         }
         Ok(())
     }
@@ -270,7 +287,9 @@ impl Miscalibration {
             let reason = format!("`baseline_scale` must lie in [0.5, 2] (got {})", self.baseline_scale);
             return Err(problem(key("baseline_scale"), reason));
         }
-        for (name, len) in [("focal_scale", self.focal_scale.len()), ("principal_point_px", self.principal_point_px.len())] {
+        for (name, len) in
+            [("focal_scale", self.focal_scale.len()), ("principal_point_px", self.principal_point_px.len())]
+        {
             if len > n {
                 let reason = format!("`{name}` lists {len} cameras, the rig has {n}");
                 return Err(problem(key(name), reason));
@@ -290,7 +309,10 @@ impl Miscalibration {
         }
         let angle = Vector3::from(self.rotation_deg).norm();
         if !(angle.is_finite() && angle < 45.0) {
-            return Err(problem(key("rotation_deg"), format!("`rotation_deg` must turn cam1 less than 45° (got {angle}°)")));
+            return Err(problem(
+                key("rotation_deg"),
+                format!("`rotation_deg` must turn cam1 less than 45° (got {angle}°)"),
+            ));
         }
         if n < 2 && angle > 0.0 {
             return Err(problem(key("rotation_deg"), "`rotation_deg` turns cam1, and the rig has one camera"));
@@ -305,7 +327,8 @@ impl Miscalibration {
 /// is two directions, or none).
 fn folds(lens: &Lens) -> Option<String> {
     let [w, h] = lens.resolution.map(|r| f64::from(r) - 0.5);
-    let border = [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h), (w / 2.0, -0.5), (w / 2.0, h), (-0.5, h / 2.0), (w, h / 2.0)];
+    let border =
+        [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h), (w / 2.0, -0.5), (w / 2.0, h), (-0.5, h / 2.0), (w, h / 2.0)];
     const STEPS: u32 = 64;
     for (u, v) in border {
         let folded = lens.unproject(&Vector2::new(u, v)).is_none_or(|xy| {

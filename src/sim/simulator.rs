@@ -11,8 +11,8 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use super::camera::lenses;
-use super::rig::{PixelCameras, Sighting};
 use super::config::{Recording, SimConfig, Trajectory, Workspace};
+use super::rig::{PixelCameras, Sighting};
 use super::scene::CollisionScene;
 use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, SeenPixel, Session, SessionPose, Streams, Truth};
 use crate::math::so3;
