@@ -269,8 +269,8 @@ fn the_files_points_are_wrong_as_the_geometry_of_its_miscalibration_says() {
     assert!((ratio / geometry - 1.0).abs() < 0.1, "m4/m1 depth errors {ratio}, distances² {geometry}");
 }
 
-#[test]
-fn a_one_camera_rig_gives_pixels_and_no_points() {
+/// The stereo config's 30 first poses through its cam0 alone.
+fn one_camera() -> SimConfig {
     let mut config = stereo();
     config.poses = 30;
     let rig = config.camera.rig.as_mut().unwrap();
@@ -279,12 +279,34 @@ fn a_one_camera_rig_gives_pixels_and_no_points() {
     rig.miscalibration.principal_point_px.truncate(1);
     rig.miscalibration.rotation_deg = [0.0; 3];
     config.check().unwrap();
-    let (session, summary) = simulate(&config);
+    config
+}
+
+#[test]
+fn a_one_camera_rig_gives_pixels_and_no_points() {
+    let (session, summary) = simulate(&one_camera());
     assert_eq!(session.rig.as_ref().unwrap().cameras.len(), 1);
     assert!(session.poses.iter().all(|p| p.seen() == 0 && !p.pixels.is_empty()));
     assert!(session.poses.iter().flat_map(|p| &p.pixels).all(|p| p.camera == 0));
     assert_eq!(summary.markers_seen, 0);
     assert_eq!(summary.pixels_seen, session.poses.iter().map(|p| p.pixels.len()).sum::<usize>());
+}
+
+#[test]
+fn a_pixel_outside_its_image_is_lost() {
+    // One camera with a 160 × 160 image, ±0.09 rad: the platform's markers (0.075 m out, 0.74 m
+    // away) fall near its edge and often outside; every pixel kept lies inside.
+    let mut config = one_camera();
+    let camera = &mut config.camera.rig.as_mut().unwrap().cameras[0];
+    camera.resolution = [160, 160];
+    camera.intrinsics[2] = 79.5;
+    camera.intrinsics[3] = 79.5;
+    let (session, summary) = simulate(&config);
+    assert!(summary.pixels_outside_image > 30, "{summary:?}");
+    for seen in session.poses.iter().flat_map(|p| &p.pixels) {
+        assert!(seen.pixel.iter().all(|x| (-0.5..=159.5).contains(x)), "{seen:?}");
+    }
+    assert_eq!(summary.pixels_seen + summary.pixels_outside_image + summary.markers_occluded, 30 * 4);
 }
 
 #[test]
