@@ -5,6 +5,7 @@ mod joints;
 mod markers;
 mod open;
 mod orientations;
+mod pixels;
 mod session;
 mod streams;
 

@@ -686,7 +686,8 @@ impl Simulator<'_> {
         captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
         self.summary.poses = frames;
         self.summary.poses_with_too_few_markers = 0;
-        let streams = Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures };
+        let streams =
+            Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures, pixels: Vec::new() };
         let session = Session {
             rig: None,
             name: self.config.name.clone(),
