@@ -11,7 +11,8 @@ mod streams;
 
 pub use joints::JointReading;
 pub use orientations::OrientationRecord;
+pub(crate) use pixels::{PixelRow, SeenPixel, triangulate};
 pub(crate) use session::MIN_MARKERS;
-pub use session::{SeenPixel, Session, SessionPose, Truth, Warning};
+pub use session::{Session, SessionPose, Truth, Warning};
 pub use streams::Streams;
 pub(crate) use streams::{Capture, EncoderSample};

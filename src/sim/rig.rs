@@ -14,6 +14,7 @@ use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
 use crate::math::so3;
+use crate::model::camchain::as_written;
 use crate::model::{DistortionModel, Lens, Rig, RigCamera};
 
 /// The most cameras a simulated rig may have.
@@ -207,7 +208,8 @@ impl RigSettings {
 /// The isometry `y ↦ R (y − c)`: a camera turned `R` with its centre at `c`.
 fn pose(rotation: Rotation3<f64>, centre: &Vector3<f64>) -> Isometry3<f64> {
     let rotation = UnitQuaternion::from_rotation_matrix(&rotation);
-    Isometry3::from_parts(Translation3::from(-(rotation * centre)), rotation)
+    // (+ 0 makes a −0 of a zero coordinate 0, as a file should read.)
+    Isometry3::from_parts(Translation3::from(-(rotation * centre) + Vector3::zeros()), rotation)
 }
 
 impl RigCameraSettings {
@@ -376,9 +378,11 @@ pub(crate) enum Sighting {
 impl PixelCameras {
     /// The cameras of `settings` (checked), drawing outliers with probability `outlier_probability`.
     pub(crate) fn new(settings: &RigSettings, outlier_probability: f64) -> Self {
+        // As their files will hold them (each rotation in its canonical form): a session read
+        // back from its folder is then the session simulated, bit for bit.
         PixelCameras {
-            truth: settings.true_rig(),
-            file: settings.file_rig(),
+            truth: as_written(&settings.true_rig()),
+            file: as_written(&settings.file_rig()),
             sigma: settings.cameras.iter().map(|c| c.pixel_sigma_px.unwrap_or(settings.pixel_sigma_px)).collect(),
             outlier_probability,
             outlier_sigma: settings.outlier_sigma_px,

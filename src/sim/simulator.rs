@@ -14,7 +14,9 @@ use super::camera::lenses;
 use super::config::{Recording, SimConfig, Trajectory, Workspace};
 use super::rig::{PixelCameras, Sighting};
 use super::scene::CollisionScene;
-use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, SeenPixel, Session, SessionPose, Streams, Truth};
+use crate::dataset::{
+    Capture, EncoderSample, MIN_MARKERS, PixelRow, SeenPixel, Session, SessionPose, Streams, Truth, triangulate,
+};
 use crate::math::so3;
 use crate::model::{
     Body, CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
@@ -47,16 +49,9 @@ pub struct SimSummary {
     pub poses_with_too_few_markers: usize,
     /// Pixels written (a rig's cameras; with a rig, `markers_seen` counts the points its file
     /// triangulates, `markers_occluded` a marker hidden from one camera, `outliers` pixels).
-    #[serde(skip_serializing_if = "is_zero")]
     pub pixels_seen: usize,
     /// Pixels lost behind a camera or outside its image.
-    #[serde(skip_serializing_if = "is_zero")]
     pub pixels_outside_image: usize,
-}
-
-/// Whether a count is zero (a count of pixels, left out of a summary of points).
-fn is_zero(n: &usize) -> bool {
-    *n == 0
 }
 
 impl std::fmt::Display for SimSummary {
@@ -668,7 +663,7 @@ impl Simulator<'_> {
         let jitter = Normal::new(0.0, r.jitter_s).expect("validated deviation");
         let frames = (r.duration_s * r.camera_rate_hz).floor() as usize;
         let m = self.markers.len();
-        let mut captures = Vec::new();
+        let (mut captures, mut pixels) = (Vec::new(), Vec::new());
         for f in 0..frames {
             let t = (f as f64 + 0.5) / r.camera_rate_hz;
             let rot = at(scale, t);
@@ -681,15 +676,23 @@ impl Simulator<'_> {
                     captures.push(Capture { time_s: stamp, marker, position: *position, line: 0 });
                 }
             }
+            pixels.extend(pose.pixels.into_iter().map(|seen| PixelRow { at: stamp, seen }));
             progress(f + 1);
         }
         captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        pixels.sort_by(|a, b| a.at.total_cmp(&b.at));
         self.summary.poses = frames;
         self.summary.poses_with_too_few_markers = 0;
-        let streams =
-            Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures, pixels: Vec::new() };
+        let streams = match &self.pixels {
+            // The captures are the points the file's rig triangulates from each frame's pixels, as
+            // the recording's reader makes them.
+            Some(cameras) => {
+                Streams::of_pixels(std::path::PathBuf::from("pixels.csv"), encoders, pixels, &cameras.file).0
+            }
+            None => Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures, pixels },
+        };
         let session = Session {
-            rig: None,
+            rig: self.file_rig(),
             name: self.config.name.clone(),
             description: Some(self.config.description.clone().unwrap_or_else(|| {
                 format!(
@@ -859,7 +862,6 @@ impl Simulator<'_> {
         for &k in which {
             let point = r * self.markers[k];
             let in_c = camera.to_camera(&point);
-            let first = seen.len();
             for (c, l) in lens.iter().enumerate() {
                 if scene.occluder(&rotations, &point, l, radius).is_some() {
                     summary.markers_occluded += 1;
@@ -874,11 +876,11 @@ impl Simulator<'_> {
                     Sighting::Lost => summary.pixels_outside_image += 1,
                 }
             }
-            let rays: Vec<_> = seen[first..].iter().map(|p| (p.camera, p.pixel)).collect();
-            if rays.len() >= 2 {
-                markers[k] = cameras.file.triangulate(&rays);
-                summary.markers_seen += usize::from(markers[k].is_some());
-            }
+        }
+        // As the session's reader will: the same function, the same pixels, the same rig.
+        for (k, point, _) in triangulate(&cameras.file, &seen).points {
+            markers[k] = Some(point);
+            summary.markers_seen += 1;
         }
         (markers, seen)
     }
