@@ -203,6 +203,14 @@ fn the_files_read_back_as_simulated_and_differ_from_the_truth_by_exactly_the_mis
     // The file's cam1 is turned about its own centre: the centres differ by the baseline's scale.
     let centre = |rig: &Rig| rig.from_cam0(1).inverse().translation.vector;
     assert!((centre(file) - centre(truth) * m.baseline_scale).amax() < 1e-12);
+    // A session of points written over it leaves no pixels, rig or true rig behind.
+    let mut points = stereo();
+    (points.camera.rig, points.poses) = (None, 10);
+    simulate(&points).0.write(dir.path()).unwrap();
+    for file in ["pixels.csv", "cameras.yaml", "truth_cameras.yaml"] {
+        assert!(!dir.path().join(file).exists(), "{file} left behind");
+    }
+    assert!(Session::load(dir.path(), None).unwrap().0.truth.unwrap().rig.is_none());
 }
 
 /// The point the file's rig triangulates from `y`'s noise-free pixels, to first order in its
@@ -413,6 +421,15 @@ fn a_config_without_a_rig_makes_what_it_made_before() {
     }
     // The summary a person reads of a session of points says nothing of pixels.
     assert!(!summary.to_string().contains("pixel"));
+    // And the shipped free-motion recording from its own.
+    let config = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    simulate(&config).0.write(dir.path()).unwrap();
+    for file in ["encoders.csv", "captures.csv", "truth.yaml"] {
+        let made = std::fs::read(dir.path().join(file)).unwrap();
+        let shipped = std::fs::read(Path::new("datasets/agile_wrist_free_motion_120s").join(file)).unwrap();
+        assert!(made == shipped, "{file} differs from the shipped recording");
+    }
 }
 
 #[test]

@@ -154,7 +154,9 @@ pub struct Workspace {
     pub min_branch_margin: f64,
 }
 
-/// A Bumblebee-like stereo camera above the MP, looking down.
+/// A Bumblebee-like stereo camera above the MP, looking down: a camera of points with stereo
+/// noise, or with a `rig` section a rig of cameras seen through their pixels (the section's keys
+/// in `configs/simulate_agile_wrist_stereo.yaml`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Camera {
@@ -186,8 +188,14 @@ pub struct Camera {
     pub shear_yz: f64,
     /// A rig of cameras seen through their pixels instead of a camera of points (`camera.rig`);
     /// none by default.
+    #[cfg(feature = "internals")]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rig: Option<RigSettings>,
+    /// A rig of cameras seen through their pixels instead of a camera of points (`camera.rig`,
+    /// see `configs/simulate_agile_wrist_stereo.yaml`); none by default.
+    #[cfg(not(feature = "internals"))]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) rig: Option<RigSettings>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
