@@ -11,6 +11,7 @@ mod streams;
 
 pub use joints::JointReading;
 pub use orientations::OrientationRecord;
+pub(crate) use pixels::{PixelRow, triangulate};
 pub use pixels::SeenPixel;
 pub(crate) use session::MIN_MARKERS;
 pub use session::{Session, SessionPose, Truth, Warning};

@@ -1,8 +1,9 @@
 //! A session folder: `session.yaml`, `joints.csv`, `markers.csv` (a free-motion recording has
 //! `encoders.csv` and `captures.csv` instead of the two CSV files; a session seen through its
 //! cameras' pixels has `pixels.csv` and `cameras.yaml` instead of `markers.csv` or `captures.csv`),
-//! and for simulated sessions `truth.yaml` (the true parameters) and `truth_orientations.csv` (the
-//! true MP orientations).
+//! and for simulated sessions `truth.yaml` (the true parameters), `truth_orientations.csv` (the
+//! true MP orientations) and, seen through pixels, `truth_cameras.yaml` (the true rig, in the
+//! format of `cameras.yaml`).
 //!
 //! What is an error (loading stops, naming file, line and column): malformed YAML or CSV, an
 //! unknown key in `session.yaml`, fewer than 3 or repeated marker names, no model, non-numbers
@@ -84,6 +85,9 @@ pub struct Truth {
     pub parameters: Parameters,
     /// True MP orientation of each pose (P → B).
     pub orientations: BTreeMap<u64, Rotation3<f64>>,
+    /// The true rig of a session seen through its pixels (`truth_cameras.yaml`), where the
+    /// session's own (`cameras.yaml`) is what its calibration file states.
+    pub rig: Option<crate::model::Rig>,
 }
 
 /// A joint-plus-vision session.
@@ -208,6 +212,7 @@ impl Session {
         let truth = self.truth.as_ref().map(|t| Truth {
             parameters: t.parameters.clone(),
             orientations: poses.iter().filter_map(|p| t.orientations.get(&p.id).map(|r| (p.id, *r))).collect(),
+            rig: t.rig.clone(),
         });
         Session { poses, reference_pose, truth, ..self.clone() }
     }
@@ -486,6 +491,10 @@ impl Session {
             check_stations(&self.poses, &dir.join("joints.csv"))?;
         }
         self.check_pixels(dir)?;
+        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig.as_ref()) {
+            let path = dir.join("truth_cameras.yaml");
+            check_writable(rig).map_err(|r| FileError::new(&path, format!("{r}; not written")))?;
+        }
         std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;
         let mut written = vec!["session.yaml"];
         if let Some(streams) = &self.streams {
@@ -509,6 +518,10 @@ impl Session {
         if let Some(truth) = &self.truth {
             truth.parameters.write(&dir.join("truth.yaml"))?;
             written.push("truth.yaml");
+            if let Some(rig) = &truth.rig {
+                write_camchain(&dir.join("truth_cameras.yaml"), rig)?;
+                written.push("truth_cameras.yaml");
+            }
             if self.streams.is_none() {
                 let records: Vec<_> = truth
                     .orientations
@@ -763,8 +776,8 @@ fn check_station_markers(
 /// points, a session without a truth over one with), so that the folder holds one session, not
 /// two that disagree.
 fn remove_stale(dir: &Path, written: &[&str]) -> Result<(), FileError> {
-    let files = [STATIC_FILES, RECORDING_FILES, PIXEL_FILES, TRUTH_FILES];
-    for name in files.iter().flatten().filter(|f| !written.contains(f)) {
+    let files: [&[&str]; 4] = [&STATIC_FILES, &RECORDING_FILES, &PIXEL_FILES, &TRUTH_FILES];
+    for name in files.iter().copied().flatten().filter(|f| !written.contains(f)) {
         let path = dir.join(name);
         match std::fs::remove_file(&path) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
@@ -827,7 +840,7 @@ struct Layout {
 const STATIC_FILES: [&str; 2] = ["joints.csv", "markers.csv"];
 const RECORDING_FILES: [&str; 2] = ["encoders.csv", "captures.csv"];
 const PIXEL_FILES: [&str; 2] = ["pixels.csv", "cameras.yaml"];
-const TRUTH_FILES: [&str; 2] = ["truth.yaml", "truth_orientations.csv"];
+const TRUTH_FILES: [&str; 3] = ["truth.yaml", "truth_orientations.csv", "truth_cameras.yaml"];
 
 /// Which kind of session `dir` holds, of points or of pixels. A folder with files of both kinds,
 /// or with both points and pixels, is an error naming them (which is meant cannot be told); so
@@ -997,5 +1010,8 @@ fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
     } else {
         BTreeMap::new()
     };
-    Ok(Some(Truth { parameters, orientations }))
+    // The true rig of a session seen through its pixels, in the camchain format of `cameras.yaml`.
+    let rig_path = dir.join("truth_cameras.yaml");
+    let rig = if rig_path.exists() { Some(read_camchain(&rig_path)?) } else { None };
+    Ok(Some(Truth { parameters, orientations, rig }))
 }
