@@ -58,7 +58,7 @@ const KEYS: [&str; 6] =
 
 /// How far `T_cn_cnm1`'s rotation may depart from a rotation (`RᵀR` from the identity, `det R`
 /// from 1) and its last row from `0 0 0 1`: a matrix written to full precision departs by about
-/// 1e-15; one written with six decimals by up to about 1e-6.
+/// 1e-15, one written with seven decimals by up to about 2e-7 (six: 2e-6).
 pub(crate) const ROTATION_TOLERANCE: f64 = 1e-6;
 
 /// Shortest first baseline accepted (m): two cameras at one place see no depth, and the first
@@ -633,6 +633,14 @@ mod tests {
         let (at, message) = error("cam0:\n  camera_model: pinhole\n  intrinsics: [1.0, .nan, 2, 3]\n");
         assert_eq!(at, Some(3));
         assert!(message.contains("`cam0.intrinsics[1]` is `.nan`, not a finite number"), "{message}");
+        // Kalibr's `none` has no coefficients; cam0 is the frame, with no pose of its own.
+        let (at, message) = error(&GOOD.replace("distortion_coeffs: []", "distortion_coeffs: [0.1, 0.0, 0.0, 0.0]"));
+        assert_eq!(at, Some(5));
+        assert!(message.contains("distortion model `none` has no coefficients, but these are not zero"), "{message}");
+        let pose = "  T_cn_cnm1:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n  - [0.0, 0.0, 0.0, 1.0]\n";
+        let (at, message) = error(&GOOD.replacen("cam0:\n", &format!("cam0:\n{pose}"), 1));
+        assert_eq!(at, Some(2));
+        assert!(message.contains("`cam0` has a `T_cn_cnm1`: cam0 is the rig's frame"), "{message}");
         let (at, message) = error("# nothing\n");
         assert_eq!(at, Some(1));
         assert!(message.contains("no cameras"), "{message}");
