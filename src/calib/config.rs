@@ -5,7 +5,6 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::rig_terms::RigTermGroup;
 use crate::io::files::FileError;
 use crate::model::{CameraModel, CameraModelKind, CameraTerm, CameraTerms};
 use crate::vision::Method;
@@ -366,5 +365,44 @@ impl CalibConfig {
             ));
         }
         Ok(())
+    }
+}
+
+/// Which of a rig's terms a calibration refines (`rig_terms` in the config).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RigTermGroup {
+    /// Every camera's `fu`, `fv`.
+    FocalLengths,
+    /// Every camera's `pu`, `pv`.
+    PrincipalPoints,
+    /// Every camera's first radial coefficient `k1`.
+    RadialK1,
+    /// The second radial coefficient `k2`.
+    RadialK2,
+    /// The rest of the distortion coefficients (`r1`, `r2` of radtan; `k3`, `k4` of equidistant).
+    OtherDistortion,
+    /// Every camera's pose relative to cam0 (the first baseline's length held).
+    Extrinsics,
+}
+
+impl RigTermGroup {
+    /// What a calibration refines by default: what a lab's rig calibration typically gets wrong
+    /// and a session identifies (the higher distortion terms trade with the principal points and
+    /// the focal lengths and are left at the file's values unless asked for).
+    pub const DEFAULT: [RigTermGroup; 4] =
+        [RigTermGroup::FocalLengths, RigTermGroup::PrincipalPoints, RigTermGroup::RadialK1, RigTermGroup::Extrinsics];
+
+    pub(crate) fn holds(self, term: crate::model::RigTerm) -> bool {
+        use crate::model::RigTerm;
+        match (self, term) {
+            (RigTermGroup::FocalLengths, RigTerm::Intrinsic { k, .. }) => k < 2,
+            (RigTermGroup::PrincipalPoints, RigTerm::Intrinsic { k, .. }) => k >= 2,
+            (RigTermGroup::RadialK1, RigTerm::Distortion { k, .. }) => k == 0,
+            (RigTermGroup::RadialK2, RigTerm::Distortion { k, .. }) => k == 1,
+            (RigTermGroup::OtherDistortion, RigTerm::Distortion { k, .. }) => k >= 2,
+            (RigTermGroup::Extrinsics, RigTerm::Rotation { .. } | RigTerm::Translation { .. }) => true,
+            _ => false,
+        }
     }
 }

@@ -43,7 +43,7 @@ mod validation;
 pub use agreement::{MarkerErrors, SetError};
 pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_errors};
 pub use calibration::{CalibError, Calibration, Fitted, Solution};
-pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, Unidentifiable};
+pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, RigTermGroup, Unidentifiable};
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
 #[cfg(feature = "internals")]
@@ -65,7 +65,6 @@ pub use report::{
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;
-pub use rig_terms::RigTermGroup;
 pub use uncertainty::{Correlation, ParameterReport, PredictedError, RegionError};
 pub(crate) use uncertainty::{common_rotations, predicted_orientation_error};
 pub use validation::CrossValidation;

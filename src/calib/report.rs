@@ -76,12 +76,16 @@ impl Verdict {
                 pass: cv.clearly_better && cv.calibrated_rms <= threshold,
                 summary: format!(
                     "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
-                     {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({}; threshold {threshold:.3}{unit})",
+                     {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({}{})",
                     cv.folds,
                     cv.observations,
                     cv.calibrated_rms,
                     cv.nominal_rms,
                     if cv.clearly_better { "clearly better" } else { "not clearly better" },
+                    match threshold.is_finite() {
+                        true => format!("; threshold {threshold:.3}{unit}"),
+                        false => String::new(),
+                    }
                 ),
             };
         }
@@ -377,7 +381,13 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         #[serde(skip_serializing_if = "Option::is_none")]
         markers_rms_after_mm: Option<f64>,
         #[serde(skip_serializing_if = "Option::is_none")]
+        reprojection_rms_before_px: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        reprojection_rms_after_px: Option<f64>,
+        #[serde(skip_serializing_if = "Option::is_none")]
         cross_validated_rms_mm: Option<[f64; 2]>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        cross_validated_rms_px: Option<[f64; 2]>,
         #[serde(skip_serializing_if = "Option::is_none")]
         cross_validated_rms_deg: Option<[f64; 2]>,
         verdict: &'a str,
@@ -386,9 +396,16 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         #[serde(skip_serializing_if = "Vec::is_empty")]
         warnings: Vec<&'a str>,
     }
-    let markers = report.markers.as_ref();
-    let cv = |level: FitLevel| {
-        report.cross_validation.as_ref().filter(|cv| cv.level == level).map(|cv| [cv.nominal_rms, cv.calibrated_rms])
+    // A pixel session's marker errors are reprojection errors (px).
+    let pixels = report.unit == "px";
+    let markers = report.markers.as_ref().filter(|_| !pixels);
+    let reprojection = report.markers.as_ref().filter(|_| pixels);
+    let cv = |level: FitLevel, unit: &str| {
+        report
+            .cross_validation
+            .as_ref()
+            .filter(|cv| cv.level == level && cv.unit == unit)
+            .map(|cv| [cv.nominal_rms, cv.calibrated_rms])
     };
     let header = Header {
         session: &report.session,
@@ -412,8 +429,11 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         camera_translation_std_error_m: report.camera_translation_std_error_m,
         markers_rms_before_mm: markers.map(|m| m.before.errors.rms),
         markers_rms_after_mm: markers.map(|m| m.after.errors.rms),
-        cross_validated_rms_mm: cv(FitLevel::Markers),
-        cross_validated_rms_deg: cv(FitLevel::Orientations),
+        reprojection_rms_before_px: reprojection.map(|m| m.before.errors.rms),
+        reprojection_rms_after_px: reprojection.map(|m| m.after.errors.rms),
+        cross_validated_rms_mm: cv(FitLevel::Markers, "mm"),
+        cross_validated_rms_px: cv(FitLevel::Markers, "px"),
+        cross_validated_rms_deg: cv(FitLevel::Orientations, "deg"),
         verdict: report.verdict.label(),
         at_bound: report.at_bound.iter().map(String::as_str).collect(),
         warnings: report.warnings.iter().map(String::as_str).collect(),

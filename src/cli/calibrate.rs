@@ -24,6 +24,10 @@ pub(crate) struct CalibrateArgs {
     /// Also write a report a person can read and share here: one self-contained HTML file.
     #[arg(long)]
     pub(crate) report: Option<PathBuf>,
+    /// A pixel session (pixels.csv + cameras.yaml): also write the camera rig refined with the
+    /// mechanism here, in Kalibr's camchain format (the baseline's length as the file gave it).
+    #[arg(long)]
+    pub(crate) cameras_out: Option<PathBuf>,
     #[command(flatten)]
     pub(crate) session: SessionArgs,
     /// Calibration settings (default: the built-in values, as in configs/calibrate.yaml).
@@ -42,13 +46,21 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     files.output("--out", &args.out);
     files.output_opt("--rrd", args.rrd.as_deref());
     files.output_opt("--report", args.report.as_deref());
+    files.output_opt("--cameras-out", args.cameras_out.as_deref());
     args.session.register(&mut files, true);
     files.input_opt("--config", args.config.as_deref());
     files.check()?;
     let mut outputs = Outputs::new();
     let (params_slot, rrd) = (outputs.reserve(&args.out)?, reserve(&mut outputs, args.rrd.as_deref())?);
     let html = reserve(&mut outputs, args.report.as_deref())?;
+    let cameras = reserve(&mut outputs, args.cameras_out.as_deref())?;
     let (session, warnings) = args.session.load()?;
+    if cameras.is_some() && session.rig.is_none() {
+        anyhow::bail!(
+            "--cameras-out: {} is a session of points, not pixels (pixels.csv + cameras.yaml): it has no camera rig to refine",
+            args.session.dataset.display()
+        );
+    }
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let config = match &args.config {
@@ -96,6 +108,10 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     if let Some(slot) = html {
         let text = calibration.report.to_string();
         outputs.write(slot, calibration.html(&text).as_bytes())?;
+    }
+    let refined = calibration.report.markers.as_ref().and_then(|m| m.rig.as_ref());
+    if let (Some(slot), Some(rig)) = (cameras, refined) {
+        outputs.write(slot, rig.refined.to_camchain().as_bytes())?;
     }
     outputs.commit()?;
     if args.json {

@@ -11,8 +11,8 @@ mod streams;
 
 pub use joints::JointReading;
 pub use orientations::OrientationRecord;
-pub(crate) use pixels::{PixelRow, triangulate};
 pub use pixels::SeenPixel;
+pub(crate) use pixels::{PixelRow, triangulate};
 pub(crate) use session::MIN_MARKERS;
 pub use session::{Session, SessionPose, Truth, Warning};
 pub use streams::Streams;

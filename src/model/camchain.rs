@@ -656,3 +656,11 @@ mod tests {
         assert!(!dir.path().join("cameras.yaml").exists());
     }
 }
+
+impl Rig {
+    /// The rig as a Kalibr camchain (`cameras.yaml`): what `spmcal calibrate --cameras-out`
+    /// writes for a pixel session's refined rig.
+    pub fn to_camchain(&self) -> String {
+        camchain_yaml(self)
+    }
+}

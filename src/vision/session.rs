@@ -67,7 +67,9 @@ impl VisionError {
         let file = match &session.streams {
             Some(streams) => Some(streams.captures_path.clone()),
             None if row.is_some() => {
-                Some(session.folder.as_ref().map_or_else(|| PathBuf::from("markers.csv"), |f| f.join("markers.csv")))
+                // A pixel session's points are triangulated from its pixels.csv rows.
+                let name = if session.rig.is_some() { "pixels.csv" } else { "markers.csv" };
+                Some(session.folder.as_ref().map_or_else(|| PathBuf::from(name), |f| f.join(name)))
             }
             None => None,
         };

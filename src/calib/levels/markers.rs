@@ -198,24 +198,26 @@ impl Level for MarkerLevel<'_> {
             fit: None,
         };
         // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
-        // model with its best-fit registration, the calibrated one with its own.
-        let vision = SessionEstimate::of(r.session, Method::Kabsch).ok();
-        let per_pose = |params: &Parameters| {
+        // model with its best-fit registration, the calibrated one with its own — and a pixel
+        // session's points triangulated through the file's rig and the refined one.
+        let refined = p.rig(x).map(|rig| r.session.seen_through(&rig));
+        let per_pose = |session: &Session, params: &Parameters| {
+            let vision = SessionEstimate::of(session, Method::Kabsch).ok();
             // Nothing for the per-pose estimator (one marker per capture): no corrected copy.
             if vision.is_none() {
                 return ErrorStats { fit: Stats::of_or_zero(&[]), held_out: None };
             }
-            let corrected = corrected_for(r.session, vision.as_ref(), Method::Kabsch, params).ok().flatten();
+            let corrected = corrected_for(session, vision.as_ref(), Method::Kabsch, params).ok().flatten();
             let (session, vision) = match &corrected {
                 Some((s, v)) => (s, v.as_ref()),
-                None => (r.session, vision.as_ref()),
+                None => (session, vision.as_ref()),
             };
             let fit = vision.and_then(|v| pose_errors(session, v, params).ok());
             let degrees: Vec<f64> = fit.map(|e| e.per_pose.iter().map(|(_, d)| *d).collect()).unwrap_or_default();
             ErrorStats { fit: Stats::of_or_zero(&degrees), held_out: None }
         };
-        let before = per_pose(&Parameters::nominal(&r.robot.spm, None));
-        let after = per_pose(&parameters);
+        let before = per_pose(r.session, &Parameters::nominal(&r.robot.spm, None));
+        let after = per_pose(refined.as_ref().unwrap_or(r.session), &parameters);
         let parameters_report = parameter_reports(p, x, cov, free)
             .into_iter()
             .zip(&p.entries)
