@@ -34,7 +34,7 @@ fn simulate(c: &SimConfig, seed: u64, model: &RobotModel) -> Session {
 }
 
 fn fit(session: &Session, model: &RobotModel, kind: CameraModelKind) -> Calibration {
-    let config = CalibConfig { camera_model: kind, folds: 0, ..CalibConfig::default() };
+    let config = CalibConfig { camera_model: kind.into(), folds: 0, ..CalibConfig::default() };
     calibrate(session, model, &config, &mut |_| {}).unwrap()
 }
 
@@ -75,7 +75,7 @@ fn the_default_calibration_reads_a_camera_two_percent_long_and_predicts_as_with_
     assert!(with_model < 1.10 * with_perfect, "{with_model} vs {with_perfect}");
     // The rigid camera blames the mechanism (2.6× the error over 50 sessions) — and the report
     // says that the camera, not the mechanism, is wrong.
-    let rigid_config = CalibConfig { camera_model: CameraModelKind::Rigid, ..CalibConfig::default() };
+    let rigid_config = CalibConfig { camera_model: CameraModelKind::Rigid.into(), ..CalibConfig::default() };
     let rigid = calibrate(&long, &model, &rigid_config, &mut |_| {}).unwrap();
     assert!(error_vs_truth(&long, &rigid) > 1.5 * with_perfect);
     // The self-check (cross-validated error against the fit's own prediction) catches the rigid
@@ -116,7 +116,7 @@ fn the_depth_scale_is_estimated_at_the_cramer_rao_bound_with_an_honest_standard_
             seeded.seed = 10_000 + s;
             [
                 study::calibration_error(&session, &fit, &tests),
-                study::cramer_rao(&session, &model, &seeded, &tests, settings.camera_model),
+                study::cramer_rao(&session, &model, &seeded, &tests, fit.parameters.camera_model.kind),
             ]
         })
         .collect();
@@ -143,7 +143,7 @@ fn estimating_the_depth_scale_of_a_perfect_camera_costs_almost_nothing() {
     // (the README's 50 sessions: +0.9%).
     let model = model();
     let run = |kind| {
-        let settings = CalibConfig { camera_model: kind, ..CalibConfig::default() };
+        let settings = CalibConfig { camera_model: kind.into(), ..CalibConfig::default() };
         let rows: Vec<_> =
             (0..20).map(|s| study::run_session_with(&config(1.0), &model, 10_000 + s, 60, &settings)).collect();
         study::pooled(rows.iter().map(|r| r.markers_deg))
