@@ -119,7 +119,8 @@ pub(crate) fn choose<M: Residuals>(
         let predicted: Option<Vec<_>> = CameraModelKind::ALL
             .iter()
             .map(|kind| {
-                let held = |i: usize| matches!(p.entries[i].kind, Kind::CameraTerm { term } if !kind.terms().contains(&term));
+                let held =
+                    |i: usize| matches!(p.entries[i].kind, Kind::CameraTerm { term } if !kind.terms().contains(&term));
                 let x = normals.leave_out(&outcome.x, fold, &held);
                 test.evaluate(&x, Some(&warm), false).or_else(|_| test.evaluate(&x, None, false)).ok()
             })

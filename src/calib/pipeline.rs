@@ -57,9 +57,10 @@ pub fn calibrate(
     let corrected;
     let session = match config.fit {
         FitLevel::Orientations => {
-            corrected = session.undistorted(&config.camera_terms.model(config.camera_model_or_rigid())).ok_or_else(|| {
-                CalibError::Config { key: "camera_terms".into(), reason: "the camera robot is singular".into() }
-            })?;
+            corrected =
+                session.undistorted(&config.camera_terms.model(config.camera_model_or_rigid())).ok_or_else(|| {
+                    CalibError::Config { key: "camera_terms".into(), reason: "the camera robot is singular".into() }
+                })?;
             &corrected
         }
         FitLevel::Markers => session,
@@ -96,7 +97,14 @@ fn calibrate_markers(
 ) -> Result<Calibration, CalibError> {
     let started = std::time::Instant::now();
     let Some((choice, iterations)) = choose_camera_model(session, robot, config) else {
-        return run(levels::MarkerLevel::prepare(session, robot, config)?, session, robot, config, left_out, on_iteration);
+        return run(
+            levels::MarkerLevel::prepare(session, robot, config)?,
+            session,
+            robot,
+            config,
+            left_out,
+            on_iteration,
+        );
     };
     let seconds = started.elapsed().as_secs_f64();
     let chosen = CalibConfig { camera_model: choice.chosen.into(), ..config.clone() };
