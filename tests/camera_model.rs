@@ -333,7 +333,7 @@ fn auto_chooses_the_simplest_model_the_data_support_and_fits_it_as_if_named() {
         assert!(choice.summary.contains("the simplest within one standard error of the best"), "{label}");
         assert_eq!(choice.candidates.len(), 4);
         for candidate in &choice.candidates {
-            let within = candidate.excess_ms_mm2 <= candidate.excess_ms_std_error_mm2;
+            let within = candidate.excess_whitened_ms <= candidate.excess_whitened_ms_std_error;
             let simpler = candidate.model.terms().len() < expected.terms().len();
             assert!(!(within && simpler), "{label}: {candidate:?} is simpler and within one standard error");
         }

@@ -18,11 +18,18 @@
 //!
 //! The choice is the one-standard-error rule (Breiman et al., *Classification and Regression
 //! Trees*, 1984; Hastie et al., *The Elements of Statistical Learning*, §7.10): the simplest
-//! candidate whose held-out mean squared error (mm², gross errors left out) exceeds the best one's
-//! by at most one standard error of the difference. The difference is paired — the same held-out
-//! observations — and its standard error is taken over poses (stations), whose observations share
-//! an orientation and are not independent. A bigger model must so earn its terms: on a perfect
-//! camera its extra terms fit noise and rarely beat the rigid one by a standard error.
+//! candidate whose held-out mean squared error exceeds the best one's by at most one standard
+//! error of the difference. Each held-out residual is weighed by the camera's noise (whitened by
+//! the projective fit's noise model, as the fit weighs it: the held-out log-likelihood up to
+//! constants), so that the precise lateral components count for what they tell, not the depth
+//! noise three times their size; gross errors are left out. The difference is paired — the same
+//! held-out observations — and its standard error is taken over poses (stations), whose
+//! observations share an orientation and are not independent. A bigger model must so earn its
+//! terms: on a perfect camera its extra terms fit noise and rarely beat the rigid one by a
+//! standard error. (Scored in plain millimetres instead, the choice found the study's projective
+//! camera in 46 of 50 sessions and a camera 0.3% long in 44; weighed, in 50 of 50 each, with the
+//! same 49 of 50 rigid choices on a perfect camera.) The report shows each candidate's
+//! cross-validated RMS in millimetres beside the choice.
 
 use nalgebra::{DMatrix, DVector, Rotation3};
 use serde::Serialize;
@@ -53,11 +60,14 @@ pub struct CameraCandidate {
     pub model: CameraModelKind,
     /// Its cross-validated RMS marker error, mm.
     pub cross_validated_rms_mm: f64,
-    /// Its held-out mean squared error less the best candidate's, mm², and that difference's
-    /// standard error: within one, the data cannot tell it from the best.
-    pub excess_ms_mm2: f64,
-    /// The standard error of `excess_ms_mm2`, mm².
-    pub excess_ms_std_error_mm2: f64,
+    /// Its held-out mean squared whitened error per observation (each residual weighed by the
+    /// camera's noise: 3 for a model that predicts to the noise), what the choice compares.
+    pub whitened_ms: f64,
+    /// `whitened_ms` less the best candidate's: within one standard error of it, the data cannot
+    /// tell this candidate from the best.
+    pub excess_whitened_ms: f64,
+    /// The standard error of `excess_whitened_ms`.
+    pub excess_whitened_ms_std_error: f64,
 }
 
 impl CameraModelChoice {
@@ -68,7 +78,7 @@ impl CameraModelChoice {
 
     /// The simplest candidate within one standard error of the best.
     fn of(folds: usize, candidates: Vec<CameraCandidate>) -> Self {
-        let within = |c: &&CameraCandidate| c.excess_ms_mm2 <= c.excess_ms_std_error_mm2;
+        let within = |c: &&CameraCandidate| c.excess_whitened_ms <= c.excess_whitened_ms_std_error;
         let chosen = candidates.iter().find(within).map_or(CameraModelKind::Rigid, |c| c.model);
         let rms = |c: &CameraCandidate| c.cross_validated_rms_mm;
         let others: Vec<String> = candidates
@@ -79,7 +89,8 @@ impl CameraModelChoice {
             .collect();
         let own = candidates.iter().find(|c| c.model == chosen).map_or(f64::NAN, rms);
         let summary = format!(
-            "auto: cross-validated {own:.4} mm ({folds} folds); {} — the simplest within one standard error of the best",
+            "auto: cross-validated {own:.4} mm ({folds} folds); {} — the simplest within one standard error of the best, \
+             the errors weighed by the camera's noise",
             others.join(", ")
         );
         CameraModelChoice { chosen, folds, candidates, summary }
@@ -101,8 +112,10 @@ pub(crate) fn choose<M: Residuals>(
     let fold_of = fold_assignment(problem, folds);
     let normals = FoldNormals::new(outcome, free, &fold_of, folds, prior);
     let p = problem.parameterisation();
-    // Per candidate, the squared held-out error (unit²) of each observation scored, in one order.
+    // Per candidate, the squared held-out error of each observation scored (in the model's unit,
+    // and whitened by the fit's noise model), in one order.
     let mut squared: Vec<Vec<f64>> = vec![Vec::new(); CameraModelKind::ALL.len()];
+    let mut whitened = squared.clone();
     let mut scored: Vec<usize> = Vec::new();
     let scale = problem.unit_scale();
     let gross = |j: usize| {
@@ -129,7 +142,9 @@ pub(crate) fn choose<M: Residuals>(
         for (a, &j) in rows.iter().enumerate().filter(|(_, j)| !gross(**j)) {
             scored.push(j);
             for (k, evaluation) in predicted.iter().enumerate() {
-                squared[k].push((evaluation.residuals[a].norm() * scale).powi(2));
+                let r = evaluation.residuals[a];
+                squared[k].push((r.norm() * scale).powi(2));
+                whitened[k].push(outcome.weighting.whiten(j, &r).norm_squared());
             }
         }
     }
@@ -137,18 +152,20 @@ pub(crate) fn choose<M: Residuals>(
         return None;
     }
     let groups: Vec<(bool, u64)> = scored.iter().map(|&j| problem.group(j)).collect();
-    let means: Vec<f64> = squared.iter().map(|s| s.iter().sum::<f64>() / s.len() as f64).collect();
-    let best = (0..means.len()).min_by(|&a, &b| means[a].total_cmp(&means[b]))?;
+    let mean = |v: &Vec<f64>| v.iter().sum::<f64>() / v.len() as f64;
+    let scores: Vec<f64> = whitened.iter().map(mean).collect();
+    let best = (0..scores.len()).min_by(|&a, &b| scores[a].total_cmp(&scores[b]))?;
     let candidates = CameraModelKind::ALL
         .iter()
         .enumerate()
         .map(|(k, &model)| {
-            let (excess, std_error) = paired_excess(&squared[k], &squared[best], &groups);
+            let (excess, std_error) = paired_excess(&whitened[k], &whitened[best], &groups);
             CameraCandidate {
                 model,
-                cross_validated_rms_mm: means[k].sqrt(),
-                excess_ms_mm2: excess,
-                excess_ms_std_error_mm2: std_error,
+                cross_validated_rms_mm: mean(&squared[k]).sqrt(),
+                whitened_ms: scores[k],
+                excess_whitened_ms: excess,
+                excess_whitened_ms_std_error: std_error,
             }
         })
         .collect();
@@ -253,7 +270,14 @@ mod tests {
     use super::*;
 
     fn candidate(model: CameraModelKind, rms: f64, excess: f64, se: f64) -> CameraCandidate {
-        CameraCandidate { model, cross_validated_rms_mm: rms, excess_ms_mm2: excess, excess_ms_std_error_mm2: se }
+        let whitened_ms = 3.0 + excess;
+        CameraCandidate {
+            model,
+            cross_validated_rms_mm: rms,
+            whitened_ms,
+            excess_whitened_ms: excess,
+            excess_whitened_ms_std_error: se,
+        }
     }
 
     #[test]
@@ -272,7 +296,7 @@ mod tests {
         assert_eq!(
             choice.summary,
             "auto: cross-validated 0.9100 mm (5 folds); rigid 1.2300 mm, affine 0.9100, projective 0.9090 — the \
-             simplest within one standard error of the best"
+             simplest within one standard error of the best, the errors weighed by the camera's noise"
         );
         // Beyond one standard error the depth scale is not enough: the next model within is.
         assert_eq!(CameraModelChoice::of(5, scores(0.005)).chosen, Affine);
