@@ -97,6 +97,32 @@ impl CameraModelChoice {
     }
 }
 
+/// The most observations the choice fits: beyond, every k-th pose (station) of the session, spread
+/// over all of it. Its power is then far beyond what the camera errors that matter need (a depth
+/// error of 0.3% is found in 50 of 50 sessions of 750 observations), and a camera error too small
+/// to show in 4,000 observations biases the mechanism by less than the statistical error even of
+/// 100,000 (it scales alike with the data), while the choice costs a fixed amount however long
+/// the session.
+pub(crate) const MOST_OBSERVATIONS: usize = 4_000;
+
+/// The rows of `problem` the choice fits: every k-th group (station, else pose) in order of
+/// appearance, k the smallest that keeps them within `most`; `None` when every row fits.
+pub(crate) fn subsample<M: Residuals>(problem: &M, most: usize) -> Option<Vec<usize>> {
+    let n = problem.len();
+    if n <= most {
+        return None;
+    }
+    let k = n.div_ceil(most.max(1));
+    let mut order: std::collections::HashMap<(bool, u64), usize> = std::collections::HashMap::new();
+    let rows = (0..n)
+        .filter(|&j| {
+            let next = order.len();
+            *order.entry(problem.group(j)).or_insert(next) % k == 0
+        })
+        .collect();
+    Some(rows)
+}
+
 /// Choose among the nested camera models from `outcome`, the fit of the projective model to
 /// `problem` (free parameters `free`, weak `prior` as the fit had it), by `folds`-fold
 /// cross-validation; observations beyond `gross_sigmas` robust standard deviations are not

@@ -11,7 +11,7 @@ use nalgebra::DVector;
 
 use super::agreement::{best_registration, registration_mask};
 use super::calibration::{CalibError, Calibration, Solution};
-use super::camera_choice::{CameraModelChoice, choose};
+use super::camera_choice::{CameraModelChoice, MOST_OBSERVATIONS, choose, subsample};
 use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Unidentifiable};
 use super::fit::{FitOutcome, FitSettings, IterationLog, fit};
 use super::identify::Direction;
@@ -160,6 +160,11 @@ fn fit_largest_camera_model(
     let largest = CalibConfig { camera_model: CameraModelKind::Projective.into(), ..config.clone() };
     let level = levels::MarkerLevel::prepare(session, robot, &largest).map_err(|e| e.to_string())?;
     let (p, mut free, problem) = (level.parameterisation(), level.free(), level.problem());
+    // A long session is chosen for on a spread subsample (`camera_choice::MOST_OBSERVATIONS`).
+    let problem = match subsample(&problem, MOST_OBSERVATIONS) {
+        Some(rows) => problem.subset(&rows),
+        None => problem,
+    };
     check_enough(&free, problem.len(), problem.level().observations()).map_err(|e| e.to_string())?;
     if level.motion_deg() < MIN_MOTION_DEG {
         return Err(format!("the plate turns {:.2}° at most", level.motion_deg()));
