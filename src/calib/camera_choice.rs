@@ -117,7 +117,7 @@ pub(crate) fn subsample<M: Residuals>(problem: &M, most: usize) -> Option<Vec<us
     let rows = (0..n)
         .filter(|&j| {
             let next = order.len();
-            *order.entry(problem.group(j)).or_insert(next) % k == 0
+            (*order.entry(problem.group(j)).or_insert(next)).is_multiple_of(k)
         })
         .collect();
     Some(rows)
