@@ -89,8 +89,8 @@ impl CameraModelChoice {
             .collect();
         let own = candidates.iter().find(|c| c.model == chosen).map_or(f64::NAN, rms);
         let summary = format!(
-            "auto: cross-validated {own:.4} mm ({folds} folds); {} — the simplest within one standard error of the best, \
-             the errors weighed by the camera's noise",
+            "auto: cross-validated {own:.4} mm over {folds} folds; {} — the simplest within one standard error of the \
+             best, errors weighed by the camera's noise",
             others.join(", ")
         );
         CameraModelChoice { chosen, folds, candidates, summary }
@@ -321,8 +321,8 @@ mod tests {
         assert_eq!(choice.chosen, DepthScale);
         assert_eq!(
             choice.summary,
-            "auto: cross-validated 0.9100 mm (5 folds); rigid 1.2300 mm, affine 0.9100, projective 0.9090 — the \
-             simplest within one standard error of the best, the errors weighed by the camera's noise"
+            "auto: cross-validated 0.9100 mm over 5 folds; rigid 1.2300 mm, affine 0.9100, projective 0.9090 — the \
+             simplest within one standard error of the best, errors weighed by the camera's noise"
         );
         // Beyond one standard error the depth scale is not enough: the next model within is.
         assert_eq!(CameraModelChoice::of(5, scores(0.005)).chosen, Affine);
