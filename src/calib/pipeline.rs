@@ -6,6 +6,9 @@
 //!
 //! What differs between the orientation-level and the marker-level fit is only what differs in
 //! their data and model: how observations are made and registered, and what their report adds.
+//! With `camera_model: auto` the marker level's camera model is chosen first (`camera_choice.rs`,
+//! from one fit of the projective model) and the pipeline then runs the choice as if it had been
+//! named, adding the choice to its report.
 
 use nalgebra::DVector;
 
