@@ -228,7 +228,8 @@ pub fn run_session_with(
         markers_deg: calibration_error(&session, &fitted, &tests),
         orientations_deg: by_orientation.as_ref().map(|c| calibration_error(&session, c, &tests)),
         nominal_deg: workspace_error(model.spm.geometry(), &spm_true, &gauge, &tests),
-        cramer_rao_deg: cramer_rao(&session, model, &c, &tests, settings.camera_model),
+        // The bound of the camera model fitted (with `auto`, the one it chose).
+        cramer_rao_deg: cramer_rao(&session, model, &c, &tests, fitted.parameters.camera_model.kind),
         fitted_camera: fitted.parameters.camera_model,
         observations: fitted.report.markers.as_ref().map_or(0, |m| m.observations),
         within_3_sigma: within_3_sigma(&fitted, &in_gauge.x),

@@ -878,12 +878,9 @@ fn plan<'py>(
         Some(path) => spmcal::sim::SimConfig::read(path).map_err(raise!(FileError))?,
         None => spmcal::sim::SimConfig::default(),
     };
-    let camera_model = [CameraModelKind::Rigid, CameraModelKind::DepthScale, CameraModelKind::Affine]
-        .into_iter()
-        .find(|k| k.name() == camera_model)
-        .ok_or_else(|| {
-            ConfigError::new_err(format!("camera_model: `{camera_model}` is not rigid, depth_scale or affine"))
-        })?;
+    let camera_model = CameraModelKind::ALL.into_iter().find(|k| k.name() == camera_model).ok_or_else(|| {
+        ConfigError::new_err(format!("camera_model: `{camera_model}` is not rigid, depth_scale, affine or projective"))
+    })?;
     let settings = spmcal::plan::PlanSettings { poses, candidates, margin_deg, camera_model, ..Default::default() };
     let augment = augment.map(|s| s.inner.clone());
     let planned = interruptible(py, move || {
@@ -902,7 +899,8 @@ fn plan<'py>(
 /// The parameterisation is the fit's (`Parameterisation::for_markers` around `model`'s geometry,
 /// the registration `camera_rotation` (`qw, qx, qy, qz`) and `camera_translation`, the markers'
 /// positions `marker_positions` `(k, 3)`, `camera_model` with its terms started at
-/// `camera_terms`, the five values in `CameraTerm::ALL`'s order, a perfect camera's by default),
+/// `camera_terms`, the first five (or all eight) values in `CameraTerm::ALL`'s order, a perfect
+/// camera's by default),
 /// with the default bounds. Observation `j` is marker `markers[j]` seen at readings `joints[j]`.
 ///
 /// Returns a dict: `names` (the parameters, in `x`'s order); `predictions` `(m, 3)`, the camera
@@ -940,16 +938,16 @@ fn _marker_model<'py>(
     let (rows, _) = rows3(joints, JOINTS)?;
     let positions_arg = Arg { name: "marker_positions", expected: "a (k, 3) array of positions in P, m" };
     let (positions, _) = rows3(marker_positions, positions_arg)?;
-    let kind = [CameraModelKind::Rigid, CameraModelKind::DepthScale, CameraModelKind::Affine]
-        .into_iter()
-        .find(|k| k.name() == camera_model)
-        .ok_or_else(|| {
-            ConfigError::new_err(format!("camera_model: `{camera_model}` is not rigid, depth_scale or affine"))
-        })?;
-    let terms: [f64; 5] = match camera_terms {
-        None => spmcal::model::CameraTerm::ALL.map(|t| t.perfect()),
-        Some(v) => v.try_into().map_err(|_| FileError::new_err("camera_terms: expected 5 values"))?,
-    };
+    let kind = CameraModelKind::ALL.into_iter().find(|k| k.name() == camera_model).ok_or_else(|| {
+        ConfigError::new_err(format!("camera_model: `{camera_model}` is not rigid, depth_scale, affine or projective"))
+    })?;
+    // Five values (the affine terms) or eight (with the projective model's three).
+    let mut terms = spmcal::model::CameraTerm::ALL.map(|t| t.perfect());
+    match camera_terms {
+        None => {}
+        Some(v) if v.len() == 5 || v.len() == terms.len() => terms[..v.len()].copy_from_slice(&v),
+        Some(_) => return Err(FileError::new_err("camera_terms: expected 5 values (8 with the projective terms)")),
+    }
     if markers.len() != rows.len() || markers.iter().any(|&k| k >= positions.len()) {
         return Err(FileError::new_err(
             "markers: one index per row of joints, each below the number of marker_positions",

@@ -8,8 +8,9 @@ branch margin exceed 0.2), exact readings by the reference's IK, and all four ma
 pose with stereo noise (0.2 mm across the line of sight ∝ d, 0.8 mm along it ∝ d², at 0.8 m:
 docs/calibration.md's noise model) drawn by the reference. The session folder is written in the
 documented format and calibrated by the program (``spmcal calibrate --dataset DIR --model
-models/agile_wrist.urdf --out params.yaml --json``, the default marker-level fit with its
-depth-scale camera model).
+models/agile_wrist.urdf --config C --out params.yaml --json``, the default marker-level fit with
+the depth-scale camera model named in ``C``: the bound below is that model's, where ``auto``, the
+default, would choose rigid for most perfect cameras).
 
 The calibrated parameters file's legs are put through the reference's FDA at 60 unseen poses of
 the same workspace and compared with the truth, up to the rotations of B and of P common to every
@@ -152,8 +153,10 @@ def session(seed: int, n_poses: int, program: str, work: Path, fresh: int = 60, 
     folder = work / f"reference_{seed}"
     write_session(folder, f"reference_{seed}", joints, (clean + noise).reshape(len(joints), 4, 3))
     params = folder.parent / f"params_{seed}.yaml"
-    out = subprocess.run([program, "calibrate", "--dataset", str(folder), "--model", MODEL, "--out", str(params),
-                          "--json"], cwd=ROOT, capture_output=True, text=True, check=False)
+    config = folder.parent / f"config_{seed}.yaml"
+    config.write_text("camera_model: depth_scale\n")
+    out = subprocess.run([program, "calibrate", "--dataset", str(folder), "--model", MODEL, "--config", str(config),
+                          "--out", str(params), "--json"], cwd=ROOT, capture_output=True, text=True, check=False)
     if out.returncode != 0:
         raise RuntimeError(out.stderr)
     report: dict[str, Any] = json.loads(out.stdout)["results"]

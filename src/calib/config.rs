@@ -6,7 +6,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::io::files::FileError;
-use crate::model::{CameraModel, CameraModelKind, CameraTerm, CameraTerms};
+use crate::model::{CameraModelKind, CameraTerm, CameraTerms};
 use crate::vision::Method;
 
 /// A group of parameters that can be frozen at its nominal (or initial) value.
@@ -38,6 +38,53 @@ pub enum Group {
     CameraModel,
     /// A pixel session's camera rig (`rig_terms`): frozen, the rig is used as `cameras.yaml` gives it.
     CameraRig,
+}
+
+/// The camera model a calibration fits (`camera_model`): one by name, or `auto` (the default),
+/// the simplest that the cross-validation supports (`camera_choice.rs`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CameraModelSetting {
+    /// The simplest of rigid, depth_scale, affine and projective that the data support.
+    #[default]
+    Auto,
+    /// A perfect camera.
+    Rigid,
+    /// Depths read `s` times their length.
+    DepthScale,
+    /// Per-axis scales and shears.
+    Affine,
+    /// A homography of space.
+    Projective,
+}
+
+impl CameraModelSetting {
+    /// The model named, `None` for `auto`.
+    pub fn named(self) -> Option<CameraModelKind> {
+        match self {
+            CameraModelSetting::Auto => None,
+            CameraModelSetting::Rigid => Some(CameraModelKind::Rigid),
+            CameraModelSetting::DepthScale => Some(CameraModelKind::DepthScale),
+            CameraModelSetting::Affine => Some(CameraModelKind::Affine),
+            CameraModelSetting::Projective => Some(CameraModelKind::Projective),
+        }
+    }
+
+    /// Its name in configs.
+    pub fn name(self) -> &'static str {
+        self.named().map_or("auto", CameraModelKind::name)
+    }
+}
+
+impl From<CameraModelKind> for CameraModelSetting {
+    fn from(kind: CameraModelKind) -> Self {
+        match kind {
+            CameraModelKind::Rigid => CameraModelSetting::Rigid,
+            CameraModelKind::DepthScale => CameraModelSetting::DepthScale,
+            CameraModelKind::Affine => CameraModelSetting::Affine,
+            CameraModelKind::Projective => CameraModelSetting::Projective,
+        }
+    }
 }
 
 /// What the calibration fits.
@@ -134,13 +181,15 @@ pub struct CalibConfig {
     /// Free-motion recordings: a capture taken while a joint turns faster than this (deg/s) is
     /// flagged and its noise inflated in proportion (blur, interpolation error).
     pub max_joint_speed_deg_s: f64,
-    /// The camera model the marker-level fit estimates with the mechanism: `rigid` (a perfect
-    /// camera), `depth_scale` (depths read `s` times their length) or `affine` (per-axis scales
-    /// and shears); see `model/camera.rs`.
-    pub camera_model: CameraModelKind,
+    /// The camera model the marker-level fit estimates with the mechanism: `auto` (the default:
+    /// the simplest of the others that the cross-validation supports), `rigid` (a perfect camera),
+    /// `depth_scale` (depths read `s` times their length), `affine` (per-axis scales and shears)
+    /// or `projective` (a homography of space); see `model/camera.rs`.
+    pub camera_model: CameraModelSetting,
     /// The camera model's terms as known before the fit: where the marker-level fit starts them
     /// (and keeps them when `camera_model` is frozen), and the correction the orientation-level
-    /// fit applies to the measured markers. Only the terms of `camera_model` may be set.
+    /// fit applies to the measured markers. Only the terms of a named `camera_model` may be set
+    /// (`auto` starts from a perfect camera).
     pub camera_terms: CameraTerms,
     /// Vision estimator for the measured orientations.
     pub vision_method: Method,
@@ -218,7 +267,7 @@ impl Default for CalibConfig {
             latency_s: 0.0,
             latency_bound_s: 0.2,
             max_joint_speed_deg_s: 90.0,
-            camera_model: CameraModelKind::DepthScale,
+            camera_model: CameraModelSetting::Auto,
             camera_terms: CameraTerms::default(),
             vision_method: Method::Kabsch,
             loss: Loss::Huber,
@@ -238,6 +287,56 @@ impl Default for CalibConfig {
 }
 
 impl CalibConfig {
+    /// The camera model the config names, or for `auto` the one `auto` chooses when there is
+    /// nothing to choose from: a fit that cannot estimate one (the orientation level) or whose
+    /// camera terms are frozen takes the camera as perfect (`auto` starts from a perfect camera).
+    pub(crate) fn camera_model_or_rigid(&self) -> CameraModelKind {
+        self.camera_model.named().unwrap_or(CameraModelKind::Rigid)
+    }
+
+    /// `camera_terms` within range, of the named model (none with `auto`), and a model that does
+    /// not fold space where the camera sees.
+    fn check_camera_terms(&self) -> Result<(), (String, String)> {
+        for (term, value) in CameraTerm::ALL.iter().zip(self.camera_terms.values()) {
+            let key = format!("camera_terms.{}", term.name());
+            let most = crate::model::limits::MAX_CAMERA_TERM;
+            if !(value.is_finite() && (value - term.perfect()).abs() <= most) {
+                return Err((
+                    key,
+                    format!("`{}` must be within ±{most} of {} (got {value})", term.name(), term.perfect()),
+                ));
+            }
+            if value == term.perfect() {
+                continue;
+            }
+            let having: Vec<String> = CameraModelKind::ALL
+                .iter()
+                .filter(|k| k.terms().contains(term))
+                .map(|k| format!("`camera_model: {}`", k.name()))
+                .collect();
+            let reason = match self.camera_model.named() {
+                Some(kind) if kind.terms().contains(term) => continue,
+                Some(kind) => format!(
+                    "`{}` is not a term of `camera_model: {}`: set {}",
+                    term.name(),
+                    kind.name(),
+                    having.join(" or ")
+                ),
+                None => format!(
+                    "`camera_model: auto` chooses the model starting from a perfect camera, so it takes no known                      `{}`: to start there, name the model ({})",
+                    term.name(),
+                    having.join(" or ")
+                ),
+            };
+            return Err((key, reason));
+        }
+        let camera = self.camera_terms.model(self.camera_model_or_rigid());
+        if let Some(reason) = camera.defect() {
+            return Err(("camera_terms".into(), reason));
+        }
+        Ok(())
+    }
+
     /// Read and check a config file.
     ///
     /// # Errors
@@ -332,30 +431,7 @@ impl CalibConfig {
             let key = if self.outlier_threshold < 1.0 { "outlier_threshold" } else { "huber_threshold" };
             return Err((key.into(), format!("`{key}` below 1 (0.5 for huber) would flag ordinary noise")));
         }
-        for (term, value) in CameraTerm::ALL.iter().zip(self.camera_terms.values()) {
-            let key = format!("camera_terms.{}", term.name());
-            let most = crate::model::limits::MAX_CAMERA_TERM;
-            if !(value.is_finite() && (value - term.perfect()).abs() <= most) {
-                return Err((
-                    key,
-                    format!("`{}` must be within ±{most} of {} (got {value})", term.name(), term.perfect()),
-                ));
-            }
-            if value != term.perfect() && !self.camera_model.terms().contains(term) {
-                let reason = format!(
-                    "`{}` is not a term of `camera_model: {}`: set `camera_model: {}`",
-                    term.name(),
-                    self.camera_model.name(),
-                    if *term == CameraTerm::DepthScale { "depth_scale` or `camera_model: affine" } else { "affine" }
-                );
-                return Err((key, reason));
-            }
-        }
-        let camera = self.camera_terms.model(self.camera_model);
-        if camera.determinant() < CameraModel::MIN_DETERMINANT {
-            let reason = format!("the camera model is nearly singular (det K = {:.3})", camera.determinant());
-            return Err(("camera_terms".into(), reason));
-        }
+        self.check_camera_terms()?;
         let mechanism =
             [Group::ActuatedAxes, Group::PlatformAxes, Group::ProximalAngles, Group::DistalAngles, Group::JointOffsets];
         if mechanism.iter().all(|g| self.freeze.contains(g)) {

@@ -10,13 +10,14 @@
 //! parameters), `residuals` (the trait of what a fit fits), `orientation_residuals` and
 //! `marker_residuals` (its two implementations), `registration` (starting registrations), `fit`
 //! (the trust-region fit), `identify`, `uncertainty`, `validation`, `agreement` (how far a
-//! parameter set and the camera disagree), `report` (the one report and its verdict),
+//! parameter set and the camera disagree), `camera_choice` (which camera model `auto` fits), `report` (the one report and its verdict),
 //! `calibration` (what a calibration produces, and its errors), `level` (the trait of a fit level
 //! and what a level hands back), `levels/` (its two implementations) and `pipeline` (the one flow,
 //! over the trait). Nothing imports `pipeline` but this facade.
 
 mod agreement;
 mod calibration;
+mod camera_choice;
 mod config;
 mod fit;
 mod identify;
@@ -43,7 +44,10 @@ mod validation;
 pub use agreement::{MarkerErrors, SetError};
 pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_errors};
 pub use calibration::{CalibError, Calibration, Fitted, Solution};
-pub use config::{Bounds, CalibConfig, FitLevel, Group, IfNotBetter, Loss, RigTermGroup, Unidentifiable};
+pub use camera_choice::{CameraCandidate, CameraModelChoice};
+pub use config::{
+    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, Loss, RigTermGroup, Unidentifiable,
+};
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
 #[cfg(feature = "internals")]

@@ -6,11 +6,15 @@
 //!
 //! What differs between the orientation-level and the marker-level fit is only what differs in
 //! their data and model: how observations are made and registered, and what their report adds.
+//! With `camera_model: auto` the marker level's camera model is chosen first (`camera_choice.rs`,
+//! from one fit of the projective model) and the pipeline then runs the choice as if it had been
+//! named, adding the choice to its report.
 
 use nalgebra::DVector;
 
 use super::agreement::{best_registration, registration_mask};
 use super::calibration::{CalibError, Calibration, Solution};
+use super::camera_choice::{CameraModelChoice, MOST_OBSERVATIONS, choose, subsample};
 use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Unidentifiable};
 use super::fit::{FitOutcome, FitSettings, IterationLog, fit};
 use super::identify::Direction;
@@ -22,7 +26,7 @@ use super::uncertainty::{covariance, identifiability_at};
 use super::validation::{CrossValidation, cross_validate};
 use super::{levels, report};
 use crate::dataset::Session;
-use crate::model::RobotModel;
+use crate::model::{CameraModelKind, RobotModel};
 
 /// Calibrate `session` on the nominal `robot`; `on_iteration` sees every iteration of the main fit.
 ///
@@ -56,17 +60,16 @@ pub fn calibrate(
     let corrected;
     let session = match config.fit {
         FitLevel::Orientations => {
-            corrected = session.undistorted(&config.camera_terms.model(config.camera_model)).ok_or_else(|| {
-                CalibError::Config { key: "camera_terms".into(), reason: "the camera robot is singular".into() }
-            })?;
+            corrected =
+                session.undistorted(&config.camera_terms.model(config.camera_model_or_rigid())).ok_or_else(|| {
+                    CalibError::Config { key: "camera_terms".into(), reason: "the camera robot is singular".into() }
+                })?;
             &corrected
         }
         FitLevel::Markers => session,
     };
     let calibration = match config.fit {
-        FitLevel::Markers => {
-            run(levels::MarkerLevel::prepare(session, robot, config)?, session, robot, config, left_out, on_iteration)
-        }
+        FitLevel::Markers => calibrate_markers(session, robot, config, left_out, on_iteration),
         FitLevel::Orientations => run(
             levels::OrientationLevel::prepare(session, robot, config)?,
             session,
@@ -84,6 +87,115 @@ pub fn calibrate(
         }
         other => other,
     }
+}
+
+/// The marker-level calibration; with `camera_model: auto`, of the camera model chosen first,
+/// run as if it had been named, with the choice added to its report and parameters file.
+fn calibrate_markers(
+    session: &Session,
+    robot: &RobotModel,
+    config: &CalibConfig,
+    left_out: Vec<String>,
+    on_iteration: &mut dyn FnMut(&IterationLog),
+) -> Result<Calibration, CalibError> {
+    let started = std::time::Instant::now();
+    let Some((choice, iterations)) = choose_camera_model(session, robot, config) else {
+        return run(
+            levels::MarkerLevel::prepare(session, robot, config)?,
+            session,
+            robot,
+            config,
+            left_out,
+            on_iteration,
+        );
+    };
+    let seconds = started.elapsed().as_secs_f64();
+    let chosen = CalibConfig { camera_model: choice.chosen.into(), ..config.clone() };
+    let level = levels::MarkerLevel::prepare(session, robot, &chosen)?;
+    let mut calibration = run(level, session, robot, &chosen, left_out, on_iteration)?;
+    let stage = super::report::StageReport { name: "camera model choice", iterations, seconds };
+    calibration.report.stages.insert(0, stage);
+    if let Some(markers) = calibration.report.markers.as_mut() {
+        markers.camera_model.choice = Some(choice);
+    }
+    calibration.parameters.fit = Some(report::fit_header(&calibration.report));
+    Ok(calibration)
+}
+
+/// `camera_model: auto`'s choice (`camera_choice.rs`) and the iterations its fit took; `None` when
+/// the config names the model. Where the projective model cannot be fitted to choose from, the
+/// depth-scale model (a stereo camera's commonest error, and the default before `auto`), saying why.
+fn choose_camera_model(
+    session: &Session,
+    robot: &RobotModel,
+    config: &CalibConfig,
+) -> Option<(CameraModelChoice, usize)> {
+    if config.camera_model.named().is_some() {
+        return None;
+    }
+    // A session seen through its pixels refines the camera rig itself: its points have no camera
+    // model to choose (K = I).
+    if session.rig.is_some() {
+        let why = "a session seen through its pixels refines the camera rig itself, so no camera model";
+        return Some((CameraModelChoice::without_choice(CameraModelKind::Rigid, why), 0));
+    }
+    if config.freeze.contains(&Group::CameraModel) {
+        let why = "the camera model is frozen (`freeze: [camera_model]`): a perfect camera";
+        return Some((CameraModelChoice::without_choice(CameraModelKind::Rigid, why), 0));
+    }
+    Some(fit_largest_camera_model(session, robot, config).unwrap_or_else(|why| {
+        let why = format!(
+            "the projective model could not be fitted to choose from ({why}): depth_scale, the model of a stereo \
+             camera's commonest error"
+        );
+        (CameraModelChoice::without_choice(CameraModelKind::DepthScale, &why), 0)
+    }))
+}
+
+/// The projective model fitted as the calibration fits (registration, camera terms the data
+/// cannot determine held, weak prior on unidentifiable directions, the robust fit), and the
+/// nested models scored from it; the reason in words when it cannot be.
+fn fit_largest_camera_model(
+    session: &Session,
+    robot: &RobotModel,
+    config: &CalibConfig,
+) -> Result<(CameraModelChoice, usize), String> {
+    let largest = CalibConfig { camera_model: CameraModelKind::Projective.into(), ..config.clone() };
+    let level = levels::MarkerLevel::prepare(session, robot, &largest).map_err(|e| e.to_string())?;
+    let (p, mut free, problem) = (level.parameterisation(), level.free(), level.problem());
+    // A long session is chosen for on a spread subsample (`camera_choice::MOST_OBSERVATIONS`).
+    let problem = match subsample(&problem, MOST_OBSERVATIONS) {
+        Some(rows) => problem.subset(&rows),
+        None => problem,
+    };
+    check_enough(&free, problem.len(), problem.level().observations()).map_err(|e| e.to_string())?;
+    if level.motion_deg() < MIN_MOTION_DEG {
+        return Err(format!("the plate turns {:.2}° at most", level.motion_deg()));
+    }
+    let registration = registration_mask(p, &free);
+    let nominal = best_registration(&problem, &p.start(), &registration, config).map_err(|e| e.to_string())?;
+    let mut identifiability = identifiability_at(p, &nominal, &free, config);
+    let held = unidentified_camera_terms(p, &identifiability);
+    if !held.is_empty() {
+        held.iter().for_each(|&i| free[i] = false);
+        identifiability = identifiability_at(p, &nominal, &free, config);
+    }
+    let prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+    let settings = FitSettings {
+        prior: prior.clone(),
+        stage: "camera model choice",
+        ..FitSettings::from_config(config, free.clone())
+    };
+    let robust = fit(&problem, &nominal.x, &settings, &mut |_| {}).map_err(|e| e.to_string())?;
+    let default_folds = CalibConfig::default().folds;
+    let folds = if config.folds >= 2 { config.folds } else { default_folds }.min(super::validation::groups(&problem));
+    if folds < 2 {
+        return Err("fewer than two poses to hold out".into());
+    }
+    let gross = 2.0 * config.outlier_threshold;
+    let choice = choose(&problem, &robust, &free, prior.as_ref(), folds, gross)
+        .ok_or("no held-out observation could be predicted")?;
+    Ok((choice, robust.log.len()))
 }
 
 /// The pipeline, once for every level.

@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use super::agreement::MarkerErrors;
+use super::camera_choice::CameraModelChoice;
 use super::config::{CalibConfig, FitLevel, Loss};
 use super::fit::{Convergence, IterationLog};
 use super::identify::Identifiability;
@@ -170,12 +171,15 @@ pub struct CameraModelReport {
     /// What the camera model says about the camera, in words, when something is significant: a
     /// fitted term away from a perfect camera's, or a held one the residuals want moved.
     pub finding: Option<String>,
+    /// With `camera_model: auto`, which model it chose and why.
+    pub choice: Option<CameraModelChoice>,
 }
 
 /// One term of the camera model.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CameraTermReport {
-    /// Its name (`depth_scale`, `scale_y`, `shear_xy`, `shear_xz`, `shear_yz`).
+    /// Its name (`depth_scale`, `scale_y`, `shear_xy`, `shear_xz`, `shear_yz`, `perspective_x`,
+    /// `perspective_y`, `perspective_z`).
     pub name: String,
     /// The value fitted (or held).
     pub value: f64,
@@ -390,6 +394,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         cross_validated_rms_px: Option<[f64; 2]>,
         #[serde(skip_serializing_if = "Option::is_none")]
         cross_validated_rms_deg: Option<[f64; 2]>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        camera_model_choice: Option<String>,
         verdict: &'a str,
         #[serde(skip_serializing_if = "Vec::is_empty")]
         at_bound: Vec<&'a str>,
@@ -434,6 +440,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         cross_validated_rms_mm: cv(FitLevel::Markers, "mm"),
         cross_validated_rms_px: cv(FitLevel::Markers, "px"),
         cross_validated_rms_deg: cv(FitLevel::Orientations, "deg"),
+        camera_model_choice: markers
+            .and_then(|m| m.camera_model.choice.as_ref().map(|c| format!("{} ({})", c.chosen.name(), c.summary))),
         verdict: report.verdict.label(),
         at_bound: report.at_bound.iter().map(String::as_str).collect(),
         warnings: report.warnings.iter().map(String::as_str).collect(),

@@ -148,6 +148,11 @@ fn simulated(poses: usize, seed: u64, sequential: bool) -> (Session, RobotModel)
 
 /// The true registration and the model's markers: a parameterisation near the truth.
 fn parameterisation(session: &Session, model: &RobotModel) -> Parameterisation {
+    parameterisation_with(session, model, CameraModel::rigid())
+}
+
+/// The same with the camera model `camera` (its terms parameters, started at its values).
+fn parameterisation_with(session: &Session, model: &RobotModel, camera: CameraModel) -> Parameterisation {
     let truth = session.truth.as_ref().unwrap();
     let markers: Vec<Vector3<f64>> = model.markers.iter().map(|m| m.position).collect();
     Parameterisation::for_markers(
@@ -155,7 +160,7 @@ fn parameterisation(session: &Session, model: &RobotModel) -> Parameterisation {
         &truth.parameters.camera.unwrap(),
         &markers,
         &session.markers,
-        CameraModel::rigid(),
+        camera,
         &CalibConfig::default().bounds,
     )
 }
@@ -164,33 +169,55 @@ fn parameterisation(session: &Session, model: &RobotModel) -> Parameterisation {
 fn the_analytic_jacobian_matches_central_differences() {
     for sequential in [false, true] {
         let (session, model) = simulated(15, 3, sequential);
-        let p = parameterisation(&session, &model);
-        let (observations, failed) = MarkerObservation::of_session(&session, &model.spm);
-        assert!(failed.is_empty());
-        let m = MarkerResiduals::new(&p, &observations);
-        // Away from zero, so that every term (left Jacobians, moved axes) is exercised.
-        let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
-        let at = m.evaluate(&x, None, true).unwrap();
-        let jac = at.jacobian.as_ref().unwrap();
-        let h = 1e-6;
-        for i in 0..p.len() {
-            let mut plus = x.clone();
-            plus[i] += h;
-            let mut minus = x.clone();
-            minus[i] -= h;
-            let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
-            let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
-            for j in 0..observations.len() {
-                let numeric = (rp[j] - rm[j]) / (2.0 * h);
-                let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
-                // Central differences are exact to O(h²) ≈ 1e-12 relative, plus rounding
-                // (1e-16 / 1e-6 on residuals of ~1 m): 1e-8 absolute is far above both.
-                assert!(
-                    (numeric - analytic).amax() < 1e-8,
-                    "sequential {sequential}, {}: numeric {numeric:?}, analytic {analytic:?}",
-                    p.entries[i].name
-                );
-            }
+        check_jacobian(&session, &model, &parameterisation(&session, &model), &format!("sequential {sequential}"));
+    }
+}
+
+#[test]
+fn the_analytic_jacobian_of_a_projective_camera_matches_central_differences() {
+    // Every term of `K` and of `c` away from a perfect camera's, so that each column mixes them.
+    use crate::model::{CameraModelKind, CameraTerm};
+    let (session, model) = simulated(15, 3, false);
+    let start = [1.01, 0.99, 0.004, 0.01, -0.006, 0.02, -0.015, 0.04];
+    let camera = CameraTerm::ALL
+        .iter()
+        .zip(start)
+        .fold(CameraModel::perfect(CameraModelKind::Projective), |m, (t, v)| m.with(*t, v, None));
+    let p = parameterisation_with(&session, &model, camera);
+    assert_eq!(
+        p.entries.iter().filter(|e| matches!(e.kind, crate::calib::parameterisation::Kind::CameraTerm { .. })).count(),
+        8
+    );
+    check_jacobian(&session, &model, &p, "projective camera");
+}
+
+/// The marker-level Jacobian of `p` at a point away from zero against central differences.
+fn check_jacobian(session: &Session, model: &RobotModel, p: &Parameterisation, label: &str) {
+    let (observations, failed) = MarkerObservation::of_session(session, &model.spm);
+    assert!(failed.is_empty());
+    let m = MarkerResiduals::new(p, &observations);
+    // Away from zero, so that every term (left Jacobians, moved axes) is exercised.
+    let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
+    let at = m.evaluate(&x, None, true).unwrap();
+    let jac = at.jacobian.as_ref().unwrap();
+    let h = 1e-6;
+    for i in 0..p.len() {
+        let mut plus = x.clone();
+        plus[i] += h;
+        let mut minus = x.clone();
+        minus[i] -= h;
+        let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+        let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+        for j in 0..observations.len() {
+            let numeric = (rp[j] - rm[j]) / (2.0 * h);
+            let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+            // Central differences are exact to O(h²) ≈ 1e-12 relative, plus rounding
+            // (1e-16 / 1e-6 on residuals of ~1 m): 1e-8 absolute is far above both.
+            assert!(
+                (numeric - analytic).amax() < 1e-8,
+                "{label}, {}: numeric {numeric:?}, analytic {analytic:?}",
+                p.entries[i].name
+            );
         }
     }
 }

@@ -382,20 +382,24 @@ impl Session {
     }
 
     /// The session as a perfect camera would have reported it: every marker position (the poses'
-    /// and a recording's captures') corrected by the camera model, `K⁻¹ m`. `None` when `K` is
-    /// singular (parameters files and configs refuse such a model).
+    /// and a recording's captures') corrected by the camera model's exact inverse
+    /// ([`CameraModel::undistort`]). `None` when `K` is singular or a position has no preimage
+    /// (parameters files and configs refuse a model that folds space where the camera sees).
     pub fn undistorted(&self, camera: &CameraModel) -> Option<Session> {
         if camera.is_perfect() {
             return Some(self.clone());
         }
-        let correction = camera.matrix().try_inverse()?;
         let mut session = self.clone();
         for pose in session.poses.iter_mut() {
-            pose.markers.iter_mut().flatten().for_each(|m| *m = correction * *m);
+            for m in pose.markers.iter_mut().flatten() {
+                *m = camera.undistort(m)?;
+            }
         }
         if let Some(streams) = session.streams.as_mut() {
             let streams = std::sync::Arc::make_mut(streams);
-            streams.captures.iter_mut().for_each(|c| c.position = correction * c.position);
+            for c in streams.captures.iter_mut() {
+                c.position = camera.undistort(&c.position)?;
+            }
         }
         Some(session)
     }

@@ -15,10 +15,10 @@
 //!     v0: [0.0, 0.816496580927726, 0.577350269189626]
 //!     delta_deg: 0.0
 //!     home_branch: negative  # sign of (u×w)·v at home; optional, negative when absent
-//! camera:                    # optional: x_C = R_CB x_B + t_CB, reported at K x_C
+//! camera:                    # optional: x_C = R_CB x_B + t_CB, reported at K x_C / (cᵀx_C + 1)
 //!   r_cb_wxyz: [1.0, 0.0, 0.0, 0.0]
 //!   t_cb_m: [0.0, 0.0, 0.8]
-//!   camera_model: depth_scale  # optional: rigid (K = I, when absent) | depth_scale | affine
+//!   camera_model: depth_scale  # optional: rigid (K = I, when absent) | depth_scale | affine | projective
 //!   depth_scale: 1.0198        # the model's terms (see camera.rs), each with an optional
 //!   depth_scale_std_error: 0.0011  # `_std_error`; absent terms are a perfect camera's
 //! fit: {}                    # optional: statistics of the fit that produced the file
@@ -175,6 +175,19 @@ pub(super) struct CameraRecord {
     shear_yz: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     shear_yz_std_error: Option<f64>,
+    /// The projective model's `c`, per metre (absent in files written before it: 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    perspective_x: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    perspective_x_std_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    perspective_y: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    perspective_y_std_error: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    perspective_z: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    perspective_z_std_error: Option<f64>,
 }
 
 impl LegRecord {
@@ -210,13 +223,16 @@ impl CameraRecord {
         Ok(CameraRegistration { rotation, translation: Vector3::from(t) })
     }
 
-    fn term_slots(&self) -> [(CameraTerm, Option<f64>, Option<f64>); 5] {
+    fn term_slots(&self) -> [(CameraTerm, Option<f64>, Option<f64>); CameraTerm::ALL.len()] {
         [
             (CameraTerm::DepthScale, self.depth_scale, self.depth_scale_std_error),
             (CameraTerm::ScaleY, self.scale_y, self.scale_y_std_error),
             (CameraTerm::ShearXy, self.shear_xy, self.shear_xy_std_error),
             (CameraTerm::ShearXz, self.shear_xz, self.shear_xz_std_error),
             (CameraTerm::ShearYz, self.shear_yz, self.shear_yz_std_error),
+            (CameraTerm::PerspectiveX, self.perspective_x, self.perspective_x_std_error),
+            (CameraTerm::PerspectiveY, self.perspective_y, self.perspective_y_std_error),
+            (CameraTerm::PerspectiveZ, self.perspective_z, self.perspective_z_std_error),
         ]
     }
 
@@ -252,12 +268,7 @@ impl CameraRecord {
             }
             model = model.with(term, v, std_error);
         }
-        if model.determinant() < CameraModel::MIN_DETERMINANT {
-            let reason = format!(
-                "the camera model is nearly singular (det K = {:.3}, below {}): its shears flatten space",
-                model.determinant(),
-                CameraModel::MIN_DETERMINANT
-            );
+        if let Some(reason) = model.defect() {
             return Err(check.error("camera.camera_model", reason));
         }
         Ok(model)
@@ -287,6 +298,12 @@ impl CameraRecord {
             shear_xz_std_error: error(CameraTerm::ShearXz),
             shear_yz: term(CameraTerm::ShearYz),
             shear_yz_std_error: error(CameraTerm::ShearYz),
+            perspective_x: term(CameraTerm::PerspectiveX),
+            perspective_x_std_error: error(CameraTerm::PerspectiveX),
+            perspective_y: term(CameraTerm::PerspectiveY),
+            perspective_y_std_error: error(CameraTerm::PerspectiveY),
+            perspective_z: term(CameraTerm::PerspectiveZ),
+            perspective_z_std_error: error(CameraTerm::PerspectiveZ),
         }
     }
 }

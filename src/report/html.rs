@@ -104,9 +104,10 @@ fn predicted(report: &crate::calib::CalibrationReport) -> String {
         };
         let _ = write!(
             out,
-            "<p class=\"{}\">Camera model <b>{}</b>: {depth}.{}</p>",
+            "<p class=\"{}\">Camera model <b>{}</b>{}: {depth}.{}</p>",
             if c.finding.is_some() { "warn" } else { "meta" },
             c.model.name(),
+            c.choice.as_ref().map_or(String::new(), |choice| format!(" ({})", escape(&choice.summary))),
             c.finding.as_ref().map_or(String::new(), |f| format!(" {}.", escape(&capitalised(f))))
         );
     }

@@ -334,7 +334,9 @@ fn camera_model(f: &mut fmt::Formatter<'_>, c: &CameraModelReport) -> fmt::Resul
             (None, None, Some(_)) => format!("{} {:.5}", t.name, t.value),
         })
         .collect();
-    writeln!(f, "camera model: {} — {}", c.model.name(), terms.join(", "))?;
+    // With `auto`, which model it chose and why, beside the model's name.
+    let choice = c.choice.as_ref().map_or(String::new(), |choice| format!(" ({})", choice.summary));
+    writeln!(f, "camera model: {}{choice} — {}", c.model.name(), terms.join(", "))?;
     if let Some(finding) = &c.finding {
         writeln!(f, "  camera: {finding}")?;
     }

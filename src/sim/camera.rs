@@ -17,8 +17,9 @@ impl Camera {
         CameraRegistration::from_centre(rotation, &Vector3::new(0.0, 0.0, self.height_m))
     }
 
-    /// The camera model the settings make: affine when a scale of y or a shear is set, a depth
-    /// scale when only that is, else a perfect camera.
+    /// The camera model the settings make: the smallest that has every term set (projective when
+    /// a perspective term is, affine when a scale of y or a shear is, a depth scale when only that
+    /// is, else a perfect camera).
     pub fn model(&self) -> CameraModel {
         let terms = CameraTerms {
             depth_scale: self.depth_scale,
@@ -26,8 +27,11 @@ impl Camera {
             shear_xy: self.shear_xy,
             shear_xz: self.shear_xz,
             shear_yz: self.shear_yz,
+            perspective_x: self.perspective_x,
+            perspective_y: self.perspective_y,
+            perspective_z: self.perspective_z,
         };
-        let set = terms.model(CameraModelKind::Affine);
+        let set = terms.model(CameraModelKind::Projective);
         set.with_kind(CameraModelKind::smallest(|t| set.value(t) != t.perfect()))
     }
 

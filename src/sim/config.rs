@@ -196,6 +196,12 @@ pub struct Camera {
     #[cfg(not(feature = "internals"))]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) rig: Option<RigSettings>,
+    /// Growth of the denominator `cᵀx + 1` along camera x, per metre (a projective camera).
+    pub perspective_x: f64,
+    /// Growth of the denominator along camera y, per metre (a projective camera).
+    pub perspective_y: f64,
+    /// Growth of the denominator along the optical axis, per metre (a projective camera).
+    pub perspective_z: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -320,6 +326,9 @@ impl Default for Camera {
             shear_xz: 0.0,
             shear_yz: 0.0,
             rig: None,
+            perspective_x: 0.0,
+            perspective_y: 0.0,
+            perspective_z: 0.0,
         }
     }
 }
@@ -457,10 +466,9 @@ impl SimConfig {
                 return Err((key, format!("`{}` must be within ±0.5 of {} (got {v})", term.name(), term.perfect())));
             }
         }
-        if model.determinant() < CameraModel::MIN_DETERMINANT {
-            let reason =
-                format!("the camera's scales and shears are nearly singular (det K = {:.3})", model.determinant());
-            return Err(("camera.depth_scale".into(), reason));
+        if let Some(reason) = model.defect() {
+            let key = if model.determinant() < CameraModel::MIN_DETERMINANT { "depth_scale" } else { "perspective_z" };
+            return Err((format!("camera.{key}"), reason));
         }
         self.check_rig()?;
         if self.camera.height_m <= self.camera.marker_radius_m {

@@ -25,7 +25,8 @@ use crate::calib::uncertainty::{
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{
-    CameraModelKind, CameraRegistration, CameraTerm, MarkerPosition, ParameterSource, Parameters, RobotModel,
+    CameraModel, CameraModelKind, CameraRegistration, CameraTerm, MarkerPosition, ParameterSource, Parameters,
+    RobotModel,
 };
 use crate::vision::{Method, SessionEstimate};
 
@@ -81,20 +82,23 @@ impl<'s> MarkerLevel<'s> {
             None => registration::from_markers(&observations, &nominal_r, &markers0),
         }
         .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
-        // Pixels are seen through the rig, which is refined instead of a camera model.
-        let camera_model = if session.rig.is_some() { CameraModelKind::Rigid } else { config.camera_model };
+        // Pixels are seen through the rig, which is refined instead of a camera model; `auto` is
+        // resolved before the level is prepared (the pipeline runs its choice as named).
+        let camera_model = if session.rig.is_some() { CameraModelKind::Rigid } else { config.camera_model_or_rigid() };
         let carried = match camera_model {
             CameraModelKind::Rigid if session.rig.is_none() => CameraModelKind::DepthScale,
             kind => kind,
         };
-        let p = Parameterisation::for_markers(
+        let start = config.camera_terms.model(carried);
+        let mut p = Parameterisation::for_markers(
             *spm.geometry(),
             &registration,
             &markers0,
             &session.markers,
-            config.camera_terms.model(carried),
+            start,
             &config.bounds,
         );
+        bound_perspective(&mut p, &start, config.bounds.camera_term);
         let p = match &session.rig {
             Some(rig) => p.with_rig(rig.clone(), &config.rig_terms),
             None => p,
@@ -345,6 +349,7 @@ impl MarkerLevel<'_> {
             depth_scale_std_error: depth.and_then(|t| t.std_error),
             terms,
             finding: (!findings.is_empty()).then(|| findings.join("; ")),
+            choice: None,
         };
         (report, warnings)
     }
@@ -379,9 +384,28 @@ fn camera_finding(
             describe(v, s),
             (v - term.perfect()).abs() / s,
             term.name(),
-            if term == CameraTerm::DepthScale { "depth_scale" } else { "affine" }
+            CameraModelKind::smallest(|t| t == term).name()
         )),
         _ => None,
+    }
+}
+
+/// The bound of the projective model's perspective terms (per metre): `bounds.camera_term`, but
+/// no further than keeps `|c|` within what a parameters file accepts (the denominator above
+/// [`CameraModel::MIN_DENOMINATOR`] over the camera's working volume) with all three at their
+/// bounds, so that a fit never writes a model it cannot read back.
+fn bound_perspective(p: &mut Parameterisation, start: &CameraModel, camera_term: f64) {
+    let c0 = [CameraTerm::PerspectiveX, CameraTerm::PerspectiveY, CameraTerm::PerspectiveZ].map(|t| start.value(t));
+    let c0 = Vector3::from(c0).norm();
+    let most = (1.0 - CameraModel::MIN_DENOMINATOR) / CameraModel::WORKING_RANGE_M;
+    // 0.99: the corner of the box stays strictly inside.
+    let bound = camera_term.min(0.99 * (most - c0).max(0.0) / 3f64.sqrt());
+    for e in p.entries.iter_mut() {
+        if let Kind::CameraTerm { term } = e.kind
+            && term.is_perspective()
+        {
+            e.bound = Some(bound);
+        }
     }
 }
 

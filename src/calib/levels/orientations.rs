@@ -65,7 +65,7 @@ impl OrientationLevel {
             registration::from_rotations(&fitted, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;
         let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
         // The correction applied, written with the result (a perfect camera's is no model at all).
-        let camera_model = match config.camera_terms.model(config.camera_model) {
+        let camera_model = match config.camera_terms.model(config.camera_model_or_rigid()) {
             m if m.is_perfect() => CameraModel::rigid(),
             m => m,
         };
