@@ -43,9 +43,9 @@ impl Calibration {
             }
             html += "</section>";
         }
-        let _ = write!(
+        let _ = writeln!(
             html,
-            "<section id=\"tables\"><h2>Tables</h2>{}<details><summary>The text report, as <code>calibrate</code> prints it</summary><pre>{}</pre></details></section></body></html>\n",
+            "<section id=\"tables\"><h2>Tables</h2>{}<details><summary>The text report, as <code>calibrate</code> prints it</summary><pre>{}</pre></details></section></body></html>",
             html_tables::all(self),
             escape(text_report)
         );
@@ -74,7 +74,7 @@ fn style() -> String {
          h3{{font-size:1em;margin:1.4em 0 .2em}}table{{border-collapse:collapse;font-size:.9em}}\
          th,td{{padding:.3em .7em .3em 0;border-bottom:1px solid #ddd;text-align:left;vertical-align:top}}\
          thead th{{border-bottom:2px solid #bbb}}tbody th{{font-weight:500;color:#444}}\
-         td{{overflow-wrap:break-word}}.n{{text-align:right;font-variant-numeric:tabular-nums}}td.n{{white-space:nowrap}}\
+         td{{overflow-wrap:break-word}}.n{{text-align:right;font-variant-numeric:tabular-nums}}td.n,td.k{{white-space:nowrap}}\
          details{{margin:1em 0}}summary{{cursor:pointer}}\
          pre{{background:#f6f6f6;padding:1em;font-size:12px;white-space:pre-wrap;overflow-wrap:anywhere}}"
     )

@@ -3,8 +3,6 @@
 //! running a monospace line off the page. Everything the text report says is here, in its order
 //! (the verdict, the warnings and the predicted error head the page instead).
 
-use std::fmt::Write as _;
-
 use super::tables::{Align, Table, escape, parameter_changes};
 use crate::calib::{Calibration, CalibrationReport, CameraModelReport, Convergence, MarkerFitReport};
 use crate::math::stats::Stats;
@@ -79,7 +77,7 @@ fn errors(r: &CalibrationReport) -> String {
     let caption = format!("FDA vs camera, markers (mm): {} observations at {} poses", m.observations, m.poses);
     let mut html = error_table(&caption, &[("nominal", &m.before.errors), ("calibrated", &m.after.errors)]).html();
     let n = Align::Number;
-    let columns = [("marker", Align::Text), ("observations", n), ("nominal RMS (mm)", n), ("calibrated RMS (mm)", n)];
+    let columns = [("marker", Align::Label), ("observations", n), ("nominal RMS (mm)", n), ("calibrated RMS (mm)", n)];
     let mut per_marker = Table::new("Per marker", &columns);
     for ((name, count, b), (_, _, a)) in m.before.per_marker.iter().zip(&m.after.per_marker) {
         per_marker.row([name.clone(), count.to_string(), format!("{b:.3}"), format!("{a:.3}")]);
@@ -191,7 +189,7 @@ fn camera_model(c: &CameraModelReport) -> String {
 /// The camera model's terms: value, standard error, and why a held one is held.
 fn camera_terms(c: &CameraModelReport) -> Table {
     let n = Align::Number;
-    let columns = [("term", Align::Text), ("value", n), ("std error", n), ("held", Align::Text)];
+    let columns = [("term", Align::Label), ("value", n), ("std error", n), ("held", Align::Text)];
     let mut t = Table::new(format!("Camera model: {}", c.model.name()), &columns);
     for term in &c.terms {
         let se = term.std_error.map_or(String::new(), |se| format!("{se:.5}"));
@@ -232,7 +230,7 @@ fn parameter_notes(r: &CalibrationReport) -> String {
 fn correlations(r: &CalibrationReport) -> String {
     let mut t = Table::new(
         "Strongest correlations",
-        &[("parameter", Align::Text), ("with", Align::Text), ("ρ", Align::Number)],
+        &[("parameter", Align::Label), ("with", Align::Label), ("ρ", Align::Number)],
     );
     for c in r.high_correlations.iter().take(5) {
         t.row([c.a.clone(), c.b.clone(), format!("{:+.3}", c.rho)]);
@@ -256,7 +254,7 @@ fn residual_sigma(r: &CalibrationReport) -> String {
 /// error. The three coordinates share a cell, which wraps on a narrow screen.
 fn markers(m: &MarkerFitReport) -> Table {
     let columns = [
-        ("marker", Align::Text),
+        ("marker", Align::Label),
         ("fitted position in P (m)", Align::Text),
         ("change from the model (mm)", Align::Text),
         ("std error (mm)", Align::Text),
@@ -273,32 +271,30 @@ fn markers(m: &MarkerFitReport) -> Table {
     t
 }
 
-/// The observations the robust fit flagged (the first ten), with their file line.
+/// The observations the robust fit flagged (the first ten): each marker observation with its file
+/// line, or each pose of an orientation-level fit.
 fn flagged(r: &CalibrationReport) -> String {
     let excluded = r.flagged.iter().filter(|o| o.excluded).count();
     let caption = format!("Flagged observations: {} ({excluded} excluded as gross errors)", r.flagged.len());
+    if r.flagged.is_empty() {
+        return format!("<h3>{}</h3>", escape(&caption));
+    }
     let n = Align::Number;
     let (line, residual) = (format!("{} line", r.observations_file()), format!("residual ({})", r.unit));
-    let columns = [
-        ("pose", n),
-        ("marker", Align::Text),
-        (line.as_str(), n),
-        (residual.as_str(), n),
-        ("σ", n),
-        ("excluded", Align::Text),
-    ];
+    let mut columns = vec![("pose", n), ("marker", Align::Label), (line.as_str(), n)];
+    let markers = r.markers.is_some();
+    if !markers {
+        columns.truncate(1);
+    }
+    columns.extend([(residual.as_str(), n), ("σ", n), ("excluded", Align::Text)]);
     let mut t = Table::new(caption, &columns);
     for o in r.flagged.iter().take(LISTED) {
-        t.row([
-            o.pose.to_string(),
-            o.marker.clone().unwrap_or_default(),
-            if o.marker.is_some() { o.line.to_string() } else { String::new() },
-            format!("{:.3}", o.residual),
-            format!("{:.1}", o.sigmas),
-            (if o.excluded { "excluded" } else { "" }).to_string(),
-        ]);
+        let place = match markers {
+            true => vec![o.pose.to_string(), o.marker.clone().unwrap_or_default(), o.line.to_string()],
+            false => vec![o.pose.to_string()],
+        };
+        let excluded = (if o.excluded { "excluded" } else { "" }).to_string();
+        t.row(place.into_iter().chain([format!("{:.3}", o.residual), format!("{:.1}", o.sigmas), excluded]));
     }
-    let mut html = t.html();
-    let _ = write!(html, "{}", more(r.flagged.len()));
-    html
+    t.html() + &more(r.flagged.len())
 }

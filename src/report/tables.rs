@@ -14,8 +14,10 @@ use crate::model::Parameters;
 /// (so that decimal points line up down the column).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Align {
-    /// Words, names: left, wrapping where the page is narrow.
+    /// Words, sentences: left, wrapping where the page is narrow.
     Text,
+    /// Short labels (a band `10–20°`, a name): left, never broken inside.
+    Label,
     /// Numbers: right, never broken inside.
     Number,
 }
@@ -83,7 +85,11 @@ impl Table {
     /// as the table and scroll away with it), inside its own box that scrolls sideways when the
     /// page is narrower than the table (the page itself never does).
     pub(crate) fn html(&self) -> String {
-        let class = |a: Align| if a == Align::Number { " class=\"n\"" } else { "" };
+        let class = |a: Align| match a {
+            Align::Text => "",
+            Align::Label => " class=\"k\"",
+            Align::Number => " class=\"n\"",
+        };
         let mut s = format!("<h3>{}</h3><div class=\"table\"><table>", escape(&self.caption));
         if self.columns.iter().any(|c| !c.0.is_empty()) {
             s += "<thead><tr>";
@@ -171,7 +177,7 @@ pub(crate) fn parameters(title: &str, p: &Parameters) -> String {
 pub(crate) fn parameter_changes(calibration: &Calibration) -> Table {
     let mut table = Table::new(
         "Parameter changes from nominal",
-        &[("parameter", Align::Text), ("change (°)", Align::Number), ("std error (°)", Align::Number)],
+        &[("parameter", Align::Label), ("change (°)", Align::Number), ("std error (°)", Align::Number)],
     );
     for r in &calibration.report.parameters {
         let se = match r.std_error_deg {
@@ -204,8 +210,8 @@ pub(crate) fn by_region(e: &PredictedError) -> Table {
     let mut table = Table::new(
         "Predicted orientation error by region of the workspace",
         &[
-            ("tilt", Align::Text),
-            ("yaw (abs)", Align::Text),
+            ("tilt", Align::Label),
+            ("yaw (abs)", Align::Label),
             ("poses", Align::Number),
             ("RMS (°)", Align::Number),
             ("worst (°)", Align::Number),
