@@ -23,11 +23,14 @@ print(session, session.joints.shape, session.markers.shape)
 
 # %% Calibrate (settings as in `calibrate --config`, here one override), then look at the result.
 calibration = spmcal.calibrate(session, camera_model="depth_scale")
-print(calibration)
-print("verdict:", calibration.verdict)
+print(calibration)  # the text report, as `spmcal calibrate` prints it
+print("verdict:", calibration.verdict, "-", calibration.verdict_reason)  # PASS or WARN, and why
 print(f"predicted error on unseen poses: {calibration.predicted_error_deg:.4f} deg")
-for p in calibration.to_dict()["parameters"][:5]:  # angles in degrees, as the text report
-    print(f"  {p['name']}: {p['change_deg']:+.4f} ± {p['std_error_deg']:.4f} deg")
+
+# %% The parameters in the report's units (deg, mm, ms): columns for pandas.DataFrame(table).
+table = calibration.parameters_table()
+for name, change, std_error, unit in list(zip(table["name"], table["change"], table["std_error"], table["unit"]))[:5]:
+    print(f"  {name}: {change:+.4f} ± {std_error:.4f} {unit}")
 
 # %% Each pose's error against the camera, nominal and calibrated model.
 errors = calibration.errors()

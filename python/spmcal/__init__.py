@@ -10,23 +10,33 @@ The same nouns as the Rust library and the same errors as the command line::
     q = calibration.model.forward(session.joints)        # (n, 4) quaternions qw, qx, qy, qz
 
 Arrays are numpy: joints ``(n, 3)`` in rad, quaternions ``(n, 4)`` scalar first, matrices
-``(n, 3, 3)``, markers ``(n, m, 3)`` in m (NaN where unseen). Every error is a ``SpmcalError``
-(``FileError``, ``ModelError``, ``KinematicsError``, ``ConfigError``, ``CalibrationError``,
-``CompareError``, ``PlanError``, ``SimulationError``) whose message names the file, line and reason.
-Long calls (``calibrate``, ``simulate``, ``plan``) release the GIL and honour Ctrl-C.
+``(n, 3, 3)``, markers ``(n, m, 3)`` in m (NaN where unseen). An array argument may be any
+array-like (a list, a tuple, float32, ints, a view), read as ``np.asarray(x, dtype=float64)``; a
+wrong shape raises ``ShapeError``, values numpy cannot read ``ArrayError`` (both ``ValueError``s).
+Wherever a model is expected, a ``Model`` or a URDF's path; wherever parameters are, a ``Model`` or
+a parameters file's path. ``str(calibration)`` is the text report, ``calibration.verdict`` its
+word (``PASS``/``WARN``), ``calibration.parameters_table()`` its parameters in its units.
+
+Every error is a ``SpmcalError`` (``FileError`` with ``ArrayError`` and ``ShapeError``,
+``ModelError``, ``KinematicsError``, ``ConfigError``, ``CalibrationError``, ``CompareError``,
+``PlanError``, ``SimulationError``) whose one-line message names the file, line or argument and
+the reason. Long calls (``calibrate``, ``simulate``, ``plan``) release the GIL and honour Ctrl-C.
 """
 
 from ._spmcal import (
+    ArrayError,
     CalibrationError,
     Calibration,
     CompareError,
     ConfigError,
+    Exported,
     FileError,
     KinematicsError,
     Model,
     ModelError,
     PlanError,
     Session,
+    ShapeError,
     SimulationError,
     SpmcalError,
     __version__,
@@ -36,18 +46,24 @@ from ._spmcal import (
     plan,
     simulate,
 )
+from ._types import ParametersTable, PoseErrors
 
 __all__ = [
+    "ArrayError",
     "Calibration",
     "CalibrationError",
     "CompareError",
     "ConfigError",
+    "Exported",
     "FileError",
     "KinematicsError",
     "Model",
     "ModelError",
+    "ParametersTable",
     "PlanError",
+    "PoseErrors",
     "Session",
+    "ShapeError",
     "SimulationError",
     "SpmcalError",
     "__version__",

@@ -1,18 +1,34 @@
-"""Types of the native module (pyo3). Arrays: float64 unless said otherwise."""
+"""Types of the native module (pyo3).
+
+Array arguments take any array-like (``npt.ArrayLike``: lists, tuples, float32, ints, views), read
+as ``np.asarray(x, dtype=float64)``; arrays returned are float64 unless said otherwise.
+"""
 
 import os
-from typing import Any, Optional, Union
+from pathlib import Path
+from typing import Any, Iterable, Literal, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
 
+from ._types import ParametersTable, PoseErrors
+
 _Path = Union[str, "os.PathLike[str]"]
 _Array = npt.NDArray[np.float64]
+_ArrayLike = npt.ArrayLike
+# Wherever a model is expected: a Model, or the path of a URDF.
+_ModelLike = Union[_Path, "Model"]
+# Wherever parameters are expected: a Model (its parameters), or the path of a parameters file.
+_ParamsLike = Union[_Path, "Model"]
 
 __version__: str
 
 class SpmcalError(Exception): ...
 class FileError(SpmcalError): ...
+class ArrayError(FileError, ValueError):
+    """An array argument numpy cannot read as numbers, or whose values cannot be used."""
+class ShapeError(ArrayError):
+    """An array argument of the wrong shape: names the argument, the shape expected and given."""
 class ModelError(SpmcalError): ...
 class KinematicsError(SpmcalError): ...
 class ConfigError(SpmcalError): ...
@@ -27,18 +43,18 @@ class Model:
     @staticmethod
     def load(urdf: _Path) -> "Model": ...
     @staticmethod
-    def from_params(params: _Path, urdf: Optional[_Path] = None) -> "Model": ...
-    def forward(self, joints: _Array, matrices: bool = False) -> _Array:
+    def from_params(params: _Path, urdf: Optional[_ModelLike] = None) -> "Model": ...
+    def forward(self, joints: _ArrayLike, matrices: bool = False) -> _Array:
         """(n, 3) or (3,) joint readings (rad) -> (n, 4) quaternions qw, qx, qy, qz (or (n, 3, 3))."""
-    def ik(self, q: _Array) -> _Array:
+    def ik(self, q: _ArrayLike) -> _Array:
         """(n, 4) or (4,) unit quaternions -> (n, 3) joint readings (rad), working mode."""
-    def track(self, joints: _Array, previous: _Array) -> _Array:
+    def track(self, joints: _ArrayLike, previous: _ArrayLike) -> _Array:
         """The FDA along a stream, each row from the previous solution (the first from `previous`)."""
-    def all_modes(self, joints: _Array) -> _Array:
+    def all_modes(self, joints: _ArrayLike) -> _Array:
         """Every assembly mode (<= 8) of one set of readings (3,): (k, 4) quaternions."""
-    def jacobians(self, joints: _Array) -> _Array:
+    def jacobians(self, joints: _ArrayLike) -> _Array:
         """Forward Jacobians (n, 3, 3): joint rates -> MP angular velocity."""
-    def conditioning(self, joints: _Array) -> Union[_Array, float]:
+    def conditioning(self, joints: _ArrayLike) -> Union[_Array, float]:
         """Conditioning index (n,) (a float for one row): 1 isotropic, 0 at a parallel singularity."""
     @property
     def marker_names(self) -> list[str]: ...
@@ -49,16 +65,16 @@ class Session:
     """A session: static poses, sequential captures, a free-motion recording or a ROS 2 bag."""
 
     @staticmethod
-    def load(path: _Path, model: Optional[_Path] = None) -> "Session": ...
+    def load(path: _Path, model: Optional[_ModelLike] = None) -> "Session": ...
     @staticmethod
     def from_arrays(
-        joints: _Array,
-        markers: _Array,
-        marker_names: list[str],
-        model: _Path,
+        joints: _ArrayLike,
+        markers: _ArrayLike,
+        marker_names: Sequence[str],
+        model: _ModelLike,
         name: str = "arrays",
-        poses: Optional[list[int]] = None,
-        times: Optional[list[float]] = None,
+        poses: Optional[_ArrayLike] = None,
+        times: Optional[_ArrayLike] = None,
     ) -> "Session": ...
     @property
     def name(self) -> str: ...
@@ -80,44 +96,75 @@ class Session:
     def __len__(self) -> int: ...
 
 class Calibration:
-    """Calibrated parameters, report and covariance."""
+    """Calibrated parameters, report and covariance. ``str(calibration)`` is the text report."""
 
-    def to_dict(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The report as `spmcal calibrate --json` gives it (`results`)."""
     @property
-    def parameters(self) -> dict[str, Any]: ...
+    def parameters(self) -> dict[str, Any]:
+        """The calibrated parameters file's content."""
     @property
     def model(self) -> Model: ...
     @property
-    def verdict(self) -> str: ...
+    def verdict(self) -> Literal["PASS", "WARN"]:
+        """The report's verdict word (there is no FAIL: a calibration that cannot be made raises)."""
     @property
-    def passed(self) -> bool: ...
+    def verdict_reason(self) -> str:
+        """The verdict's sentence, as the report prints it after the word."""
+    @property
+    def passed(self) -> bool:
+        """`verdict == "PASS"`."""
     @property
     def identifiability(self) -> dict[str, Any]: ...
     @property
-    def parameter_names(self) -> list[str]: ...
+    def parameter_names(self) -> list[str]:
+        """The parameter vector's names, in the covariance's order."""
     @property
-    def covariance(self) -> _Array: ...
+    def parameter_units(self) -> list[str]:
+        """The parameter vector's units, in the covariance's order: "rad", "m", "s" or "" (unitless)."""
     @property
-    def std_errors(self) -> dict[str, float]: ...
+    def covariance(self) -> _Array:
+        """(p, p), in `parameter_units` (zero rows for held parameters)."""
+    @property
+    def std_errors(self) -> dict[str, float]:
+        """Fitted parameters' standard errors in `parameter_units`, in the covariance's order."""
     @property
     def predicted_error_deg(self) -> Optional[float]: ...
-    def errors(self) -> dict[str, Any]:
+    def parameters_table(self) -> ParametersTable:
+        """The parameters as the text report shows them (deg, mm, ms), one row each, as columns."""
+    def errors(self) -> PoseErrors:
         """Per-pose errors against the camera: {"poses", "nominal", "calibrated", "unit"}."""
     def save(self, path: _Path) -> None: ...
 
+class Exported:
+    """What `export` wrote."""
+
+    @property
+    def urdf(self) -> Path: ...
+    @property
+    def companion(self) -> Path:
+        """The companion beside the URDF (NAME.yaml): markers, camera model, provenance."""
+    @property
+    def warnings(self) -> list[str]:
+        """What the user should be told (also comments in both files)."""
+
 def calibrate(
     session: Session,
-    model: Optional[_Path] = None,
+    model: Optional[_ModelLike] = None,
     config: Union[None, _Path, dict[str, Any]] = None,
     **overrides: Any,
 ) -> Calibration: ...
-def compare(session: Session, params: list[_Path] = ..., model: Optional[_Path] = None) -> list[dict[str, Any]]: ...
+def compare(
+    session: Session,
+    params: Union[None, _ParamsLike, Iterable[_ParamsLike]] = None,
+    model: Optional[_ModelLike] = None,
+) -> list[dict[str, Any]]: ...
 def simulate(config: _Path, out: Optional[_Path] = None, seed: Optional[int] = None, poses: Optional[int] = None) -> Session: ...
-def export(params: _Path, urdf: _Path, model: Optional[_Path] = None) -> list[str]: ...
+def export(params: _ParamsLike, urdf: _Path, model: Optional[_ModelLike] = None) -> Exported: ...
 def plan(
     poses: int,
-    model: _Path = "models/agile_wrist.urdf",
-    params: Optional[_Path] = None,
+    model: Optional[_ModelLike] = None,
+    params: Optional[_ParamsLike] = None,
     config: Optional[_Path] = None,
     candidates: int = 2000,
     margin_deg: float = 2.0,
@@ -128,9 +175,9 @@ def plan(
 def _marker_model(
     model: Model,
     x: Optional[list[float]],
-    joints: _Array,
+    joints: _ArrayLike,
     markers: list[int],
-    marker_positions: _Array,
+    marker_positions: _ArrayLike,
     camera_rotation: list[float],
     camera_translation: list[float],
     camera_model: str = "depth_scale",

@@ -1,16 +1,16 @@
 //! `spmcal._spmcal`: the native half of the `spmcal` Python package (pyo3 + rust-numpy, stable
 //! ABI). Arrays in and out (`(n, 3)` joints in rad, `(n, 4)` quaternions `qw, qx, qy, qz`,
-//! `(n, 3, 3)` matrices); every error a Python exception under `SpmcalError` whose message is the
-//! command line's. `spmcal/__init__.py` re-exports it with its types (`_spmcal.pyi`).
+//! `(n, 3, 3)` matrices; any array-like in, `arrays`); a `Model` wherever a model or parameters
+//! are expected (`args`); every error a Python exception under `SpmcalError` whose one-line
+//! message is the command line's (`errors`); the parameters in the report's units (`table`).
+//! `spmcal/__init__.py` re-exports it with its types (`_spmcal.pyi`, `_types.py`).
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
 use numpy::ndarray::{Array1, Array2, Array3};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArrayDyn};
-use pyo3::create_exception;
-use pyo3::exceptions::PyException;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -18,83 +18,17 @@ use spmcal::calib::CalibConfig;
 use spmcal::model::{CameraModelKind, Parameters, RobotModel, Spm};
 use spmcal::vision::Method;
 
-create_exception!(_spmcal, SpmcalError, PyException, "Base class of every spmcal error.");
-create_exception!(
-    _spmcal,
-    FileError,
-    SpmcalError,
-    "A file (or array) that cannot be used: the message names the file, line and reason."
-);
-create_exception!(_spmcal, ModelError, SpmcalError, "A model (URDF, companion, parameters) that cannot be used.");
-create_exception!(
-    _spmcal,
-    KinematicsError,
-    SpmcalError,
-    "IK or FDA without a solution (outside the workspace, at a singularity)."
-);
-create_exception!(_spmcal, ConfigError, SpmcalError, "A setting out of its range or unknown.");
-create_exception!(_spmcal, CalibrationError, SpmcalError, "A calibration that cannot be made from the session.");
-create_exception!(_spmcal, CompareError, SpmcalError, "A comparison that cannot be made.");
-create_exception!(_spmcal, PlanError, SpmcalError, "A plan that cannot be made.");
-create_exception!(_spmcal, SimulationError, SpmcalError, "A simulation that cannot be run.");
+mod args;
+mod arrays;
+mod errors;
+mod table;
 
-/// The error and its causes, as the command line prints them (a cause only where the message
-/// does not already say it).
-fn message(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(cause) = source {
-        let cause_text = cause.to_string();
-        if !text.contains(&cause_text) {
-            text = format!("{text}: {cause_text}");
-        }
-        source = cause.source();
-    }
-    text
-}
-
-macro_rules! raise {
-    ($kind:ident) => {
-        |e| $kind::new_err(message(&e))
-    };
-}
-
-/// A kinematics error at row `k` of the joint readings.
-fn row_error(k: usize, e: &(dyn std::error::Error + 'static)) -> PyErr {
-    KinematicsError::new_err(format!("joints row {k}: {}", message(e)))
-}
-
-/// Rows of three from a `(n, 3)` or `(3,)` array (`single`: the latter).
-fn rows3(a: &PyReadonlyArrayDyn<'_, f64>, what: &str) -> PyResult<(Vec<Vector3<f64>>, bool)> {
-    let v = a.as_array();
-    match v.shape() {
-        [3] => Ok((vec![Vector3::new(v[[0]], v[[1]], v[[2]])], true)),
-        [_, 3] => Ok((v.outer_iter().map(|r| Vector3::new(r[0], r[1], r[2])).collect(), false)),
-        shape => Err(FileError::new_err(format!("{what}: expected shape (n, 3) or (3,), got {shape:?}"))),
-    }
-}
-
-/// Rotations from a `(n, 4)` or `(4,)` array of unit quaternions `qw, qx, qy, qz`.
-fn rotations(a: &PyReadonlyArrayDyn<'_, f64>, what: &str) -> PyResult<(Vec<Rotation3<f64>>, bool)> {
-    let v = a.as_array();
-    let one = |q: [f64; 4], row: usize| -> PyResult<Rotation3<f64>> {
-        let q = Quaternion::new(q[0], q[1], q[2], q[3]);
-        let norm = q.norm();
-        if !norm.is_finite() || (norm - 1.0).abs() >= 1e-6 {
-            return Err(FileError::new_err(format!("{what}: row {row}: not a unit quaternion (norm {norm})")));
-        }
-        Ok(UnitQuaternion::from_quaternion(q).to_rotation_matrix())
-    };
-    match v.shape() {
-        [4] => Ok((vec![one([v[[0]], v[[1]], v[[2]], v[[3]]], 0)?], true)),
-        [_, 4] => {
-            let out: PyResult<Vec<_>> =
-                v.outer_iter().enumerate().map(|(k, r)| one([r[0], r[1], r[2], r[3]], k)).collect();
-            Ok((out?, false))
-        }
-        shape => Err(FileError::new_err(format!("{what}: expected shape (n, 4) or (4,), got {shape:?}"))),
-    }
-}
+use args::{model_arg, params_arg, robot_opt, urdf_opt};
+use arrays::{Arg, JOINTS, QUATERNIONS, rotations, rows3};
+use errors::{
+    CalibrationError, CompareError, ConfigError, FileError, KinematicsError, ModelError, PlanError, SimulationError,
+    SpmcalError, message, raise, row_error,
+};
 
 /// `qw, qx, qy, qz` with `qw ≥ 0`.
 fn quaternion(r: &Rotation3<f64>) -> [f64; 4] {
@@ -150,29 +84,33 @@ impl Model {
         Ok(Model { spm: robot.spm.clone(), robot: Some(Arc::new(robot)), params, source: urdf.display().to_string() })
     }
 
-    /// The model of the parameters file at `params` (e.g. a calibration's); `urdf` gives the model
-    /// it belongs to when the file's `model:` does not lead to it.
+    /// The model of the parameters file at `params` (e.g. a calibration's); `urdf` (a path or a
+    /// `Model`) gives the model it belongs to when the file's `model:` does not lead to it.
     #[staticmethod]
     #[pyo3(signature = (params, urdf=None))]
-    fn from_params(params: PathBuf, urdf: Option<PathBuf>) -> PyResult<Model> {
+    fn from_params(params: PathBuf, urdf: Option<&Bound<'_, PyAny>>) -> PyResult<Model> {
         let p = Parameters::read(&params).map_err(raise!(FileError))?;
         let spm = p.spm().map_err(|e| ModelError::new_err(format!("{}: {}", params.display(), message(&e))))?;
-        let named = urdf.or_else(|| p.model.as_ref().map(PathBuf::from)).filter(|u| u.exists());
-        let robot = named.map(|u| RobotModel::load(&u).map_err(raise!(ModelError))).transpose()?;
-        Ok(Model { spm, robot: robot.map(Arc::new), params: p, source: params.display().to_string() })
+        let robot = match urdf {
+            Some(u) => Some(model_arg(u, "urdf")?.robot("urdf")?),
+            // The file's own `model:`, when it leads to a URDF (a model without one still computes).
+            None => p
+                .model
+                .as_ref()
+                .map(PathBuf::from)
+                .filter(|u| u.exists())
+                .map(|u| RobotModel::load(&u).map(Arc::new).map_err(raise!(ModelError)))
+                .transpose()?,
+        };
+        Ok(Model { spm, robot, params: p, source: params.display().to_string() })
     }
 
     /// The MP orientation for joint readings `joints` (`(n, 3)` or `(3,)`, rad) by the working-mode
     /// FDA: `(n, 4)` quaternions `qw, qx, qy, qz`, or `(n, 3, 3)` matrices with `matrices=True`.
     /// Raises `KinematicsError` naming the first row without a solution.
     #[pyo3(signature = (joints, matrices=false))]
-    fn forward<'py>(
-        &self,
-        py: Python<'py>,
-        joints: PyReadonlyArrayDyn<'py, f64>,
-        matrices: bool,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = rows3(&joints, "joints")?;
+    fn forward<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>, matrices: bool) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(joints, JOINTS)?;
         let spm = &self.spm;
         let solved: Result<Vec<Rotation3<f64>>, (usize, String)> =
             py.detach(|| rows.iter().enumerate().map(|(k, j)| spm.forward(j).map_err(|e| (k, message(&e)))).collect());
@@ -187,8 +125,8 @@ impl Model {
 
     /// Joint readings (rad) of the working mode for MP orientations `q` (`(n, 4)` or `(4,)`
     /// quaternions `qw, qx, qy, qz`).
-    fn ik<'py>(&self, py: Python<'py>, q: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
-        let (rs, single) = rotations(&q, "q")?;
+    fn ik<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let (rs, single) = rotations(q, QUATERNIONS)?;
         let spm = &self.spm;
         let solved: Result<Vec<Vector3<f64>>, (usize, String)> =
             py.detach(|| rs.iter().enumerate().map(|(k, r)| spm.ik(r).map_err(|e| (k, message(&e)))).collect());
@@ -201,13 +139,14 @@ impl Model {
     fn track<'py>(
         &self,
         py: Python<'py>,
-        joints: PyReadonlyArrayDyn<'py, f64>,
-        previous: PyReadonlyArrayDyn<'py, f64>,
+        joints: &Bound<'py, PyAny>,
+        previous: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = rows3(&joints, "joints")?;
-        let (start, one) = rotations(&previous, "previous")?;
+        let (rows, single) = rows3(joints, JOINTS)?;
+        let arg = Arg { name: "previous", expected: "one quaternion qw, qx, qy, qz (of unit norm), shape (4,)" };
+        let (start, one) = rotations(previous, arg)?;
         if !one {
-            return Err(FileError::new_err("previous: expected one quaternion, shape (4,)"));
+            return Err(arrays::wrong_shape(py, arg, &[start.len(), 4]));
         }
         let mut last = start[0];
         let mut out = Vec::with_capacity(rows.len());
@@ -220,10 +159,12 @@ impl Model {
 
     /// Every assembly mode (at most 8) for one set of joint readings `(3,)`: `(k, 4)` quaternions,
     /// nearest home first.
-    fn all_modes<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = rows3(&joints, "joints")?;
+    fn all_modes<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let arg =
+            Arg { name: "joints", expected: "one set of joint readings in rad, shape (3,) (all_modes solves one)" };
+        let (rows, single) = rows3(joints, arg)?;
         if !single {
-            return Err(FileError::new_err("joints: all_modes takes one set of readings, shape (3,)"));
+            return Err(arrays::wrong_shape(py, arg, &[rows.len(), 3]));
         }
         let modes: Vec<Rotation3<f64>> = self.spm.all_modes(&rows[0]).iter().map(|m| m.rotation).collect();
         Ok(quaternion_array(py, &modes, false))
@@ -231,8 +172,8 @@ impl Model {
 
     /// The forward Jacobian `J = A⁻¹B` (joint rates → MP angular velocity) at each row of
     /// `joints`: `(n, 3, 3)`; NaN at a parallel singularity.
-    fn jacobians<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = rows3(&joints, "joints")?;
+    fn jacobians<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(joints, JOINTS)?;
         let nan = nalgebra::Matrix3::from_element(f64::NAN);
         let out: Vec<_> = self.jacobians_at(&rows)?.iter().map(|j| j.forward().unwrap_or(nan)).collect();
         Ok(matrix_array(py, &out, single))
@@ -240,8 +181,8 @@ impl Model {
 
     /// The conditioning index (1 isotropic, 0 at a parallel singularity) at each row of `joints`:
     /// `(n,)`, or a float for a single row `(3,)`.
-    fn conditioning<'py>(&self, py: Python<'py>, joints: PyReadonlyArrayDyn<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
-        let (rows, single) = rows3(&joints, "joints")?;
+    fn conditioning<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let (rows, single) = rows3(joints, JOINTS)?;
         let out: Array1<f64> = self.jacobians_at(&rows)?.iter().map(spmcal::model::Jacobians::conditioning).collect();
         Ok(if single { out[0].into_pyobject(py)?.into_any() } else { out.into_pyarray(py).into_any() })
     }
@@ -295,6 +236,18 @@ impl Model {
             .map(|(k, j)| Ok(self.spm.jacobians(j, &self.spm.forward(j).map_err(|e| row_error(k, &e))?)))
             .collect()
     }
+
+    /// The mechanism this model describes, for an argument `name` that expects a model: its URDF's
+    /// (a parameters file's model without a URDF found cannot be one).
+    fn robot(&self, name: &str) -> PyResult<Arc<RobotModel>> {
+        self.robot.clone().ok_or_else(|| {
+            let named = self.params.model.as_deref().unwrap_or("no URDF");
+            ModelError::new_err(format!(
+                "{name}: the Model of {} has no URDF (its `model:` is {named}, not found): load it with Model.from_params(params, urdf=...)",
+                self.source
+            ))
+        })
+    }
 }
 
 /// Rows of three as `(n, 3)`, or `(3,)` for a single row.
@@ -333,10 +286,11 @@ struct Session {
 #[pymethods]
 impl Session {
     /// Load the session at `path` (a session folder, an `.mcap` bag or a bag folder); `model`
-    /// overrides the URDF it names.
+    /// (a URDF's path or a `Model`) overrides the URDF it names.
     #[staticmethod]
     #[pyo3(signature = (path, model=None))]
-    fn load(py: Python<'_>, path: PathBuf, model: Option<PathBuf>) -> PyResult<Session> {
+    fn load(py: Python<'_>, path: PathBuf, model: Option<&Bound<'_, PyAny>>) -> PyResult<Session> {
+        let model = urdf_opt(model, "model")?;
         let loaded = py.detach(|| spmcal::dataset::Session::load(&path, model.as_deref()));
         let (session, warnings) = loaded.map_err(raise!(FileError))?;
         // What the command line prints as `warning:` lines, as Python warnings.
@@ -347,57 +301,35 @@ impl Session {
         Ok(Session { inner: Arc::new(session) })
     }
 
-    /// A static session from arrays already in memory: `joints` `(n, 3)` rad, `markers`
-    /// `(n, m, 3)` m in the camera frame (NaN where a marker was not seen), `marker_names` (m,
-    /// the model's), `model` the URDF. Checked as a session folder is.
+    /// A static session from arrays already in memory (any array-likes): `joints` `(n, 3)` rad,
+    /// `markers` `(n, m, 3)` m in the camera frame (NaN where a marker was not seen),
+    /// `marker_names` (m, the model's), `model` the URDF (a path or a `Model`), `poses` `n`
+    /// integer ids, `times` `n` seconds. Checked as a session folder is.
     #[staticmethod]
     #[pyo3(signature = (joints, markers, marker_names, model, name="arrays".to_string(), poses=None, times=None))]
     #[allow(clippy::too_many_arguments)]
     fn from_arrays(
-        joints: PyReadonlyArrayDyn<'_, f64>,
-        markers: PyReadonlyArrayDyn<'_, f64>,
+        joints: &Bound<'_, PyAny>,
+        markers: &Bound<'_, PyAny>,
         marker_names: Vec<String>,
-        model: PathBuf,
+        model: &Bound<'_, PyAny>,
         name: String,
-        poses: Option<Vec<u64>>,
-        times: Option<Vec<f64>>,
+        poses: Option<&Bound<'_, PyAny>>,
+        times: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Session> {
-        let (rows, _) = rows3(&joints, "joints")?;
-        let m = markers.as_array();
+        let model = model_arg(model, "model")?.urdf("model")?;
+        let (rows, _) = rows3(joints, Arg { name: "joints", expected: "an (n, 3) array of joint readings in rad" })?;
         let n = rows.len();
-        if m.shape() != [n, marker_names.len(), 3] {
-            return Err(FileError::new_err(format!(
-                "markers: expected shape ({n}, {}, 3) (poses, marker_names, xyz), got {:?}",
-                marker_names.len(),
-                m.shape()
-            )));
-        }
-        if let Some(k) = times.as_ref().and_then(|t| t.iter().position(|x| !x.is_finite())) {
-            return Err(FileError::new_err(format!("times: row {k}: not a finite time")));
-        }
-        let ids = poses.unwrap_or_else(|| (0..n as u64).collect());
-        if ids.len() != n || times.as_ref().is_some_and(|t| t.len() != n) {
-            return Err(FileError::new_err(format!("poses and times must hold {n} values, one per row of joints")));
-        }
+        let seen = marker_rows(markers, &marker_names, n)?;
+        let expected = format!("({n},): an integer pose id per row of joints");
+        let ids = match poses {
+            Some(p) => arrays::ids(p, Arg { name: "poses", expected: &expected }, n)?,
+            None => (0..n as u64).collect(),
+        };
+        let expected = format!("({n},): a time in s per row of joints");
+        let times = times.map(|t| arrays::values(t, Arg { name: "times", expected: &expected }, n)).transpose()?;
         let mut pose_list = Vec::with_capacity(n);
-        for (k, j) in rows.iter().enumerate() {
-            let mut seen: Vec<Option<Vector3<f64>>> = Vec::with_capacity(marker_names.len());
-            for i in 0..marker_names.len() {
-                let p = Vector3::new(m[[k, i, 0]], m[[k, i, 1]], m[[k, i, 2]]);
-                // NaN in all three coordinates is "not seen"; anything else not finite is an error.
-                if p.iter().all(|v| v.is_nan()) {
-                    seen.push(None);
-                } else if p.iter().all(|v| v.is_finite()) {
-                    seen.push(Some(p));
-                } else {
-                    let reason = format!(
-                        "markers: row {k}, marker `{}`: {:?} is neither a position nor unseen (all NaN)",
-                        marker_names[i],
-                        p.as_slice()
-                    );
-                    return Err(FileError::new_err(reason));
-                }
-            }
+        for (k, (j, seen)) in rows.iter().zip(seen).enumerate() {
             pose_list.push(spmcal::dataset::SessionPose {
                 id: ids[k],
                 joints: *j,
@@ -498,6 +430,40 @@ impl Session {
     }
 }
 
+/// The markers of each pose from an `(n, m, 3)` array-like: a position, or `None` where all three
+/// coordinates are NaN (not seen); anything else not finite is an `ArrayError`.
+fn marker_rows(markers: &Bound<'_, PyAny>, names: &[String], n: usize) -> PyResult<Vec<Vec<Option<Vector3<f64>>>>> {
+    let py = markers.py();
+    let expected =
+        format!("shape ({n}, {}, 3), marker positions in m (poses, marker_names, xyz; NaN where unseen)", names.len());
+    let arg = Arg { name: "markers", expected: &expected };
+    let a = arrays::floats(markers, arg)?;
+    let m = a.as_array();
+    if m.shape() != [n, names.len(), 3] {
+        return Err(arrays::wrong_shape(py, arg, m.shape()));
+    }
+    let mut rows = Vec::with_capacity(n);
+    for k in 0..n {
+        let mut seen = Vec::with_capacity(names.len());
+        for (i, name) in names.iter().enumerate() {
+            let p = Vector3::new(m[[k, i, 0]], m[[k, i, 1]], m[[k, i, 2]]);
+            if p.iter().all(|v| v.is_nan()) {
+                seen.push(None);
+            } else if p.iter().all(|v| v.is_finite()) {
+                seen.push(Some(p));
+            } else {
+                let text = format!(
+                    "markers: row {k}, marker `{name}`: {:?} is neither a position nor unseen (all NaN)",
+                    p.as_slice()
+                );
+                return Err(errors::array_error(py, text));
+            }
+        }
+        rows.push(seen);
+    }
+    Ok(rows)
+}
+
 /// The settings of a calibration: `config` (a YAML file, or a dict) with `overrides` on top.
 fn calib_config(
     py: Python<'_>,
@@ -505,7 +471,17 @@ fn calib_config(
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<CalibConfig> {
     let to_value = |obj: &Bound<'_, PyAny>| -> PyResult<serde_yaml::Value> {
-        let json: String = py.import("json")?.call_method1("dumps", (obj,))?.extract()?;
+        // numpy scalars and arrays (np.int64(5), np.float32(1.5)) as the Python values they hold.
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("default", py.import("operator")?.call_method1("methodcaller", ("tolist",))?)?;
+        let json: String = py
+            .import("json")?
+            .call_method("dumps", (obj,), Some(&kwargs))
+            .map_err(|e| {
+                let reason = e.value(py).to_string();
+                ConfigError::new_err(format!("settings are numbers, strings, lists or dicts of them: {reason}"))
+            })?
+            .extract()?;
         serde_json::from_str(&json).map_err(|e| ConfigError::new_err(e.to_string()))
     };
     let mut value = match config {
@@ -558,12 +534,16 @@ fn interruptible<T: Send + 'static>(py: Python<'_>, job: impl FnOnce() -> T + Se
 }
 
 /// The robot model of a session (or `model`).
-fn robot_of(session: &spmcal::dataset::Session, model: Option<PathBuf>) -> PyResult<Arc<RobotModel>> {
-    let path = model.unwrap_or_else(|| session.model.clone());
-    Ok(Arc::new(RobotModel::load(&path).map_err(raise!(ModelError))?))
+/// The robot model of a session, or `model` (a URDF's path or a `Model`) when given.
+fn robot_of(session: &spmcal::dataset::Session, model: Option<&Bound<'_, PyAny>>) -> PyResult<Arc<RobotModel>> {
+    match robot_opt(model, "model")? {
+        Some(robot) => Ok(robot),
+        None => Ok(Arc::new(RobotModel::load(&session.model).map_err(raise!(ModelError))?)),
+    }
 }
 
-/// Calibrate `session` (with the model it names, or `model`): `config` a YAML file or a dict of
+/// Calibrate `session` (with the model it names, or `model`: a URDF's path or a `Model`, whose
+/// URDF's nominal model the fit starts from, as `--model`): `config` a YAML file or a dict of
 /// `calibrate`'s settings, `overrides` settings on top (e.g. `fit="orientations"`). The fit runs
 /// with the GIL released; Ctrl-C interrupts it.
 #[pyfunction]
@@ -571,7 +551,7 @@ fn robot_of(session: &spmcal::dataset::Session, model: Option<PathBuf>) -> PyRes
 fn calibrate(
     py: Python<'_>,
     session: &Session,
-    model: Option<PathBuf>,
+    model: Option<&Bound<'_, PyAny>>,
     config: Option<&Bound<'_, PyAny>>,
     overrides: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Calibration> {
@@ -618,10 +598,18 @@ impl Calibration {
         })
     }
 
-    /// The report's verdict in words: what the cross-validation says of the calibrated model
-    /// against the nominal one.
+    /// The verdict's word as the report prints it: `PASS` (the calibrated model predicts unseen
+    /// poses clearly better than the nominal one, within the threshold) or `WARN` (it does not:
+    /// read `verdict_reason`). There is no `FAIL`: a calibration that cannot be made raises.
     #[getter]
-    fn verdict(&self) -> String {
+    fn verdict(&self) -> &'static str {
+        self.inner.report.verdict.label()
+    }
+
+    /// Why: the verdict's sentence (what the cross-validation says of the calibrated model
+    /// against the nominal one), as the report prints it after the word.
+    #[getter]
+    fn verdict_reason(&self) -> String {
         self.inner.report.verdict.summary.clone()
     }
 
@@ -651,18 +639,38 @@ impl Calibration {
         Array2::from_shape_fn((c.nrows(), c.ncols()), |(i, j)| c[(i, j)]).into_pyarray(py)
     }
 
-    /// Standard errors by parameter name (internal units), for the fitted parameters.
+    /// Standard errors of the fitted parameters by name, in the covariance's order and units
+    /// (`parameter_units`: rad, m, s, or dimensionless): `sqrt(diag(covariance))` without the held
+    /// parameters. In the report's units (degrees, mm, ms): `parameters_table()`.
     #[getter]
-    fn std_errors(&self) -> std::collections::BTreeMap<String, f64> {
+    fn std_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let c = &self.inner.covariance;
-        self.inner
-            .parameterisation
-            .entries
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| c[(*i, *i)] > 0.0)
-            .map(|(i, e)| (e.name.clone(), c[(i, i)].sqrt()))
-            .collect()
+        let out = PyDict::new(py);
+        for (i, e) in self.inner.parameterisation.entries.iter().enumerate() {
+            if c[(i, i)] > 0.0 {
+                out.set_item(&e.name, c[(i, i)].sqrt())?;
+            }
+        }
+        Ok(out)
+    }
+
+    /// The unit of each entry of the parameter vector, as `parameter_names` orders them: `rad`
+    /// (axis tilts, link angles, offsets, rotations), `m` (camera translation, marker positions),
+    /// `s` (latency), `""` (camera model terms, dimensionless). The units of `covariance` and
+    /// `std_errors`.
+    #[getter]
+    fn parameter_units(&self) -> Vec<&'static str> {
+        self.inner.parameterisation.entries.iter().map(|e| table::internal_unit(e.kind)).collect()
+    }
+
+    /// The calibrated parameters as the text report shows them, one row each, as columns (a dict of
+    /// equal-length lists; `pandas.DataFrame(calibration.parameters_table())`): `name`, `value`,
+    /// `change` (from the nominal model, the starting registration, the model's marker position,
+    /// a perfect camera), `std_error` (NaN when not fitted), `unit` (`deg`, `mm`, `ms`, or `""`)
+    /// and `status` (`fitted`, `frozen`, `at bound`, or why a camera term is held). Angles first,
+    /// in the report's order, then the camera translation, latency and model, then the markers.
+    fn parameters_table<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        table::columns(py, &table::rows(&self.inner))
     }
 
     /// The predicted RMS orientation error on unseen poses of the session's workspace (degrees):
@@ -702,32 +710,52 @@ impl Calibration {
         self.inner.parameters.write(&path).map_err(raise!(FileError))
     }
 
+    /// The text report, as `spmcal calibrate` prints it (without its `wrote` line).
+    fn __str__(&self) -> String {
+        self.inner.report.to_string()
+    }
+
     fn __repr__(&self) -> String {
         let predicted = self.predicted_error_deg().map_or("none".to_string(), |e| format!("{e:.4} deg"));
-        let passed = if self.passed() { "True" } else { "False" };
-        format!("Calibration({}, passed={passed}, predicted error {predicted})", self.session.name)
+        format!("Calibration({}: {}, predicted error {predicted})", self.session.name, self.verdict())
     }
 }
 
-/// Compare parameter sets against the camera on `session`: `params` a list of parameters files
-/// (the nominal model is always first). One dict per set, as `spmcal compare --json` gives them.
+/// Compare parameter sets against the camera on `session`: `params` parameters files or `Model`s
+/// (one or a list; the nominal model is always first), `model` the mechanism (a URDF's path or a
+/// `Model`; default the session's). One dict per set, as `spmcal compare --json` gives them.
 #[pyfunction]
-#[pyo3(signature = (session, params=Vec::new(), model=None))]
+#[pyo3(signature = (session, params=None, model=None))]
 fn compare<'py>(
     py: Python<'py>,
     session: &Session,
-    params: Vec<PathBuf>,
-    model: Option<PathBuf>,
+    params: Option<&Bound<'py, PyAny>>,
+    model: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let robot = robot_of(&session.inner, model)?;
     let mut sets = vec![("nominal".to_string(), Parameters::nominal(&robot.spm, None))];
-    for path in &params {
-        sets.push((path.display().to_string(), Parameters::read(path).map_err(raise!(FileError))?));
+    for (k, set) in params.map(params_list).transpose()?.unwrap_or_default().iter().enumerate() {
+        let p = params_arg(set, &format!("params[{k}]"))?;
+        sets.push((p.label, p.params));
     }
     let compared = py
         .detach(|| spmcal::compare::compare(&session.inner, &robot, &sets, Method::Kabsch, None))
         .map_err(raise!(CompareError))?;
     to_python(py, &compared)
+}
+
+/// `params` as a list: one parameters argument (a path or a `Model`), or an iterable of them.
+fn params_list<'py>(params: &Bound<'py, PyAny>) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    if model_arg(params, "params").is_ok() {
+        return Ok(vec![params.clone()]);
+    }
+    let Ok(items) = params.try_iter() else {
+        let given = params.get_type().name().map_or_else(|_| "object".to_string(), |n| n.to_string());
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "params: expected a spmcal.Model, the path of a parameters file, or a list of them, got {given}"
+        )));
+    };
+    items.collect()
 }
 
 /// Simulate a session with ground truth from the settings file `config` (`seed`, `poses`
@@ -753,26 +781,54 @@ fn simulate(
     Ok(Session { inner: Arc::new(session) })
 }
 
-/// Write the calibrated URDF of the parameters file `params` at `urdf` (its companion beside it),
-/// copied from `model` (default: the parameters' model). Returns the warnings.
+/// What `export` wrote: the calibrated URDF, its companion beside it, and what the user should
+/// be told.
+#[pyclass(module = "spmcal._spmcal", frozen, get_all)]
+struct Exported {
+    /// The calibrated URDF written (`pathlib.Path`).
+    urdf: PathBuf,
+    /// Its companion (`NAME.yaml` beside `NAME.urdf`): markers, camera model, provenance.
+    companion: PathBuf,
+    /// What the caller should tell the user (e.g. the parameters' `model:` names another URDF
+    /// whose legs and markers agree); each is also a comment in both files.
+    warnings: Vec<String>,
+}
+
+#[pymethods]
+impl Exported {
+    fn __repr__(&self) -> String {
+        format!("Exported(urdf={:?}, companion={:?}, {} warnings)", self.urdf, self.companion, self.warnings.len())
+    }
+}
+
+/// Write the calibrated URDF of `params` (a parameters file or a `Model`) at `urdf`, its companion
+/// beside it, copied from `model` (a URDF's path or a `Model`; default: the `Model`'s URDF, else
+/// the parameters file's `model:`). Returns what it wrote (`Exported`).
 #[pyfunction]
 #[pyo3(signature = (params, urdf, model=None))]
-fn export(params: PathBuf, urdf: PathBuf, model: Option<PathBuf>) -> PyResult<Vec<String>> {
-    let p = Parameters::read(&params).map_err(raise!(FileError))?;
-    let model_path = model
-        .or_else(|| p.model.as_ref().map(PathBuf::from))
-        .ok_or_else(|| ModelError::new_err(format!("{}: names no model: pass model=", params.display())))?;
-    if same_file(&model_path, &urdf) || same_file(&params, &urdf) {
+fn export(params: &Bound<'_, PyAny>, urdf: PathBuf, model: Option<&Bound<'_, PyAny>>) -> PyResult<Exported> {
+    let given = params_arg(params, "params")?;
+    let robot = match (robot_opt(model, "model")?, given.robot.clone()) {
+        (Some(r), _) | (None, Some(r)) => r,
+        (None, None) => {
+            let path = given.params.model.as_ref().map(PathBuf::from).ok_or_else(|| {
+                ModelError::new_err(format!("{}: names no model: pass model= (a URDF's path or a Model)", given.label))
+            })?;
+            Arc::new(RobotModel::load(&path).map_err(raise!(ModelError))?)
+        }
+    };
+    let companion = RobotModel::companion_path(&urdf);
+    let inputs = [robot.urdf_path.clone(), RobotModel::companion_path(&robot.urdf_path), PathBuf::from(&given.label)];
+    if let Some(out) = [&urdf, &companion].into_iter().find(|out| inputs.iter().any(|i| same_file(i, out))) {
         return Err(FileError::new_err(format!(
             "{}: is an input of this call: refusing to overwrite it",
-            urdf.display()
+            out.display()
         )));
     }
-    let robot = RobotModel::load(&model_path).map_err(raise!(ModelError))?;
-    let provenance = [format!("Calibrated model exported by spmcal (Python) from {}", params.display())];
-    let exported = spmcal::model::export(&robot, &p, &provenance).map_err(raise!(ModelError))?;
+    let provenance = [format!("Calibrated model exported by spmcal (Python) from {}", given.label)];
+    let exported = spmcal::model::export(&robot, &given.params, &provenance).map_err(raise!(ModelError))?;
     exported.write(&urdf).map_err(raise!(FileError))?;
-    Ok(exported.warnings)
+    Ok(Exported { urdf, companion, warnings: exported.warnings })
 }
 
 fn same_file(a: &Path, b: &Path) -> bool {
@@ -782,14 +838,17 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Plan `poses` poses for the model at `model` (default the shipped Agile Wrist), or the
-/// parameters file `params`, with the simulation settings `config` (workspace, camera, noise),
+/// The model `plan` plans for when given none: the shipped Agile Wrist.
+const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
+
+/// Plan `poses` poses for `model` (a URDF's path or a `Model`; default the `params` `Model`'s
+/// URDF, else the shipped Agile Wrist), or the parameters `params` (a file or a `Model`), with the simulation settings `config` (workspace, camera, noise),
 /// as `spmcal plan` does (`candidates`, `margin_deg`, `camera_model`, `augment` a session the plan
 /// adds to): `(summary dict, (poses, 4) quaternions, (poses, 3) joints)` in capture order.
 #[pyfunction]
 #[pyo3(signature = (
     poses,
-    model=PathBuf::from("models/agile_wrist.urdf"),
+    model=None,
     params=None,
     config=None,
     candidates=2000,
@@ -801,16 +860,20 @@ fn same_file(a: &Path, b: &Path) -> bool {
 fn plan<'py>(
     py: Python<'py>,
     poses: usize,
-    model: PathBuf,
-    params: Option<PathBuf>,
+    model: Option<&Bound<'py, PyAny>>,
+    params: Option<&Bound<'py, PyAny>>,
     config: Option<PathBuf>,
     candidates: usize,
     margin_deg: f64,
     camera_model: &str,
     augment: Option<&Session>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    let robot = RobotModel::load(&model).map_err(raise!(ModelError))?;
-    let params = params.map(|p| Parameters::read(&p).map_err(raise!(FileError))).transpose()?;
+    let params = params.map(|p| params_arg(p, "params")).transpose()?;
+    let robot = match (robot_opt(model, "model")?, params.as_ref().and_then(|p| p.robot.clone())) {
+        (Some(r), _) | (None, Some(r)) => r,
+        (None, None) => Arc::new(RobotModel::load(Path::new(DEFAULT_MODEL)).map_err(raise!(ModelError))?),
+    };
+    let params = params.map(|p| p.params);
     let sim = match &config {
         Some(path) => spmcal::sim::SimConfig::read(path).map_err(raise!(FileError))?,
         None => spmcal::sim::SimConfig::default(),
@@ -862,9 +925,9 @@ fn _marker_model<'py>(
     py: Python<'py>,
     model: &Model,
     x: Option<Vec<f64>>,
-    joints: PyReadonlyArrayDyn<'py, f64>,
+    joints: &Bound<'py, PyAny>,
     markers: Vec<usize>,
-    marker_positions: PyReadonlyArrayDyn<'py, f64>,
+    marker_positions: &Bound<'py, PyAny>,
     camera_rotation: Vec<f64>,
     camera_translation: Vec<f64>,
     camera_model: &str,
@@ -874,8 +937,9 @@ fn _marker_model<'py>(
     use spmcal::calib::{Bounds, Kind, MarkerObservation, MarkerResiduals, Parameterisation, StereoNoise};
     use spmcal::model::{CameraModel, CameraRegistration};
 
-    let (rows, _) = rows3(&joints, "joints")?;
-    let (positions, _) = rows3(&marker_positions, "marker_positions")?;
+    let (rows, _) = rows3(joints, JOINTS)?;
+    let positions_arg = Arg { name: "marker_positions", expected: "a (k, 3) array of positions in P, m" };
+    let (positions, _) = rows3(marker_positions, positions_arg)?;
     let kind = [CameraModelKind::Rigid, CameraModelKind::DepthScale, CameraModelKind::Affine]
         .into_iter()
         .find(|k| k.name() == camera_model)
@@ -938,6 +1002,7 @@ fn _marker_model<'py>(
             marker,
             joints: *theta,
             measured: *measured,
+            camera: None,
             line: 0,
             station: None,
             time_s: None,
@@ -949,6 +1014,8 @@ fn _marker_model<'py>(
         lateral_std_error_m: 0.0,
         depth_m: 1.0,
         depth_std_error_m: 0.0,
+        pixel_px: Vec::new(),
+        pixel_std_error_px: Vec::new(),
     };
     let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;
@@ -1008,29 +1075,17 @@ fn _marker_model<'py>(
 /// The module.
 #[pymodule]
 fn _spmcal(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    let py = m.py();
     m.add_class::<Model>()?;
     m.add_class::<Session>()?;
     m.add_class::<Calibration>()?;
+    m.add_class::<Exported>()?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(_marker_model, m)?)?;
-    for (name, class) in [
-        ("SpmcalError", py.get_type::<SpmcalError>()),
-        ("FileError", py.get_type::<FileError>()),
-        ("ModelError", py.get_type::<ModelError>()),
-        ("KinematicsError", py.get_type::<KinematicsError>()),
-        ("ConfigError", py.get_type::<ConfigError>()),
-        ("CalibrationError", py.get_type::<CalibrationError>()),
-        ("CompareError", py.get_type::<CompareError>()),
-        ("PlanError", py.get_type::<PlanError>()),
-        ("SimulationError", py.get_type::<SimulationError>()),
-    ] {
-        m.add(name, class)?;
-    }
+    errors::add_to(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

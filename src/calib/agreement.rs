@@ -30,17 +30,22 @@ use crate::vision::SessionEstimate;
 /// per marker.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MarkerErrors {
-    /// Over every observation, mm.
+    /// Over every observation, mm (px for a pixel session's).
     #[serde(flatten)]
     pub errors: Stats,
-    /// `(marker, observations, RMS mm)` per marker.
+    /// `(marker, observations, RMS)` per marker.
     pub per_marker: Vec<(String, usize, f64)>,
+    /// `mm`, or `px` for a pixel session's reprojection errors.
+    pub unit: &'static str,
 }
 
 impl MarkerErrors {
     /// The statistics of marker residuals (m) of `observations`, per marker of `names`.
     pub(crate) fn of(residuals: &[Vector3<f64>], observations: &[MarkerObservation], names: &[String]) -> Self {
-        let mm: Vec<f64> = residuals.iter().map(|r| r.norm() * 1e3).collect();
+        // Pixels (px) as they are, points in millimetres.
+        let pixels = observations.first().is_some_and(|o| o.camera.is_some());
+        let scale = if pixels { 1.0 } else { 1e3 };
+        let mm: Vec<f64> = residuals.iter().map(|r| r.norm() * scale).collect();
         let per_marker = names
             .iter()
             .enumerate()
@@ -50,7 +55,7 @@ impl MarkerErrors {
                 (name.clone(), of_k.len(), rms(of_k.iter().copied()))
             })
             .collect();
-        MarkerErrors { errors: Stats::of_or_zero(&mm), per_marker }
+        MarkerErrors { errors: Stats::of_or_zero(&mm), per_marker, unit: if pixels { "px" } else { "mm" } }
     }
 }
 

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::rig_terms::RigTermGroup;
 use crate::io::files::FileError;
 use crate::model::{CameraModel, CameraModelKind, CameraTerm, CameraTerms};
 use crate::vision::Method;
@@ -36,6 +37,8 @@ pub enum Group {
     Latency,
     /// The camera model's terms (marker-level fit): frozen, `camera_terms` are used as they are.
     CameraModel,
+    /// A pixel session's camera rig (`rig_terms`): frozen, the rig is used as `cameras.yaml` gives it.
+    CameraRig,
 }
 
 /// What the calibration fits.
@@ -152,6 +155,10 @@ pub struct CalibConfig {
     /// Parameter groups held fixed.
     #[serde(default)]
     pub freeze: Vec<Group>,
+    /// A session seen through its cameras' pixels: the rig's terms refined with the mechanism
+    /// (`focal_lengths`, `principal_points`, `radial_k1`, `radial_k2`, `other_distortion`,
+    /// `extrinsics`); the first baseline's length is always held (the rig's metric scale).
+    pub rig_terms: Vec<RigTermGroup>,
     /// Every `holdout_every`-th pose is held out of the fit for validation (orientation-level fit;
     /// 0: none).
     pub holdout_every: usize,
@@ -219,6 +226,7 @@ impl Default for CalibConfig {
             huber_threshold: 3.0,
             outlier_threshold: 4.0,
             freeze: Vec::new(),
+            rig_terms: RigTermGroup::DEFAULT.to_vec(),
             holdout_every: 4,
             max_iterations: 200,
             initial_radius_deg: 3.0,

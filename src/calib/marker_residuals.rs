@@ -24,10 +24,11 @@ use serde::Serialize;
 use super::config::FitLevel;
 use super::parameterisation::{Kind, Parameterisation};
 use super::residuals::{EvalError, Evaluation, Residuals};
+use super::rig_terms;
 use super::sensitivity::Frames;
 use crate::dataset::{Session, Streams};
 use crate::math::so3;
-use crate::model::{FdaError, Spm};
+use crate::model::{CameraModel, FdaError, Rig, RigProjection, Spm};
 
 /// One marker seen at one capture.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,8 +39,10 @@ pub struct MarkerObservation {
     pub marker: usize,
     /// The capture's joint readings.
     pub joints: Vector3<f64>,
-    /// Measured position in the camera frame (m).
+    /// Measured position in the camera frame (m); for a pixel, `(u, v, 0)` (px).
     pub measured: Vector3<f64>,
+    /// The camera of the session's rig that saw it at the pixel `measured` (`None`: a point).
+    pub camera: Option<usize>,
     /// Line of `markers.csv` (0 when not read from a file).
     pub line: usize,
     /// The capture's station, when recorded.
@@ -50,26 +53,41 @@ pub struct MarkerObservation {
 }
 
 impl MarkerObservation {
-    /// Every marker observation of `session`, pose by pose, and the poses whose FDA fails on
-    /// `spm` (left out, with the error).
+    /// Every marker observation of `session`, pose by pose — its pixels when it is seen
+    /// through a rig, else its points — and the poses whose FDA fails on `spm` (left out, with
+    /// the error).
     pub fn of_session(session: &Session, spm: &Spm) -> (Vec<MarkerObservation>, Vec<(u64, FdaError)>) {
+        Self::collect(session, spm, session.rig.is_some())
+    }
+
+    fn collect(session: &Session, spm: &Spm, pixels: bool) -> (Vec<MarkerObservation>, Vec<(u64, FdaError)>) {
         let (mut kept, mut failed) = (Vec::new(), Vec::new());
-        for pose in session.poses.iter().filter(|p| p.seen() > 0) {
+        let seen = |p: &crate::dataset::SessionPose| if pixels { p.pixels.len() } else { p.seen() };
+        for pose in session.poses.iter().filter(|p| seen(p) > 0) {
             if let Err(e) = spm.forward(&pose.joints) {
                 failed.push((pose.id, e));
                 continue;
             }
-            for (marker, seen) in pose.markers.iter().enumerate() {
-                if let Some(measured) = seen {
-                    kept.push(MarkerObservation {
-                        pose: pose.id,
-                        marker,
-                        joints: pose.joints,
-                        measured: *measured,
-                        line: pose.marker_lines[marker],
-                        station: pose.station,
-                        time_s: pose.time_s,
-                    });
+            let observation = |marker, measured, camera, line| MarkerObservation {
+                pose: pose.id,
+                marker,
+                joints: pose.joints,
+                measured,
+                camera,
+                line,
+                station: pose.station,
+                time_s: pose.time_s,
+            };
+            if pixels {
+                kept.extend(pose.pixels.iter().map(|seen| {
+                    let measured = Vector3::new(seen.pixel.x, seen.pixel.y, 0.0);
+                    observation(seen.marker, measured, Some(seen.camera), seen.line)
+                }));
+            } else {
+                for (marker, seen) in pose.markers.iter().enumerate() {
+                    if let Some(measured) = seen {
+                        kept.push(observation(marker, *measured, None, pose.marker_lines[marker]));
+                    }
                 }
             }
         }
@@ -96,7 +114,7 @@ pub(crate) fn per_pose_rms_mm(observations: &[MarkerObservation], residuals: &[V
 
 /// The stereo noise model: standard deviations across and along the line of sight at the
 /// reference distance, with their standard errors.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StereoNoise {
     /// Distance at which the σ's hold (the median distance of the observations), m.
     pub reference_distance_m: f64,
@@ -108,6 +126,12 @@ pub struct StereoNoise {
     pub depth_m: f64,
     /// Its standard error, m.
     pub depth_std_error_m: f64,
+    /// A pixel session's σ per pixel coordinate of each camera of its rig (px; empty for points).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub pixel_px: Vec<f64>,
+    /// Their standard errors (px).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub pixel_std_error_px: Vec<f64>,
 }
 
 /// A pose's joints and their rate of change with the camera latency.
@@ -115,6 +139,9 @@ type JointsAndRate = (Vector3<f64>, Vector3<f64>);
 
 /// Smallest σ the whitening uses (0.1 µm): noise-free data must not divide by zero.
 const SIGMA_FLOOR_M: f64 = 1e-7;
+
+/// The same for a pixel (a thousandth of a pixel).
+const PIXEL_SIGMA_FLOOR_PX: f64 = 1e-3;
 
 /// The marker-level model over a set of observations.
 #[derive(Debug)]
@@ -172,7 +199,8 @@ impl<'a> MarkerResiduals<'a> {
             }
             pose_of.push(poses.len() - 1);
         }
-        let mut distances: Vec<f64> = observations.iter().map(|o| o.measured.norm()).collect();
+        let mut distances: Vec<f64> =
+            observations.iter().filter(|o| o.camera.is_none()).map(|o| o.measured.norm()).collect();
         distances.sort_by(f64::total_cmp);
         let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
         MarkerResiduals {
@@ -246,34 +274,62 @@ impl<'a> MarkerResiduals<'a> {
         (m / d, d)
     }
 
-    /// The stereo σ's that the (weighted) residuals imply.
+    /// The stereo σ's that the (weighted) residuals imply: across and along the line of sight for
+    /// points, per camera for pixels.
     pub fn stereo_noise(&self, residuals: &[Vector3<f64>], weights: &[f64]) -> StereoNoise {
-        let (mut depth, mut lateral, mut total) = (0.0, 0.0, 0.0);
+        let (mut depth, mut lateral, mut total, mut points) = (0.0, 0.0, 0.0, 0usize);
+        let cameras = self.p.rig0.as_ref().map_or(0, |r| r.cameras.len());
+        let (mut pixel, mut pixel_total, mut pixel_count) =
+            (vec![0.0; cameras], vec![0.0; cameras], vec![0usize; cameras]);
         for (j, r) in residuals.iter().enumerate() {
+            let r = r / self.inflation(j);
+            if let Some(c) = self.observations[j].camera {
+                pixel[c] += weights[j] * r.norm_squared();
+                pixel_total[c] += weights[j];
+                pixel_count[c] += 1;
+                continue;
+            }
             let (l, d) = self.sight(j);
             let ratio = self.reference_distance / d;
-            let r = r / self.inflation(j);
             let along = l.dot(&r);
             depth += weights[j] * (along * ratio * ratio).powi(2);
             lateral += weights[j] * ((r - l * along) * ratio).norm_squared();
             total += weights[j];
+            points += 1;
         }
-        // Degrees of freedom: 3 per observation, less one per parameter (shared pro rata).
-        let n = residuals.len() as f64;
-        let dof = (1.0 - self.p.len() as f64 / (3.0 * n).max(1.0)).max(0.1);
+        // Degrees of freedom: 3 per point and 2 per pixel, less one per parameter (shared pro rata).
+        let rows = (3 * points + 2 * pixel_count.iter().sum::<usize>()) as f64;
+        let dof = (1.0 - self.p.len() as f64 / rows.max(1.0)).max(0.1);
+        let n = points as f64;
         let total = total.max(f64::MIN_POSITIVE) * dof;
-        let (depth_m, lateral_m) = ((depth / total).sqrt(), (lateral / (2.0 * total)).sqrt());
+        let (depth_m, lateral_m) =
+            if points > 0 { ((depth / total).sqrt(), (lateral / (2.0 * total)).sqrt()) } else { (0.0, 0.0) };
+        let pixel_px: Vec<f64> =
+            (0..cameras).map(|c| (pixel[c] / (2.0 * pixel_total[c].max(f64::MIN_POSITIVE) * dof)).sqrt()).collect();
+        let pixel_std_error_px =
+            (0..cameras).map(|c| pixel_px[c] / (4.0 * pixel_count[c] as f64).max(1.0).sqrt()).collect();
         StereoNoise {
             reference_distance_m: self.reference_distance,
             lateral_m,
             lateral_std_error_m: lateral_m / (4.0 * n).max(1.0).sqrt(),
             depth_m,
             depth_std_error_m: depth_m / (2.0 * n).max(1.0).sqrt(),
+            pixel_px,
+            pixel_std_error_px,
         }
+    }
+
+    /// Whether the observations are pixels (a session seen through its rig).
+    pub(crate) fn pixels(&self) -> bool {
+        self.observations.first().is_some_and(|o| o.camera.is_some())
     }
 
     /// `Σ_j^{-1/2}` of observation `j` under `noise`.
     pub fn whitening_of(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
+        if let Some(c) = self.observations[j].camera {
+            let sigma = noise.pixel_px.get(c).copied().unwrap_or(1.0).max(PIXEL_SIGMA_FLOOR_PX);
+            return Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) / (sigma * self.inflation(j));
+        }
         let (l, d) = self.sight(j);
         let ratio = noise.reference_distance_m / d;
         let along = l * l.transpose();
@@ -379,14 +435,16 @@ impl Residuals for MarkerResiduals<'_> {
             .map_err(|error| EvalError::Fda { pose: *pose, error })?;
             orientations.push(r);
         }
-        let residuals: Vec<Vector3<f64>> = self
+        let rig = p.rig(x);
+        let residuals = self
             .observations
             .iter()
             .zip(&self.pose_of)
             .map(|(o, &pose)| {
-                o.measured - camera_model.distort(&(camera * (orientations[pose] * markers[o.marker]) + translation))
+                let y = camera * (orientations[pose] * markers[o.marker]) + translation;
+                Ok(o.measured - observe(o, &y, &camera_model, rig.as_ref())?.0)
             })
-            .collect();
+            .collect::<Result<Vec<Vector3<f64>>, EvalError>>()?;
         let mut eval = Evaluation { residuals, orientations, jacobian: None, orientation_jacobians: None };
         if with_jacobian {
             let frames = Frames::new(p, x);
@@ -420,7 +478,11 @@ impl Residuals for MarkerResiduals<'_> {
     }
 
     fn unit_scale(&self) -> f64 {
-        1e3
+        if self.pixels() { 1.0 } else { 1e3 }
+    }
+
+    fn unit(&self) -> &'static str {
+        if self.pixels() { "px" } else { "mm" }
     }
 
     fn level(&self) -> FitLevel {
@@ -441,6 +503,7 @@ impl MarkerResiduals<'_> {
         let p = self.p;
         let jc = so3::left_jacobian(&p.registration_vectors(x).0);
         let (camera_model, translation) = (p.camera_model(x), p.translation(x));
+        let rig = p.rig(x);
         let mechanism = self.mechanism_needed();
         let shape = (3 * self.observations.len(), p.len());
         let mut jac = match self.spare.take() {
@@ -454,7 +517,8 @@ impl MarkerResiduals<'_> {
             let pose = self.pose_of[j];
             let rp = orientations[pose] * markers[o.marker];
             let y = camera * rp + translation;
-            let k = camera_model.jacobian(&y);
+            // Evaluated before: the observation projects.
+            let Ok((_, k, projection)) = observe(o, &y, &camera_model, rig.as_ref()) else { continue };
             let mech = k * camera.matrix() * rp.cross_matrix();
             let in_camera = k * (camera * rp).cross_matrix() * jc;
             let rotation = k * camera.matrix() * orientations[pose].matrix();
@@ -469,13 +533,43 @@ impl MarkerResiduals<'_> {
                     Kind::Camera { k: axis } => in_camera.column(axis).into(),
                     Kind::Translation { k: axis } => -k.column(axis),
                     Kind::Marker { marker, k: axis } if marker == o.marker => -rotation.column(axis),
-                    Kind::CameraTerm { term } => -camera_model.term_derivative(term, &y),
+                    Kind::CameraTerm { term } if o.camera.is_none() => -camera_model.term_derivative(term, &y),
                     Kind::Latency if !mechanism => mech * sensitivities[pose].column(i),
                     _ => continue,
                 };
                 block.set_column(i, &column);
             }
+            if let (Some(c), Some(projection)) = (o.camera, projection) {
+                for (i, d) in rig_terms::pixel_derivatives(p, x, c, &y, &projection) {
+                    if self.column_needed(i) {
+                        block.set_column(i, &-Vector3::new(d.x, d.y, 0.0));
+                    }
+                }
+            }
         }
         jac
+    }
+}
+
+/// A prediction, its derivative with respect to the point, and a pixel's projection.
+type Observed = (Vector3<f64>, Matrix3<f64>, Option<RigProjection>);
+
+/// What observation `o` predicts for the point `y` (cam0's frame): the position the camera model
+/// reports, or the pixel (`(u, v, 0)`) where its camera of `rig` sees it; with `∂/∂y` and the
+/// pixel's projection.
+fn observe(
+    o: &MarkerObservation,
+    y: &Vector3<f64>,
+    camera_model: &CameraModel,
+    rig: Option<&Rig>,
+) -> Result<Observed, EvalError> {
+    match (o.camera, rig) {
+        (Some(c), Some(rig)) => {
+            let q = rig.project(c, y).ok_or(EvalError::BehindCamera { pose: o.pose, camera: c })?;
+            let mut d = Matrix3::zeros();
+            d.fixed_rows_mut::<2>(0).copy_from(&q.d_cam0);
+            Ok((Vector3::new(q.lens.pixel.x, q.lens.pixel.y, 0.0), d, Some(q)))
+        }
+        _ => Ok((camera_model.distort(y), camera_model.jacobian(y), None)),
     }
 }

@@ -33,6 +33,7 @@ mod pipeline;
 pub(crate) mod registration;
 mod report;
 mod residuals;
+mod rig_terms;
 mod sensitivity;
 #[cfg(test)]
 mod tests;
@@ -60,10 +61,11 @@ pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,
-    MarkerFitReport, MarkerReport, StageReport, Verdict,
+    MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;
+pub use rig_terms::RigTermGroup;
 pub use uncertainty::{Correlation, ParameterReport, PredictedError, RegionError};
 pub(crate) use uncertainty::{common_rotations, predicted_orientation_error};
 pub use validation::CrossValidation;

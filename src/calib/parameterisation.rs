@@ -22,7 +22,7 @@ use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::config::{Bounds, Group};
 use crate::math::so3;
-use crate::model::{CameraModel, CameraTerm, LegGeometry};
+use crate::model::{CameraModel, CameraTerm, LegGeometry, Rig, RigTerm};
 
 /// What one entry of the parameter vector is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -78,6 +78,11 @@ pub enum Kind {
         /// Which term.
         term: CameraTerm,
     },
+    /// A term of a pixel session's camera rig, from the file's value.
+    Rig {
+        /// Which term.
+        term: RigTerm,
+    },
     /// Component `k` of marker `marker`'s position in P (m).
     Marker {
         /// Marker index (as in the session's `markers`).
@@ -102,6 +107,7 @@ impl Kind {
             Kind::Marker { .. } => Group::MarkerPositions,
             Kind::Latency => Group::Latency,
             Kind::CameraTerm { .. } => Group::CameraModel,
+            Kind::Rig { .. } => Group::CameraRig,
         }
     }
 
@@ -118,6 +124,7 @@ impl Kind {
             | Kind::Translation { .. }
             | Kind::Marker { .. }
             | Kind::CameraTerm { .. }
+            | Kind::Rig { .. }
             | Kind::Latency => None,
         }
     }
@@ -160,6 +167,9 @@ pub struct Parameterisation {
     /// The camera model at `x = 0` (marker level; a perfect camera otherwise): its kind is the
     /// model fitted, its values where the fit starts.
     pub camera_model0: CameraModel,
+    /// A pixel session's rig at `x = 0` (`cameras.yaml`): observations are pixels, predicted
+    /// through the rig at `x` (`rig_terms.rs`).
+    pub rig0: Option<std::sync::Arc<Rig>>,
     /// One entry per parameter.
     pub entries: Vec<Entry>,
 }
@@ -233,6 +243,7 @@ impl Parameterisation {
             latency0: 0.0,
             latency_start: 0.0,
             camera_model0: CameraModel::rigid(),
+            rig0: None,
             entries,
         }
     }
@@ -449,7 +460,11 @@ impl Parameterisation {
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
                 // `t_CB` and the markers are set by `TruthInGauge::for_markers`; the latency stays 0.
-                Kind::Translation { .. } | Kind::Marker { .. } | Kind::Latency | Kind::CameraTerm { .. } => 0.0,
+                Kind::Translation { .. }
+                | Kind::Marker { .. }
+                | Kind::Latency
+                | Kind::CameraTerm { .. }
+                | Kind::Rig { .. } => 0.0,
             };
         }
         x

@@ -242,7 +242,7 @@ fn run<L: Level>(
         flagged: &flagged,
     };
     let fitted_poses = results.problem.poses();
-    let level_of = results.problem.level();
+    let unit = results.problem.unit();
     let (nominal, calibrated) = (Solution::of(&results.nominal), Solution::of(&results.calibrated));
     let (iterations, convergence) = (results.calibrated.log.clone(), results.calibrated.status);
     let part = level.finish(results)?;
@@ -275,7 +275,7 @@ fn run<L: Level>(
         predicted_error_mm: part.predicted_error_mm,
         residual_sigma_deg: part.residual_sigma_deg,
         flagged,
-        unit: level_of.unit(),
+        unit,
         at_bound: p.entries.iter().zip(&at_bound).filter(|(_, b)| **b).map(|(e, _)| e.name.clone()).collect(),
         camera_translation_m: part.camera_translation_m,
         camera_translation_std_error_m: part.camera_translation_std_error_m,
@@ -400,6 +400,6 @@ fn not_better_warning(cv: &CrossValidation, weak: &[Direction], poses: usize) ->
         cv.calibrated_rms,
         cv.nominal_rms,
         cv.folds,
-        unit = cv.level.unit()
+        unit = cv.unit
     )
 }

@@ -67,3 +67,64 @@ pub(crate) fn from_markers(
     let rotation = so3::nearest_rotation(&h)?;
     Some(CameraRegistration { rotation, translation: cc - rotation * cb })
 }
+
+/// `(R_CB, t_CB)` from pixels: every pixel's ray (through its camera of `rig`, in cam0's frame:
+/// origin `o`, direction `d`) must pass through the model's marker `R_CB X + t_CB`, `X` the
+/// nominal marker in B: `[d]× (R X + t) = s [d]× o`, linear in the twelve entries of `(R, t)` and
+/// the scale `s` (1 for a metric rig; cam0's rays alone fix the registration only up to scale,
+/// which the markers' nominal spacing then sets). The null vector of that system (SVD) scaled so
+/// that `R` is nearest a rotation, its sign so that the markers lie in front of the camera;
+/// `None` when the rays do not determine it (too few, or every marker on one ray).
+pub(crate) fn from_pixels(
+    observations: &[MarkerObservation],
+    nominal: &[Rotation3<f64>],
+    markers: &[Vector3<f64>],
+    rig: &crate::model::Rig,
+) -> Option<CameraRegistration> {
+    let mut rows: Vec<[f64; 13]> = Vec::with_capacity(3 * observations.len());
+    for (o, r) in observations.iter().zip(nominal) {
+        let c = o.camera?;
+        let xy = rig.cameras.get(c)?.lens.unproject(&nalgebra::Vector2::new(o.measured.x, o.measured.y))?;
+        let to_cam0 = rig.from_cam0(c).inverse();
+        let d = (to_cam0.rotation * Vector3::new(xy.x, xy.y, 1.0)).normalize();
+        let (x, origin) = (r * markers[o.marker], to_cam0.translation.vector);
+        let (skew, rhs) = (d.cross_matrix(), d.cross(&origin));
+        for i in 0..3 {
+            let mut row = [0.0; 13];
+            for k in 0..3 {
+                for l in 0..3 {
+                    row[3 * k + l] = skew[(i, k)] * x[l];
+                }
+                row[9 + k] = skew[(i, k)];
+            }
+            row[12] = -rhs[i];
+            rows.push(row);
+        }
+    }
+    if rows.len() < 3 * 7 {
+        return None;
+    }
+    // Rays all through cam0's centre carry no scale: the scale column is then left out (it
+    // would be a null direction of its own).
+    let columns = if rows.iter().any(|r| r[12] != 0.0) { 13 } else { 12 };
+    let a = nalgebra::DMatrix::from_fn(rows.len(), columns, |i, k| rows[i][k]);
+    let svd = (a.transpose() * &a).symmetric_eigen();
+    let k = svd.eigenvalues.imin();
+    let v = svd.eigenvectors.column(k);
+    let m = Matrix3::from_fn(|i, l| v[3 * i + l]);
+    let det = m.determinant();
+    if det.abs() < f64::MIN_POSITIVE {
+        return None;
+    }
+    // `m = λ R`: λ³ = det m, its sign the null vector's.
+    let lambda = det.cbrt();
+    let rotation = so3::nearest_rotation(&(m / lambda))?;
+    let translation = Vector3::new(v[9], v[10], v[11]) / lambda;
+    let registration = CameraRegistration { rotation, translation };
+    let in_front = observations
+        .iter()
+        .zip(nominal)
+        .filter(|(o, r)| (rotation * (*r * markers[o.marker]) + translation).z > 0.0)
+        .count();
+    (2 * in_front > observations.len()).then_some(registration)
+}

@@ -66,9 +66,11 @@ impl Verdict {
         config: &CalibConfig,
     ) -> Self {
         if let Some(cv) = cv {
-            let (threshold, unit, what) = match cv.level {
-                FitLevel::Markers => (config.pass_held_out_mm, " mm", "markers"),
-                FitLevel::Orientations => (config.pass_held_out_deg, "°", "orientations"),
+            // A pixel session's reprojection error has no threshold in millimetres.
+            let (threshold, unit, what) = match (cv.level, cv.unit) {
+                (FitLevel::Markers, "px") => (f64::INFINITY, " px", "pixels"),
+                (FitLevel::Markers, _) => (config.pass_held_out_mm, " mm", "markers"),
+                (FitLevel::Orientations, _) => (config.pass_held_out_deg, "°", "orientations"),
             };
             return Verdict {
                 pass: cv.clearly_better && cv.calibrated_rms <= threshold,
@@ -218,6 +220,44 @@ pub struct MarkerFitReport {
     pub markers: Vec<MarkerReport>,
     /// Captures taken while a joint turned too fast, down-weighted.
     pub fast_captures: Vec<FastCapture>,
+    /// A pixel session's camera rig: every term before and after, and what was held.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rig: Option<RigReport>,
+}
+
+/// A pixel session's camera rig refined with the mechanism.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RigReport {
+    /// The first baseline's length (m), held at the file's value: the rig's metric scale, which
+    /// the mechanism's rotation-only motion cannot tell (0 for one camera, whose scale the
+    /// markers' nominal spacing sets).
+    pub baseline_held_m: f64,
+    /// Every term of the rig, fitted or held.
+    pub terms: Vec<RigTermReport>,
+    /// Each camera's pixel noise (σ per coordinate, px) with its standard error.
+    pub pixel_noise_px: Vec<(String, f64, f64)>,
+    /// The refined rig, as `--cameras-out` writes it.
+    #[serde(skip)]
+    pub refined: crate::model::Rig,
+}
+
+/// One term of a rig: the file's value, the change the fit made and its standard error, in the
+/// unit a person reads it in (`px` for intrinsics, none for a distortion coefficient, `deg` for a
+/// rotation or the baseline's direction, `mm` for a further camera's translation).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RigTermReport {
+    /// `cam1.fu`, `cam0.k1`, `cam1.rotation_x`, …
+    pub name: String,
+    /// The unit.
+    pub unit: &'static str,
+    /// The value in `cameras.yaml` (intrinsics and coefficients; a pose's terms are changes only).
+    pub file_value: Option<f64>,
+    /// The fit's change.
+    pub change: f64,
+    /// Its standard error (`None` when held).
+    pub std_error: Option<f64>,
+    /// Held at the file's value (not in `rig_terms`, frozen, or unidentifiable).
+    pub held: bool,
 }
 
 /// Everything a user needs to judge a calibration.
@@ -296,14 +336,18 @@ pub struct CalibrationReport {
 impl CalibrationReport {
     /// The file the marker observations came from, for messages ([`observations_file`]).
     pub(crate) fn observations_file(&self) -> &'static str {
-        observations_file(self.markers.as_ref().is_some_and(|m| m.latency.is_some()))
+        observations_file(self.markers.as_ref().is_some_and(|m| m.latency.is_some()), self.unit == "px")
     }
 }
 
-/// The file marker observations come from, for messages: a free-motion recording's (it has a
-/// latency) `captures.csv`, else `markers.csv`.
-pub(crate) fn observations_file(recording: bool) -> &'static str {
-    if recording { "captures.csv" } else { "markers.csv" }
+/// The file marker observations come from, for messages: a pixel session's `pixels.csv`, a
+/// free-motion recording's (it has a latency) `captures.csv`, else `markers.csv`.
+pub(crate) fn observations_file(recording: bool, pixels: bool) -> &'static str {
+    match (pixels, recording) {
+        (true, _) => "pixels.csv",
+        (false, true) => "captures.csv",
+        (false, false) => "markers.csv",
+    }
 }
 
 /// The `fit:` header of the parameters file.

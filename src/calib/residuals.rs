@@ -37,6 +37,14 @@ pub enum EvalError {
         /// The latency tried (s).
         latency_s: f64,
     },
+    #[error("pose {pose}: the marker falls behind camera {camera} of the rig")]
+    /// A marker the model puts behind a camera that saw it.
+    BehindCamera {
+        /// Pose id.
+        pose: u64,
+        /// Camera index.
+        camera: usize,
+    },
     #[error("pose {pose}: forward kinematics failed: {error}")]
     /// The forward kinematics of a pose failed.
     Fda {

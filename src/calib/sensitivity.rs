@@ -85,6 +85,7 @@ impl<'a> Frames<'a> {
             | Kind::Translation { .. }
             | Kind::Marker { .. }
             | Kind::CameraTerm { .. }
+            | Kind::Rig { .. }
             | Kind::Latency => 0.0,
         }
     }

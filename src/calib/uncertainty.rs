@@ -384,10 +384,12 @@ pub(crate) fn residual_mean_squares<N>(outcome: &FitOutcome<N>, cov: &DMatrix<f6
     Some(out)
 }
 
-/// The predicted marker error (mm) of a marker-level fit: per observation `ms[j] = tr(J_j Cov
-/// J_jᵀ)` ([`residual_mean_squares`]), grouped by the pose ids `poses` (one per observation).
+/// The predicted marker error (mm, or px for a pixel session's: `scale` from the residuals'
+/// unit) of a marker-level fit: per observation `ms[j] = tr(J_j Cov J_jᵀ)`
+/// ([`residual_mean_squares`]), grouped by the pose ids `poses` (one per observation).
 pub(crate) fn predicted_marker_error<N>(
     outcome: &FitOutcome<N>,
+    scale: f64,
     ms: &[f64],
     cov: &DMatrix<f64>,
     poses: &[u64],
@@ -411,13 +413,13 @@ pub(crate) fn predicted_marker_error<N>(
         .iter()
         .map(|p| {
             let (s, c) = sums[p];
-            (*p, (s / c as f64).sqrt() * 1e3)
+            (*p, (s / c as f64).sqrt() * scale)
         })
         .collect();
     let values: Vec<f64> = per_pose.iter().map(|(_, v)| *v).collect();
     let jac = outcome.evaluation.jacobian.as_ref()?;
     let q = jac.tr_mul(jac) / ms.len() as f64;
-    let mut predicted = PredictedError::of(per_pose, &(q * cov), 1e3)?;
+    let mut predicted = PredictedError::of(per_pose, &(q * cov), scale)?;
     predicted.by_region = by_region(&rotations, &values);
     Some(predicted)
 }

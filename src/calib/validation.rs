@@ -17,11 +17,6 @@ use super::config::FitLevel;
 use super::fit::{FitOutcome, weighted_normal_of};
 use super::residuals::Residuals;
 
-/// A fit level as its unit (`mm`, `deg`), as JSON has always shown it.
-fn unit_of<S: serde::Serializer>(level: &FitLevel, serializer: S) -> Result<S::Ok, S::Error> {
-    serializer.serialize_str(level.unit())
-}
-
 /// The error on unseen data: k-fold cross-validation.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CrossValidation {
@@ -32,10 +27,11 @@ pub struct CrossValidation {
     /// Held-out observations that the model fitted without their fold could not predict (its
     /// forward kinematics failed from every start): counted for neither model.
     pub unpredicted: usize,
-    /// The fit level, and so the unit of the errors: `mm` (markers) or `deg` (orientations); in
-    /// JSON, `unit`.
-    #[serde(rename = "unit", serialize_with = "unit_of")]
+    /// The fit level.
+    #[serde(skip)]
     pub level: FitLevel,
+    /// The unit of the errors: `mm` (markers), `px` (a pixel session's), `deg` (orientations).
+    pub unit: &'static str,
     /// RMS held-out error of the nominal model with its best-fit registration.
     pub nominal_rms: f64,
     /// The same for the calibrated model.
@@ -149,6 +145,7 @@ pub(crate) fn cross_validate<M: Residuals>(
         observations: n,
         unpredicted,
         level: model.level(),
+        unit: model.unit(),
         nominal_rms: rms(&nominal_sq),
         calibrated_rms: rms(&calibrated_sq),
         reduction: mean,
@@ -224,6 +221,7 @@ mod check_tests {
             observations: 100,
             unpredicted: 0,
             level: FitLevel::Markers,
+            unit: "mm",
             nominal_rms: 4.0,
             calibrated_rms,
             reduction: 10.0,

@@ -19,13 +19,16 @@ use spmcal::FileError;
 use spmcal::model::RobotModel;
 
 /// The files the session reader looks for in a session folder (which of them it reads depends on
-/// the session's kind: static files, or a free-motion recording's streams; truth when present).
-pub(crate) const SESSION_FILES: [&str; 7] = [
+/// the session's kind: static files, or a free-motion recording's streams, of points or of pixels
+/// with their rig; truth when present).
+pub(crate) const SESSION_FILES: [&str; 9] = [
     "session.yaml",
     "joints.csv",
     "markers.csv",
     "encoders.csv",
     "captures.csv",
+    "pixels.csv",
+    "cameras.yaml",
     "truth.yaml",
     "truth_orientations.csv",
 ];

@@ -5,11 +5,14 @@ mod joints;
 mod markers;
 mod open;
 mod orientations;
+mod pixels;
 mod session;
 mod streams;
 
 pub use joints::JointReading;
 pub use orientations::OrientationRecord;
+pub(crate) use pixels::{PixelRow, triangulate};
+pub use pixels::SeenPixel;
 pub(crate) use session::MIN_MARKERS;
 pub use session::{Session, SessionPose, Truth, Warning};
 pub use streams::Streams;

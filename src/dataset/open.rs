@@ -39,9 +39,14 @@ impl Session {
     /// else at 0, 1, 2 … s (stations and the truth are not carried).
     ///
     /// # Errors
-    /// A [`FileError`] when a time cannot be a ROS stamp (negative, or past 2038) or the file
-    /// cannot be written.
+    /// A [`FileError`] when the session is seen through its pixels (a bag carries points), a time
+    /// cannot be a ROS stamp (negative, or past 2038) or the file cannot be written.
     pub fn write_bag(&self, path: &Path) -> Result<(), FileError> {
+        if self.rig.is_some() {
+            // A bag carries marker points: the pixels (and the rig) would be lost without a word.
+            let reason = "a session seen through its cameras' pixels cannot be written as a bag (a bag carries marker points): not written";
+            return Err(FileError::new(path, reason));
+        }
         bag::write(self, path)
     }
 }

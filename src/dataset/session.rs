@@ -1,6 +1,9 @@
 //! A session folder: `session.yaml`, `joints.csv`, `markers.csv` (a free-motion recording has
-//! `encoders.csv` and `captures.csv` instead of the two CSV files), and for simulated sessions
-//! `truth.yaml` (the true parameters) and `truth_orientations.csv` (the true MP orientations).
+//! `encoders.csv` and `captures.csv` instead of the two CSV files; a session seen through its
+//! cameras' pixels has `pixels.csv` and `cameras.yaml` instead of `markers.csv` or `captures.csv`),
+//! and for simulated sessions `truth.yaml` (the true parameters), `truth_orientations.csv` (the
+//! true MP orientations) and, seen through pixels, `truth_cameras.yaml` (the true rig, in the
+//! format of `cameras.yaml`).
 //!
 //! What is an error (loading stops, naming file, line and column): malformed YAML or CSV, an
 //! unknown key in `session.yaml`, fewer than 3 or repeated marker names, no model, non-numbers
@@ -8,13 +11,19 @@
 //! pose that `joints.csv` does not have, an empty session, a reference pose that is not in
 //! `joints.csv`, an empty station or one whose captures are not one pose (`joints.csv`), a
 //! recording with captures in fewer than 3 camera frames, files of both kinds in one folder
-//! (which session is meant cannot be told), and more marker slots (listed markers × poses) than
+//! (which session is meant cannot be told), points and pixels in one folder, pixels without
+//! `cameras.yaml` (or the rig without pixels), and more marker slots (listed markers × poses) than
 //! memory should hold. Every check is linear in the names and rows (hash look-ups, no searches).
+//!
+//! A session seen through its pixels carries them pose by pose (`SessionPose::pixels`) with its
+//! rig (`Session::rig`), and as its marker points those the rig triangulates from them — a marker
+//! seen by two cameras or more — so that everything that works on points keeps working. A marker
+//! whose rays do not meet in front of the cameras gives no point, and a warning.
 //!
 //! A pose with fewer than 3 markers seen (none at all included) is data like any other: the
 //! marker-level fit uses each observation, and only the per-pose vision estimator skips it (and
-//! says so). The warnings a load returns are a free-motion recording's: camera frames that fall
-//! outside the encoder stream, left out.
+//! says so). The warnings a load returns are a free-motion recording's camera frames that fall
+//! outside the encoder stream, left out, and the markers whose pixels gave no point.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
@@ -26,10 +35,16 @@ use serde::{Deserialize, Serialize};
 use super::joints::{JointReading, StationSpans, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
-use super::streams::{StreamLimits, Streams, captures_csv, encoders_csv};
+use super::pixels::SeenPixel;
+use super::pixels::{
+    PixelRow, check_rows, pose_pixels_csv, read_pose_pixels, timed_pixels_csv, triangulate, unmet_message,
+};
+use super::streams::{StreamLimits, Streams, Unmet, captures_csv, encoders_csv};
 use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
+use crate::io::table::first_repeat;
 use crate::math::constellation::{self, MARKER_NOISE_M};
-use crate::model::{CameraModel, Parameters};
+use crate::model::camchain::{check_writable, read_camchain, write_camchain};
+use crate::model::{CameraModel, Parameters, Rig};
 
 /// Fewest markers that determine an orientation (the non-redundant minimum).
 pub(crate) const MIN_MARKERS: usize = 3;
@@ -56,19 +71,6 @@ pub struct SessionPose {
     pub pixels: Vec<SeenPixel>,
 }
 
-/// A marker seen by one camera of a rig (`pixels.csv`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SeenPixel {
-    /// Marker index (as in the session's `markers`).
-    pub marker: usize,
-    /// Camera index (as in the rig's `cameras`).
-    pub camera: usize,
-    /// `(u, v)` (px).
-    pub pixel: nalgebra::Vector2<f64>,
-    /// Line of `pixels.csv` (0 when not read from a file).
-    pub line: usize,
-}
-
 impl SessionPose {
     /// How many markers the camera saw.
     pub fn seen(&self) -> usize {
@@ -83,6 +85,9 @@ pub struct Truth {
     pub parameters: Parameters,
     /// True MP orientation of each pose (P → B).
     pub orientations: BTreeMap<u64, Rotation3<f64>>,
+    /// The true rig of a session seen through its pixels (`truth_cameras.yaml`), where the
+    /// session's own (`cameras.yaml`) is what its calibration file states.
+    pub rig: Option<crate::model::Rig>,
 }
 
 /// A joint-plus-vision session.
@@ -132,6 +137,26 @@ impl fmt::Display for Warning {
     }
 }
 
+/// What a static session observed: `markers.csv`'s points, or `pixels.csv`'s pixels seen by a rig.
+enum Observations<'a> {
+    Points(Vec<MarkerRow>),
+    Pixels(Vec<PixelRow<u64>>, &'a Rig),
+}
+
+/// What a session folder's readers need of its `session.yaml` to locate their errors there.
+struct SessionChecks<'a> {
+    yaml_path: &'a Path,
+    keys: &'a crate::io::yaml::KeyLines,
+    reference_pose: Option<u64>,
+}
+
+impl SessionChecks<'_> {
+    /// An error about the value of `key` in `session.yaml`, at its line.
+    fn error(&self, key: &str, reason: String) -> FileError {
+        self.keys.error(self.yaml_path, key, reason)
+    }
+}
+
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SessionFile {
@@ -156,7 +181,8 @@ impl Session {
 
     /// The session with the captures of each station merged into one pose, as the per-pose
     /// estimator needs (one marker at a time gives no pose with three): the station's first
-    /// capture's id, reading and time, and every marker it saw (the first sighting of each).
+    /// capture's id, reading and time, and every marker it saw (the first sighting of each, with
+    /// that sighting's pixels).
     /// Poses without a station stay as they are. The motion between captures is then blamed on
     /// the mechanism — the reason the marker-level fit uses every capture's own reading.
     pub fn by_station(&self) -> Session {
@@ -170,6 +196,7 @@ impl Session {
                         if into.markers[k].is_none() && m.is_some() {
                             into.markers[k] = *m;
                             into.marker_lines[k] = pose.marker_lines[k];
+                            into.pixels.extend(pose.pixels.iter().filter(|p| p.marker == k));
                         }
                     }
                 }
@@ -185,6 +212,7 @@ impl Session {
         let truth = self.truth.as_ref().map(|t| Truth {
             parameters: t.parameters.clone(),
             orientations: poses.iter().filter_map(|p| t.orientations.get(&p.id).map(|r| (p.id, *r))).collect(),
+            rig: t.rig.clone(),
         });
         Session { poses, reference_pose, truth, ..self.clone() }
     }
@@ -199,65 +227,112 @@ impl Session {
         let (file, keys) = crate::io::yaml::read::<SessionFile>(&yaml_path)?;
         let at = |key: &str, reason: String| keys.error(&yaml_path, key, reason);
         check_marker_names(&file.markers).map_err(|(key, reason)| at(&key, reason))?;
+        let reference_pose = file.reference_pose;
         let model = match (model, &file.model) {
             (Some(m), _) => m.to_path_buf(),
             (None, Some(m)) => dir.join(m),
             (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
         };
-        let joints_path = dir.join("joints.csv");
-        if session_kind(dir)? == Kind::Recording {
-            let streams = Streams::read(dir, &file.markers, &StreamLimits::default())?;
-            let frames = streams.captures.chunk_by(|a, b| a.time_s == b.time_s).count();
-            check_slots(file.markers.len(), frames, "camera frames in captures.csv").map_err(|r| at("markers", r))?;
-            let session = Session {
-                rig: None,
-                name: file.name,
-                description: file.description,
-                model,
-                markers: file.markers,
-                reference_pose: 0,
-                poses: Vec::new(),
-                truth: read_truth(dir)?,
-                streams: Some(std::sync::Arc::new(streams)),
-                folder: Some(dir.to_path_buf()),
-            };
-            return Ok(session.at_latency(0.0));
-        }
-        let markers_path = dir.join("markers.csv");
-        // The files are independent: the biggest is read on a second core.
-        let ((readings, truth), rows) =
-            in_parallel(|| (read_joints(&joints_path), read_truth(dir)), || read_markers(&markers_path, &file.markers));
-        let readings = readings?;
-        if readings.is_empty() {
-            return Err(FileError::new(&joints_path, "empty session: no poses"));
-        }
-        check_slots(file.markers.len(), readings.len(), "poses in joints.csv").map_err(|r| at("markers", r))?;
-        let rows = rows?;
-        let poses = assemble_poses(&readings, &rows, file.markers.len(), &markers_path)?;
-        let mut warnings = Vec::new();
-        check_station_markers(&poses, &file.markers, &markers_path, &mut warnings)?;
-        warnings.extend(beyond_a_turn(&poses, &joints_path));
-        // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
-        // Default: the first pose whose markers fix an orientation, else the first that sees
-        // enough markers for the estimator, else the first.
-        let reference_pose = file.reference_pose.unwrap_or_else(|| default_reference(&poses));
-        if !poses.iter().any(|p| p.id == reference_pose) {
-            return Err(at("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")));
-        }
-        let truth = truth?;
+        let layout = session_kind(dir)?;
+        // The rig first: the pixel rows name its cameras.
+        let rig = match layout.pixels {
+            true => Some(read_camchain(&dir.join("cameras.yaml"))?),
+            false => None,
+        };
         let session = Session {
             rig: None,
             name: file.name,
             description: file.description,
             model,
             markers: file.markers,
-            reference_pose,
-            poses,
-            truth,
+            reference_pose: 0,
+            poses: Vec::new(),
+            truth: None,
             streams: None,
             folder: Some(dir.to_path_buf()),
         };
+        let checks = SessionChecks { yaml_path: &yaml_path, keys: &keys, reference_pose };
+        match layout.kind {
+            Kind::Recording => session.read_recording(rig, &checks),
+            Kind::Static => session.read_static(rig, &checks),
+        }
+    }
+
+    /// The streams of the recording in the session's folder (of points, or of pixels with `rig`),
+    /// and its poses at latency 0.
+    fn read_recording(
+        mut self,
+        rig: Option<Rig>,
+        checks: &SessionChecks<'_>,
+    ) -> Result<(Session, Vec<Warning>), FileError> {
+        let dir = self.folder.clone().unwrap_or_default();
+        let limits = StreamLimits::default();
+        let (streams, unmet) = match &rig {
+            Some(rig) => Streams::read_pixels(&dir, &self.markers, rig, &limits)?,
+            None => (Streams::read(&dir, &self.markers, &limits)?, Vec::new()),
+        };
+        let frames: Vec<f64> = streams.frames().map(|f| f.time_s).collect();
+        let what = format!("camera frames in {}", file_name(&streams.captures_path));
+        check_slots(self.markers.len(), frames.len(), &what).map_err(|r| checks.error("markers", r))?;
+        let mut warnings: Vec<Warning> = match &rig {
+            Some(rig) => unmet_in_recording(&unmet, &frames, &streams.captures_path, &self.markers, rig),
+            None => Vec::new(),
+        };
+        self.truth = read_truth(&dir)?;
+        self.streams = Some(std::sync::Arc::new(streams));
+        self.rig = rig.map(std::sync::Arc::new);
+        let (session, left_out) = self.at_latency(0.0);
+        warnings.extend(left_out);
         Ok((session, warnings))
+    }
+
+    /// The poses of the static session in the session's folder: `joints.csv` with `markers.csv`,
+    /// or with `pixels.csv` seen by `rig`.
+    fn read_static(
+        mut self,
+        rig: Option<Rig>,
+        checks: &SessionChecks<'_>,
+    ) -> Result<(Session, Vec<Warning>), FileError> {
+        let dir = self.folder.clone().unwrap_or_default();
+        let joints_path = dir.join("joints.csv");
+        let observations_path = dir.join(if rig.is_some() { "pixels.csv" } else { "markers.csv" });
+        let names = &self.markers;
+        let read_observations = || match &rig {
+            Some(rig) => read_pose_pixels(&observations_path, names, rig).map(|rows| Observations::Pixels(rows, rig)),
+            None => read_markers(&observations_path, names).map(Observations::Points),
+        };
+        // The files are independent: the biggest is read on a second core.
+        let ((readings, truth), rows) =
+            in_parallel(|| (read_joints(&joints_path), read_truth(&dir)), read_observations);
+        let readings = readings?;
+        if readings.is_empty() {
+            return Err(FileError::new(&joints_path, "empty session: no poses"));
+        }
+        check_slots(names.len(), readings.len(), "poses in joints.csv").map_err(|r| checks.error("markers", r))?;
+        let mut warnings = Vec::new();
+        let poses = match rows? {
+            Observations::Points(rows) => assemble_poses(&readings, &rows, names.len(), &observations_path)?,
+            Observations::Pixels(rows, rig) => {
+                let mut poses = assemble_poses(&readings, &[], names.len(), &observations_path)?;
+                attach_pixels(&mut poses, &rows, &observations_path)?;
+                warnings.extend(triangulate_poses(&mut poses, rig, names, &observations_path));
+                poses
+            }
+        };
+        check_station_markers(&poses, names, &observations_path, &mut warnings)?;
+        warnings.extend(beyond_a_turn(&poses, &joints_path));
+        // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
+        // Default: the first pose whose markers fix an orientation, else the first that sees
+        // enough markers for the estimator, else the first.
+        let reference_pose = checks.reference_pose.unwrap_or_else(|| default_reference(&poses));
+        if !poses.iter().any(|p| p.id == reference_pose) {
+            return Err(checks.error("reference_pose", format!("reference pose {reference_pose} is not in joints.csv")));
+        }
+        self.truth = truth?;
+        self.poses = poses;
+        self.reference_pose = reference_pose;
+        self.rig = rig.map(std::sync::Arc::new);
+        Ok((self, warnings))
     }
 
     /// A static session from poses already in memory (named `name`, read with the URDF `model`),
@@ -326,7 +401,8 @@ impl Session {
     }
 
     /// A free-motion recording's poses for camera latency `latency_s`: one pose per camera frame
-    /// (the captures sharing a time stamp), numbered in order, its joints interpolated in the
+    /// (the captures — points or pixels — sharing a time stamp, the pixels attached to the pose),
+    /// numbered in order, its joints interpolated in the
     /// encoder stream at the frame's time less the latency. Frames that fall outside the encoder
     /// stream at that latency are left out, each with a warning naming its `captures.csv` line.
     /// A session without streams is returned as it is.
@@ -341,8 +417,8 @@ impl Session {
         let Some(streams) = &self.streams else { return (self.clone(), Vec::new()) };
         let m = self.markers.len();
         let (mut poses, mut warnings): (Vec<SessionPose>, Vec<Warning>) = (Vec::new(), Vec::new());
-        for frame in streams.captures.chunk_by(|a, b| a.time_s == b.time_s) {
-            let time = frame[0].time_s;
+        for frame in streams.frames() {
+            let time = frame.time_s;
             let inside = streams.joints_at(time - lo).and(streams.joints_at(time - hi));
             let Some(joints) = inside.and(streams.joints_at(time - latency_s)) else {
                 let at = if lo == hi {
@@ -352,23 +428,23 @@ impl Session {
                 };
                 warnings.push(Warning {
                     path: streams.captures_path.clone(),
-                    line: frame[0].line,
+                    line: frame.line(),
                     pose: poses.len() as u64,
                     message: format!("the frame at {time} s falls outside the encoder stream {at}: left out"),
                 });
                 continue;
             };
             let mut pose = SessionPose {
-                pixels: Vec::new(),
+                pixels: frame.pixels.iter().map(|p| p.seen).collect(),
                 id: poses.len() as u64,
                 joints,
                 time_s: Some(time),
                 markers: vec![None; m],
-                line: frame[0].line,
+                line: frame.line(),
                 marker_lines: vec![0; m],
                 station: None,
             };
-            for c in frame {
+            for c in frame.captures {
                 pose.markers[c.marker] = Some(c.position);
                 pose.marker_lines[c.marker] = c.line;
             }
@@ -397,10 +473,15 @@ impl Session {
     }
 
     /// Write the session into `dir` (created if needed). Every file is written atomically and
-    /// `session.yaml` last, so a folder without it is an interrupted write, never a session.
+    /// `session.yaml` last, so a folder without it is an interrupted write, never a session. A
+    /// session with a rig is written as its pixels — `pixels.csv` and `cameras.yaml` in place of
+    /// `markers.csv` or `captures.csv` — whose triangulated points it gets back on loading.
     ///
     /// # Errors
-    /// A [`FileError`] when `dir` holds something that is not a session or a file cannot be written.
+    /// A [`FileError`] when `dir` holds something that is not a session, a file cannot be written,
+    /// or the session could not be read back as it is (pixels without a rig, a camera the rig
+    /// does not have or named otherwise than `cam<k>`, a pixel outside its image or seen twice, a
+    /// marker point without the pixels it comes from); nothing is written then.
     ///
     /// # Panics
     /// Never in practice: serialising the session's YAML cannot fail.
@@ -409,37 +490,76 @@ impl Session {
         if self.streams.is_none() {
             check_stations(&self.poses, &dir.join("joints.csv"))?;
         }
+        self.check_pixels(dir)?;
+        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig.as_ref()) {
+            let path = dir.join("truth_cameras.yaml");
+            check_writable(rig).map_err(|r| FileError::new(&path, format!("{r}; not written")))?;
+        }
         std::fs::create_dir_all(dir).map_err(|e| FileError::new(dir, format!("cannot create the folder: {e}")))?;
+        let mut written = vec!["session.yaml"];
         if let Some(streams) = &self.streams {
             // A free-motion recording is its streams; its poses are derived from them on loading.
             write_atomic(&dir.join("encoders.csv"), encoders_csv(&streams.encoders).as_bytes())?;
-            write_atomic(&dir.join("captures.csv"), captures_csv(&streams.captures, &self.markers).as_bytes())?;
-            if let Some(truth) = &self.truth {
-                truth.parameters.write(&dir.join("truth.yaml"))?;
+            written.push("encoders.csv");
+            match self.rig.as_deref() {
+                Some(rig) => {
+                    let text = timed_pixels_csv(&streams.pixels, &self.markers, rig);
+                    written.extend(self.write_rig(dir, rig, &text)?);
+                }
+                None => {
+                    let text = captures_csv(&streams.captures, &self.markers);
+                    write_atomic(&dir.join("captures.csv"), text.as_bytes())?;
+                    written.push("captures.csv");
+                }
             }
-            let file = SessionFile {
-                name: self.name.clone(),
-                model: Some(relative_path(dir, &self.model)?),
-                markers: self.markers.clone(),
-                reference_pose: None,
-                description: self.description.clone(),
-            };
-            // A session replaced here leaves no file of the other kind (or a truth it lacks).
-            let stale = if self.truth.is_some() {
-                &["truth_orientations.csv"][..]
-            } else {
-                &["truth.yaml", "truth_orientations.csv"]
-            };
-            remove_stale(dir, STATIC_FILES.iter().chain(stale))?;
-            let yaml = serde_yaml::to_string(&file).expect("session serialises");
-            return write_atomic(&dir.join("session.yaml"), yaml.as_bytes());
+        } else {
+            written.extend(self.write_poses(dir)?);
         }
+        if let Some(truth) = &self.truth {
+            truth.parameters.write(&dir.join("truth.yaml"))?;
+            written.push("truth.yaml");
+            if let Some(rig) = &truth.rig {
+                write_camchain(&dir.join("truth_cameras.yaml"), rig)?;
+                written.push("truth_cameras.yaml");
+            }
+            if self.streams.is_none() {
+                let records: Vec<_> = truth
+                    .orientations
+                    .iter()
+                    .map(|(&pose, &rotation)| OrientationRecord { pose, mode: None, rotation, extra: vec![], line: 0 })
+                    .collect();
+                write_atomic(&dir.join("truth_orientations.csv"), write_orientations(&records).as_bytes())?;
+                written.push("truth_orientations.csv");
+            }
+        }
+        let file = SessionFile {
+            name: self.name.clone(),
+            model: Some(relative_path(dir, &self.model)?),
+            markers: self.markers.clone(),
+            reference_pose: self.streams.is_none().then_some(self.reference_pose),
+            description: self.description.clone(),
+        };
+        // A session replaced here leaves no file of another kind (or a truth it lacks).
+        remove_stale(dir, &written)?;
+        let yaml = serde_yaml::to_string(&file).expect("session serialises");
+        write_atomic(&dir.join("session.yaml"), yaml.as_bytes())
+    }
+
+    /// Write a static session's `joints.csv` and its observations — `markers.csv`, or with a rig
+    /// `pixels.csv` and `cameras.yaml` — and say which files.
+    fn write_poses(&self, dir: &Path) -> Result<Vec<&'static str>, FileError> {
         let readings: Vec<_> = self
             .poses
             .iter()
             .map(|p| JointReading { pose: p.id, line: 0, joints: p.joints, time_s: p.time_s, station: p.station })
             .collect();
         write_joints(&dir.join("joints.csv"), &readings)?;
+        let mut written = vec!["joints.csv"];
+        if let Some(rig) = self.rig.as_deref() {
+            let rows = self.poses.iter().flat_map(|p| p.pixels.iter().map(move |px| (p.id, px)));
+            written.extend(self.write_rig(dir, rig, &pose_pixels_csv(rows, &self.markers, rig))?);
+            return Ok(written);
+        }
         let rows: Vec<_> =
             self.poses
                 .iter()
@@ -450,26 +570,89 @@ impl Session {
                 })
                 .collect();
         write_markers(&dir.join("markers.csv"), &rows, &self.markers)?;
-        if let Some(truth) = &self.truth {
-            truth.parameters.write(&dir.join("truth.yaml"))?;
-            let records: Vec<_> = truth
-                .orientations
-                .iter()
-                .map(|(&pose, &rotation)| OrientationRecord { pose, mode: None, rotation, extra: vec![], line: 0 })
-                .collect();
-            write_atomic(&dir.join("truth_orientations.csv"), write_orientations(&records).as_bytes())?;
-        }
-        let file = SessionFile {
-            name: self.name.clone(),
-            model: Some(relative_path(dir, &self.model)?),
-            markers: self.markers.clone(),
-            reference_pose: Some(self.reference_pose),
-            description: self.description.clone(),
+        written.push("markers.csv");
+        Ok(written)
+    }
+
+    /// Write `pixels.csv` (its text `pixels`) and the rig's `cameras.yaml`.
+    fn write_rig(&self, dir: &Path, rig: &Rig, pixels: &str) -> Result<[&'static str; 2], FileError> {
+        write_atomic(&dir.join("pixels.csv"), pixels.as_bytes())?;
+        write_camchain(&dir.join("cameras.yaml"), rig)?;
+        Ok(PIXEL_FILES)
+    }
+
+    /// Check, before anything is written into `dir`, that the session's pixels can be written as
+    /// files its reader takes back: pixels only with a rig; a rig whose cameras are named as a
+    /// camchain names them; every pixel of a known marker and camera, inside its image, once per
+    /// (pose or time, marker, camera), times in order; and no marker point without the pixels it
+    /// comes from (a session with a rig is written as its pixels: the point would be lost).
+    fn check_pixels(&self, dir: &Path) -> Result<(), FileError> {
+        let path = dir.join("pixels.csv");
+        let refuse = |reason: String| FileError::new(&path, format!("{reason}; not written"));
+        let Some(rig) = self.rig.as_deref() else {
+            let pixels = self.poses.iter().any(|p| !p.pixels.is_empty())
+                || self.streams.as_ref().is_some_and(|s| !s.pixels.is_empty());
+            return match pixels {
+                true => Err(refuse("the session has pixels but no rig (cameras.yaml) to name their cameras".into())),
+                false => Ok(()),
+            };
         };
-        let stale = if self.truth.is_some() { &[][..] } else { &["truth.yaml", "truth_orientations.csv"] };
-        remove_stale(dir, RECORDING_FILES.iter().chain(stale))?;
-        let yaml = serde_yaml::to_string(&file).expect("session serialises");
-        write_atomic(&dir.join("session.yaml"), yaml.as_bytes())
+        check_writable(rig).map_err(|r| FileError::new(&dir.join("cameras.yaml"), format!("{r}; not written")))?;
+        let m = self.markers.len();
+        match &self.streams {
+            Some(streams) => {
+                if streams.pixels.is_empty() && !streams.captures.is_empty() {
+                    return Err(refuse(
+                        "the recording has a rig but only marker points: it is written as its pixels".into(),
+                    ));
+                }
+                let rows = streams.pixels.iter().map(|r| (format!("the pixel at {} s", r.at), &r.seen));
+                check_rows(rows, m, rig).map_err(refuse)?;
+                if let Some(w) = streams.pixels.windows(2).find(|w| w[1].at < w[0].at) {
+                    return Err(refuse(format!("the pixel at {} s comes after one at {} s", w[1].at, w[0].at)));
+                }
+                let keys = streams.pixels.iter().map(|r| ((r.at.to_bits(), r.seen.marker, r.seen.camera), 0));
+                if let Some(((bits, marker, camera), _)) = first_repeat(keys) {
+                    let at = format!("at {} s", f64::from_bits(bits));
+                    return Err(refuse(self.seen_twice(rig, marker, camera, &at)));
+                }
+            }
+            None => {
+                let rows =
+                    self.poses.iter().flat_map(|p| p.pixels.iter().map(move |px| (format!("pose {}", p.id), px)));
+                check_rows(rows, m, rig).map_err(refuse)?;
+                let keys =
+                    self.poses.iter().flat_map(|p| p.pixels.iter().map(move |px| ((p.id, px.marker, px.camera), 0)));
+                if let Some(((pose, marker, camera), _)) = first_repeat(keys) {
+                    return Err(refuse(self.seen_twice(rig, marker, camera, &format!("at pose {pose}"))));
+                }
+                self.check_points_have_pixels().map_err(refuse)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn seen_twice(&self, rig: &Rig, marker: usize, camera: usize, at: &str) -> String {
+        format!("marker `{}` is seen twice by camera `{}` {at}", self.markers[marker], rig.cameras[camera].name)
+    }
+
+    /// Every marker point of a pose has pixels of its marker in that pose.
+    fn check_points_have_pixels(&self) -> Result<(), String> {
+        for pose in &self.poses {
+            let mut seen = vec![false; pose.markers.len()];
+            for p in &pose.pixels {
+                if let Some(s) = seen.get_mut(p.marker) {
+                    *s = true;
+                }
+            }
+            if let Some(k) = (0..seen.len()).find(|&k| pose.markers[k].is_some() && !seen[k]) {
+                return Err(format!(
+                    "pose {}: marker `{}` has a point but no pixels, and a session with a rig is written as its pixels (the point would be lost)",
+                    pose.id, self.markers[k]
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -562,8 +745,13 @@ fn check_station_markers(
         let never: Vec<usize> = (0..names.len()).filter(|&k| sightings[k].is_empty()).collect();
         let (first, second) = (sightings[twice][0], sightings[twice][1]);
         let captures = format!(
-            "station {station} captures marker `{}` twice (markers.csv lines {} and {}, poses {} and {})",
-            names[twice], first.1, second.1, poses[first.0].id, poses[second.0].id
+            "station {station} captures marker `{}` twice ({} lines {} and {}, poses {} and {})",
+            names[twice],
+            file_name(markers_path),
+            first.1,
+            second.1,
+            poses[first.0].id,
+            poses[second.0].id
         );
         if !never.is_empty() {
             let reason = format!(
@@ -583,11 +771,13 @@ fn check_station_markers(
     Ok(())
 }
 
-/// Remove the `files` of an earlier session in `dir` that the session written there does not
-/// have (a recording written over a static session, or the reverse), so that the folder holds
-/// one session, not two that disagree.
-fn remove_stale<'a>(dir: &Path, files: impl Iterator<Item = &'a &'a str>) -> Result<(), FileError> {
-    for name in files {
+/// Remove the files of an earlier session in `dir` that the session written there — its
+/// `written` files — does not have (a recording written over a static session, pixels over
+/// points, a session without a truth over one with), so that the folder holds one session, not
+/// two that disagree.
+fn remove_stale(dir: &Path, written: &[&str]) -> Result<(), FileError> {
+    let files: [&[&str]; 4] = [&STATIC_FILES, &RECORDING_FILES, &PIXEL_FILES, &TRUTH_FILES];
+    for name in files.iter().copied().flatten().filter(|f| !written.contains(f)) {
         let path = dir.join(name);
         match std::fs::remove_file(&path) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
@@ -633,34 +823,66 @@ fn check_marker_names(names: &[String]) -> Result<(), (String, String)> {
 /// What a session folder holds: a static (or sequential) session or a free-motion recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Kind {
-    /// `joints.csv` and `markers.csv`.
+    /// `joints.csv` and `markers.csv` (or `pixels.csv`).
     Static,
-    /// `encoders.csv` and `captures.csv`.
+    /// `encoders.csv` and `captures.csv` (or `pixels.csv`).
     Recording,
+}
+
+/// A session folder's kind and whether it holds pixels (`pixels.csv` and `cameras.yaml`) in place
+/// of marker points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Layout {
+    kind: Kind,
+    pixels: bool,
 }
 
 const STATIC_FILES: [&str; 2] = ["joints.csv", "markers.csv"];
 const RECORDING_FILES: [&str; 2] = ["encoders.csv", "captures.csv"];
+const PIXEL_FILES: [&str; 2] = ["pixels.csv", "cameras.yaml"];
+const TRUTH_FILES: [&str; 3] = ["truth.yaml", "truth_orientations.csv", "truth_cameras.yaml"];
 
-/// Which kind of session `dir` holds; a folder with files of both kinds is an error naming them
-/// (which pair is meant cannot be told). A folder with neither is read as a static session (whose
-/// reader then names the missing `joints.csv`).
-fn session_kind(dir: &Path) -> Result<Kind, FileError> {
+/// Which kind of session `dir` holds, of points or of pixels. A folder with files of both kinds,
+/// or with both points and pixels, is an error naming them (which is meant cannot be told); so
+/// are pixels without the rig that names their cameras and a rig without pixels. A folder with
+/// neither kind is read as a static session (whose reader then names the missing `joints.csv`).
+fn session_kind(dir: &Path) -> Result<Layout, FileError> {
     let present = |files: [&'static str; 2]| -> Vec<&'static str> {
         files.into_iter().filter(|f| dir.join(f).exists()).collect()
     };
-    let (statics, streams) = (present(STATIC_FILES), present(RECORDING_FILES));
-    match (statics.is_empty(), streams.is_empty()) {
-        (false, false) => Err(FileError::new(
+    let (statics, streams, pixels) = (present(STATIC_FILES), present(RECORDING_FILES), present(PIXEL_FILES));
+    let kind = match (statics.is_empty(), streams.is_empty()) {
+        (false, false) => {
+            return Err(FileError::new(
+                dir,
+                format!(
+                    "holds files of a static session ({}) and of a free-motion recording ({}): a session folder holds one pair, joints.csv and markers.csv or encoders.csv and captures.csv (pixels.csv and cameras.yaml in place of markers.csv or captures.csv), and which one is meant here cannot be told; move the other out",
+                    statics.join(", "),
+                    streams.join(", ")
+                ),
+            ));
+        }
+        (true, false) => Kind::Recording,
+        _ => Kind::Static,
+    };
+    let points: Vec<&str> = ["markers.csv", "captures.csv"].into_iter().filter(|f| dir.join(f).exists()).collect();
+    match (pixels.contains(&"pixels.csv"), pixels.contains(&"cameras.yaml")) {
+        (true, _) if !points.is_empty() => Err(FileError::new(
             dir,
             format!(
-                "holds files of a static session ({}) and of a free-motion recording ({}): a session folder holds one pair, joints.csv and markers.csv or encoders.csv and captures.csv, and which one is meant here cannot be told; move the other out",
-                statics.join(", "),
-                streams.join(", ")
+                "holds marker points ({}) and pixels (pixels.csv): a session's observations are one or the other, and which are meant here cannot be told; move the other out",
+                points.join(", ")
             ),
         )),
-        (true, false) => Ok(Kind::Recording),
-        _ => Ok(Kind::Static),
+        (true, false) => Err(FileError::new(
+            &dir.join("cameras.yaml"),
+            "missing: pixels.csv names the cameras of a rig, which cameras.yaml (Kalibr's camchain) defines",
+        )),
+        (false, true) => Err(FileError::new(
+            dir,
+            "holds cameras.yaml but no pixels.csv: a rig is read for the pixels its cameras saw; give pixels.csv, or move cameras.yaml out",
+        )),
+        (has_pixels, _) => Ok(Layout { kind, pixels: has_pixels }),
     }
 }
 
@@ -712,6 +934,70 @@ fn assemble_poses(
     Ok(poses)
 }
 
+/// Give each pose of `poses` its rows of `pixels.csv` (at `path`); rows of a pose `joints.csv`
+/// does not have are an error.
+fn attach_pixels(poses: &mut [SessionPose], rows: &[PixelRow<u64>], path: &Path) -> Result<(), FileError> {
+    let index: foldhash::HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
+    for row in rows {
+        let k = index.get(&row.at).ok_or_else(|| {
+            FileError::new(path, format!("pixels for pose {}, which joints.csv does not have", row.at))
+                .at_line(row.seen.line)
+                .in_column("pose")
+        })?;
+        poses[*k].pixels.push(row.seen);
+    }
+    Ok(())
+}
+
+/// Set each pose's marker points to those `rig` triangulates from its pixels (a marker seen by
+/// two cameras or more), each at the line of its first pixel row; the markers whose rays do not
+/// meet are warnings naming their first row of `pixels_path`. (For a session made in memory, the
+/// simulator's, as for one read.)
+pub(crate) fn triangulate_poses(
+    poses: &mut [SessionPose],
+    rig: &Rig,
+    names: &[String],
+    pixels_path: &Path,
+) -> Vec<Warning> {
+    let mut warnings = Vec::new();
+    for pose in poses.iter_mut() {
+        pose.markers = vec![None; names.len()];
+        pose.marker_lines = vec![0; names.len()];
+        let t = triangulate(rig, &pose.pixels);
+        for (k, point, line) in t.points {
+            pose.markers[k] = Some(point);
+            pose.marker_lines[k] = line;
+        }
+        warnings.extend(t.unmet.into_iter().map(|(k, line, cameras)| Warning {
+            path: pixels_path.to_path_buf(),
+            line,
+            pose: pose.id,
+            message: unmet_message(names, rig, k, &cameras),
+        }));
+    }
+    warnings
+}
+
+/// The markers of a recording whose pixels gave no point, as warnings; each names its camera
+/// frame by its place among `frames` (their times), the pose it is at latency 0 when no frame is
+/// left out.
+fn unmet_in_recording(unmet: &[Unmet], frames: &[f64], path: &Path, names: &[String], rig: &Rig) -> Vec<Warning> {
+    unmet
+        .iter()
+        .map(|(time, k, line, cameras)| Warning {
+            path: path.to_path_buf(),
+            line: *line,
+            pose: frames.partition_point(|t| t < time) as u64,
+            message: unmet_message(names, rig, *k, cameras),
+        })
+        .collect()
+}
+
+/// The file name of `path`, for messages (`captures.csv`).
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+}
+
 fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
     let path = dir.join("truth.yaml");
     if !path.exists() {
@@ -724,5 +1010,8 @@ fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
     } else {
         BTreeMap::new()
     };
-    Ok(Some(Truth { parameters, orientations }))
+    // The true rig of a session seen through its pixels, in the camchain format of `cameras.yaml`.
+    let rig_path = dir.join("truth_cameras.yaml");
+    let rig = if rig_path.exists() { Some(read_camchain(&rig_path)?) } else { None };
+    Ok(Some(Truth { parameters, orientations, rig }))
 }

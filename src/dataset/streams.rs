@@ -1,5 +1,9 @@
 //! Free-motion recordings: `encoders.csv` (`time_s,theta1_rad,theta2_rad,theta3_rad`, e.g. 1 kHz)
-//! and `captures.csv` (`time_s,marker,x_m,y_m,z_m`, e.g. 15 Hz), two streams on their own clocks.
+//! and `captures.csv` (`time_s,marker,x_m,y_m,z_m`, e.g. 15 Hz), two streams on their own clocks —
+//! or, for a recording seen through its cameras' pixels, `pixels.csv`
+//! (`time_s,marker,camera,u_px,v_px`, the rows of one capture sharing its time) with the rig in
+//! `cameras.yaml` instead of `captures.csv`: the streams then keep the pixel rows, and as captures
+//! the points the rig triangulates from each capture's pixels.
 //!
 //! A capture stamped `t` on the camera's clock was taken at `t − τ` on the encoders' clock (τ the
 //! camera's latency), where the joints are interpolated linearly between the two samples around it.
@@ -14,8 +18,10 @@ use nalgebra::Vector3;
 use std::fmt::Write as _;
 
 use super::markers::MarkerLookup;
+use super::pixels::{PixelRow, SeenPixel, read_timed_pixels, triangulate};
 use crate::io::files::{FileError, number, push_numbers};
 use crate::io::table::{Table, first_repeat};
+use crate::model::Rig;
 
 /// One encoder sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,13 +75,40 @@ impl Default for StreamLimits {
 /// are the crate's.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Streams {
-    /// The `captures.csv` they were read from (warnings name its lines).
+    /// The `captures.csv` (or `pixels.csv`) they were read from (warnings name its lines).
     pub(crate) captures_path: std::path::PathBuf,
     /// Encoder samples, time strictly increasing.
     pub(crate) encoders: Vec<EncoderSample>,
-    /// Captures, time non-decreasing (several markers may share a frame).
+    /// Captures, time non-decreasing (several markers may share a frame): `captures.csv`'s, or
+    /// the points the rig triangulates from each capture's pixels (each at the line of its
+    /// marker's first pixel row).
     pub(crate) captures: Vec<Capture>,
+    /// The rows of `pixels.csv`, time non-decreasing, for a recording seen through its pixels
+    /// (empty for one of points).
+    pub(crate) pixels: Vec<PixelRow<f64>>,
 }
+
+/// One camera frame of a recording: the captures and pixels that share its time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Frame<'a> {
+    /// Its time on the camera's clock (s).
+    pub(crate) time_s: f64,
+    /// Its marker points.
+    pub(crate) captures: &'a [Capture],
+    /// Its pixels.
+    pub(crate) pixels: &'a [PixelRow<f64>],
+}
+
+impl Frame<'_> {
+    /// The line of its first row (of `pixels.csv` when it has pixels).
+    pub(crate) fn line(&self) -> usize {
+        self.pixels.first().map(|p| p.seen.line).or(self.captures.first().map(|c| c.line)).unwrap_or(0)
+    }
+}
+
+/// A marker of a recording whose pixels the rig could not triangulate: `(time, marker, line of
+/// its first pixel row, the cameras)`.
+pub(crate) type Unmet = (f64, usize, usize, Vec<usize>);
 
 /// Read `encoders.csv`: numbers, finite, time strictly increasing, no gap over the limit.
 ///
@@ -186,7 +219,86 @@ impl Streams {
             .at_line(c.line)
             .in_column("time_s"));
         }
-        Ok(Streams { captures_path, encoders, captures })
+        Ok(Streams { captures_path, encoders, captures, pixels: Vec::new() })
+    }
+
+    /// Read the recording seen through its pixels in `dir` — `encoders.csv`, `pixels.csv` with the
+    /// rig of `cameras.yaml` — and check that every pixel row can be placed in the encoder stream
+    /// for some latency within the bound; with the markers whose pixels the rig could not
+    /// triangulate.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file, line and column of the first problem.
+    pub(crate) fn read_pixels(
+        dir: &Path,
+        names: &[String],
+        rig: &Rig,
+        limits: &StreamLimits,
+    ) -> Result<(Streams, Vec<Unmet>), FileError> {
+        let encoders = read_encoders(&dir.join("encoders.csv"), limits)?;
+        let path = dir.join("pixels.csv");
+        let pixels = read_timed_pixels(&path, names, rig)?;
+        let frames = pixels.chunk_by(|a, b| a.at == b.at).count();
+        if frames < MIN_FRAMES {
+            let reason = format!(
+                "holds pixels in {frames} camera frame{}: almost nothing to calibrate from — a recording needs markers seen in at least {MIN_FRAMES} camera frames (three orientations of the MP are the fewest that fix the camera's registration), and a calibration many more",
+                if frames == 1 { "" } else { "s" }
+            );
+            return Err(FileError::new(&path, reason));
+        }
+        let bound = limits.latency_bound_s;
+        let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
+        if let Some(p) = pixels.iter().find(|p| p.at + bound < first || p.at - bound > last) {
+            let reason = format!(
+                "the pixel at {} s lies outside the encoder stream ({first} s to {last} s) for every latency within ±{bound} s",
+                p.at
+            );
+            return Err(FileError::new(&path, reason).at_line(p.seen.line).in_column("time_s"));
+        }
+        Ok(Streams::of_pixels(path, encoders, pixels, rig))
+    }
+
+    /// The streams of a recording seen through its pixels (time non-decreasing), its captures the
+    /// points `rig` triangulates from each camera frame's pixels; with the markers whose pixels
+    /// it could not triangulate. (What the simulator makes, and what [`Streams::read_pixels`] reads.)
+    pub(crate) fn of_pixels(
+        captures_path: std::path::PathBuf,
+        encoders: Vec<EncoderSample>,
+        pixels: Vec<PixelRow<f64>>,
+        rig: &Rig,
+    ) -> (Streams, Vec<Unmet>) {
+        let (mut captures, mut unmet) = (Vec::new(), Vec::new());
+        for frame in pixels.chunk_by(|a, b| a.at == b.at) {
+            let time_s = frame[0].at;
+            let seen: Vec<SeenPixel> = frame.iter().map(|p| p.seen).collect();
+            let t = triangulate(rig, &seen);
+            captures.extend(t.points.into_iter().map(|(marker, position, line)| Capture {
+                time_s,
+                marker,
+                position,
+                line,
+            }));
+            unmet.extend(t.unmet.into_iter().map(|(marker, line, cameras)| (time_s, marker, line, cameras)));
+        }
+        (Streams { captures_path, encoders, captures, pixels }, unmet)
+    }
+
+    /// The camera frames, in time order: the captures and pixels of each distinct time.
+    pub(crate) fn frames(&self) -> impl Iterator<Item = Frame<'_>> {
+        let (mut captures, mut pixels) = (&self.captures[..], &self.pixels[..]);
+        std::iter::from_fn(move || {
+            let time_s = match (captures.first(), pixels.first()) {
+                (Some(c), Some(p)) => c.time_s.min(p.at),
+                (Some(c), None) => c.time_s,
+                (None, Some(p)) => p.at,
+                (None, None) => return None,
+            };
+            let nc = captures.iter().take_while(|c| c.time_s == time_s).count();
+            let np = pixels.iter().take_while(|p| p.at == time_s).count();
+            let frame = Frame { time_s, captures: &captures[..nc], pixels: &pixels[..np] };
+            (captures, pixels) = (&captures[nc..], &pixels[np..]);
+            Some(frame)
+        })
     }
 
     /// How many encoder samples the recording holds.

@@ -2,6 +2,8 @@
 //! analysis (tracking, continuation, all assembly modes, the per-pose FDA report) and Jacobians.
 
 mod assembly;
+#[cfg(feature = "full")]
+pub(crate) mod camchain;
 mod camera;
 #[cfg(feature = "full")]
 mod consistency;

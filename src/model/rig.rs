@@ -77,7 +77,7 @@ impl Lens {
     /// The pixel where the lens images `z` (a point in its camera's frame) with the derivatives;
     /// `None` when `z` is not in front of the camera.
     pub fn project(&self, z: &Vector3<f64>) -> Option<Projection> {
-        if !(z.z > 1e-9) {
+        if z.z.is_nan() || z.z <= 1e-9 {
             return None;
         }
         let (x, y) = (z.x / z.z, z.y / z.z);
@@ -244,25 +244,6 @@ impl RigTerm {
             | RigTerm::Distortion { camera, .. }
             | RigTerm::Rotation { camera, .. }
             | RigTerm::Translation { camera, .. } => camera,
-        }
-    }
-
-    /// The unit a person reads its value and change in: `px`, `1` (a coefficient), `deg` or `mm`.
-    pub fn unit(self) -> &'static str {
-        match self {
-            RigTerm::Intrinsic { .. } => "px",
-            RigTerm::Distortion { .. } => "1",
-            RigTerm::Rotation { .. } => "deg",
-            RigTerm::Translation { .. } => "mm",
-        }
-    }
-
-    /// The factor from the term's own unit (px, 1, rad, m) to [`RigTerm::unit`].
-    pub fn unit_scale(self) -> f64 {
-        match self {
-            RigTerm::Intrinsic { .. } | RigTerm::Distortion { .. } => 1.0,
-            RigTerm::Rotation { .. } => 180.0 / std::f64::consts::PI,
-            RigTerm::Translation { .. } => 1e3,
         }
     }
 }

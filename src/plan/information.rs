@@ -48,22 +48,38 @@ impl Information {
         noise: &StereoNoise,
     ) -> Result<Information, EvalError> {
         let x0 = DVector::zeros(p.len());
-        let observation = |c: usize, marker: usize| {
+        let rig = p.rig(&x0);
+        // What each candidate's visible markers give: the point, or a pixel per camera of a pixel
+        // session's rig that sees it within its image.
+        let observations = |c: usize, marker: usize| -> Vec<MarkerObservation> {
             let candidate = &candidates[c];
-            let point = candidate.rotation * p.marker(&x0, marker);
-            MarkerObservation {
+            let y = camera.rotation * (candidate.rotation * p.marker(&x0, marker)) + camera.translation;
+            let observation = |measured, camera| MarkerObservation {
                 pose: c as u64,
                 marker,
                 joints: candidate.joints,
-                measured: p.camera_model(&x0).distort(&(camera.rotation * point + camera.translation)),
+                measured,
+                camera,
                 line: 0,
                 station: None,
                 time_s: None,
+            };
+            match &rig {
+                None => vec![observation(p.camera_model(&x0).distort(&y), None)],
+                Some(rig) => (0..rig.cameras.len())
+                    .filter_map(|k| {
+                        let pixel = rig.project(k, &y)?.lens.pixel;
+                        let [w, h] = rig.cameras[k].lens.resolution;
+                        let inside =
+                            pixel.x >= -0.5 && pixel.y >= -0.5 && pixel.x < w as f64 - 0.5 && pixel.y < h as f64 - 0.5;
+                        inside.then(|| observation(nalgebra::Vector3::new(pixel.x, pixel.y, 0.0), Some(k)))
+                    })
+                    .collect(),
             }
         };
         let seen: Vec<MarkerObservation> = (0..candidates.len())
             .flat_map(|c| candidates[c].visible.iter().map(move |&k| (c, k)))
-            .map(|(c, k)| observation(c, k))
+            .flat_map(|(c, k)| observations(c, k))
             .collect();
         let mut per_candidate = vec![DMatrix::zeros(p.len(), p.len()); candidates.len()];
         for (c, m) in MarkerResiduals::new(p, &seen).information_per_pose(&x0, noise)? {
@@ -79,6 +95,7 @@ impl Information {
                     marker: 0,
                     joints: c.joints,
                     measured: nalgebra::Vector3::zeros(),
+                    camera: None,
                     line: 0,
                     station: None,
                     time_s: None,
@@ -120,6 +137,8 @@ impl Camera {
             lateral_std_error_m: 0.0,
             depth_m: self.depth_sigma_m,
             depth_std_error_m: 0.0,
+            pixel_px: Vec::new(),
+            pixel_std_error_px: Vec::new(),
         }
     }
 }

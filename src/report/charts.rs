@@ -63,12 +63,15 @@ impl Errors {
         match c.report.fit {
             FitLevel::Markers => {
                 let observations = marker_observations(c);
-                let by_pose = |r: &[Vector3<f64>]| -> Vec<(u64, f64)> { per_pose_rms_mm(observations, r) };
+                let (unit, to_unit) = marker_unit(c);
+                let by_pose = |r: &[Vector3<f64>]| -> Vec<(u64, f64)> {
+                    per_pose_rms_mm(observations, r).into_iter().map(|(p, e)| (p, e * 1e-3 * to_unit)).collect()
+                };
                 let (before, after) = (by_pose(&c.nominal.residuals), by_pose(&c.calibrated.residuals));
                 let recording = c.report.markers.as_ref().is_some_and(|m| m.latency.is_some());
                 let (along, x) = abscissa(observations, &after, recording);
                 let with_x = |poses: Vec<(u64, f64)>| poses.into_iter().map(|(p, e)| (x(p), e)).collect();
-                Errors { unit: "mm", along, before: with_x(before), after: with_x(after) }
+                Errors { unit, along, before: with_x(before), after: with_x(after) }
             }
             FitLevel::Orientations => {
                 let deg = |r: &[Vector3<f64>]| -> Vec<(f64, f64)> {
@@ -82,6 +85,15 @@ impl Errors {
                 }
             }
         }
+    }
+}
+
+/// The unit of a marker-level fit's residuals and the factor from their own (metres, or pixels
+/// for a pixel session's) to it.
+fn marker_unit(c: &Calibration) -> (&'static str, f64) {
+    match c.report.markers.as_ref().map_or("mm", |m| m.before.unit) {
+        "px" => ("px", 1.0),
+        _ => ("mm", 1e3),
     }
 }
 
@@ -121,8 +133,8 @@ pub(crate) fn per_pose(c: &Calibration) -> Figure {
         Key { colour: BLUE, mark, label: "calibrated".into() },
     ];
     let what = match e.unit {
-        "mm" => "its markers' RMS error (mm)",
-        _ => "the angle between the model's and the camera's orientation (°)",
+        "°" => "the angle between the model's and the camera's orientation (°)".to_string(),
+        unit => format!("its markers' RMS error ({unit})"),
     };
     if !summarised {
         let y_max = e.before.iter().chain(&e.after).map(|p| p.1).fold(1e-9, f64::max) * 1.1;
@@ -245,7 +257,7 @@ fn draw_band(chart: &mut Xy<'_, '_>, bins: &[Bin], width: f64, colour: RGBColor)
 /// of the rotation vector (orientation-level, °).
 pub(crate) fn residuals(c: &Calibration) -> Figure {
     let groups = residual_groups(c);
-    let unit = if c.report.fit == FitLevel::Markers { "mm" } else { "°" };
+    let unit = if c.report.fit == FitLevel::Markers { marker_unit(c).0 } else { "°" };
     let y_max = groups.iter().flat_map(|g| g.1).fold(1e-9, f64::max) * 1.15;
     let n = groups.len().max(1);
     let colours = [RGBColor(214, 39, 40), RGBColor(44, 160, 44), BLUE];
@@ -308,7 +320,8 @@ fn residual_groups(c: &Calibration) -> Vec<(String, [f64; 3])> {
                         .filter(|(o, _)| o.marker == k)
                         .map(|(_, r)| r)
                         .collect();
-                    let rms = |axis: usize| crate::math::stats::rms(of_k.iter().map(|r| r[axis] * 1e3));
+                    let to_unit = marker_unit(c).1;
+                    let rms = |axis: usize| crate::math::stats::rms(of_k.iter().map(|r| r[axis] * to_unit));
                     (name.clone(), [rms(0), rms(1), rms(2)])
                 })
                 .collect()

@@ -125,7 +125,8 @@ fn predicted(report: &CalibrationReport) -> String {
     let n = Align::Number;
     let columns = [("", Align::Text), ("RMS", n), ("90 % range", n), ("worst pose", n)];
     let mut t = Table::new("Predicted error of the calibrated model on unseen poses", &columns).with_named_rows();
-    let rows = [("orientation (FDA), °", &report.predicted_error_deg), ("markers, mm", &report.predicted_error_mm)];
+    let markers = format!("markers, {}", report.markers.as_ref().map_or("mm", |m| m.before.unit));
+    let rows = [("orientation (FDA), °", &report.predicted_error_deg), (markers.as_str(), &report.predicted_error_mm)];
     for (what, e) in rows {
         if let Some(e) = e {
             t.row([
@@ -169,7 +170,7 @@ fn check(report: &CalibrationReport) -> String {
         } else {
             "they disagree beyond their uncertainty: the noise model or the model is wrong"
         },
-        unit = cv.level.unit()
+        unit = cv.unit
     )
 }
 

@@ -74,10 +74,13 @@ fn errors(r: &CalibrationReport) -> String {
         }
         return error_table("FDA vs vision (deg)", &rows).html();
     };
-    let caption = format!("FDA vs camera, markers (mm): {} observations at {} poses", m.observations, m.poses);
+    let unit = m.before.unit;
+    let what = if unit == "px" { "pixels" } else { "markers" };
+    let caption = format!("FDA vs camera, {what} ({unit}): {} observations at {} poses", m.observations, m.poses);
     let mut html = error_table(&caption, &[("nominal", &m.before.errors), ("calibrated", &m.after.errors)]).html();
     let n = Align::Number;
-    let columns = [("marker", Align::Label), ("observations", n), ("nominal RMS (mm)", n), ("calibrated RMS (mm)", n)];
+    let (nominal, calibrated) = (format!("nominal RMS ({unit})"), format!("calibrated RMS ({unit})"));
+    let columns = [("marker", Align::Label), ("observations", n), (nominal.as_str(), n), (calibrated.as_str(), n)];
     let mut per_marker = Table::new("Per marker", &columns);
     for ((name, count, b), (_, _, a)) in m.before.per_marker.iter().zip(&m.after.per_marker) {
         per_marker.row([name.clone(), count.to_string(), format!("{b:.3}"), format!("{a:.3}")]);

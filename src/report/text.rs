@@ -157,8 +157,12 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
     if let Some(e) = &r.predicted_error_mm {
         writeln!(
             f,
-            "predicted error of the calibrated markers on unseen poses: {:.4} mm RMS (90%: {:.4}–{:.4}), worst pose {:.4} mm",
-            e.rms, e.interval_90[0], e.interval_90[1], e.max
+            "predicted error of the calibrated markers on unseen poses: {:.4} {unit} RMS (90%: {:.4}–{:.4}), worst pose {:.4} {unit}",
+            e.rms,
+            e.interval_90[0],
+            e.interval_90[1],
+            e.max,
+            unit = r.unit
         )?;
     }
     if let Some(e) = r.predicted_error_deg.as_ref().filter(|e| e.by_region.len() > 1) {
@@ -180,7 +184,7 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
         }
     }
     if let Some((cv, expected)) = r.cross_validation.as_ref().and_then(|cv| Some((cv, cv.expected_rms?))) {
-        let unit = cv.level.unit();
+        let unit = cv.unit;
         let se = cv.calibrated_ms_std_error / (2.0 * cv.calibrated_rms.max(f64::MIN_POSITIVE));
         writeln!(
             f,
@@ -195,7 +199,11 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
 /// The marker errors of a marker-level calibration.
 fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
     writeln!(f, "marker-level fit: {} observations at {} poses", m.observations, m.poses)?;
-    writeln!(f, "FDA vs camera, markers (mm)  RMS      median   max")?;
+    let unit = m.before.unit;
+    match unit {
+        "px" => writeln!(f, "FDA vs camera, pixels (px)   RMS      median   max")?,
+        _ => writeln!(f, "FDA vs camera, markers (mm)  RMS      median   max")?,
+    }
     for (label, e) in [("nominal", &m.before), ("calibrated", &m.after)] {
         writeln!(f, "  {:<26} {:8.4} {:8.4} {:8.4}", label, e.errors.rms, e.errors.median, e.errors.max)?;
     }
@@ -206,7 +214,7 @@ fn marker_summary(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
         .zip(&m.after.per_marker)
         .map(|((name, n, b), (_, _, a))| format!("{name} {b:.3} → {a:.3} ({n})"))
         .collect();
-    writeln!(f, "  per marker, mm RMS (observations): {}", per_marker.join(", "))
+    writeln!(f, "  per marker, {unit} RMS (observations): {}", per_marker.join(", "))
 }
 
 /// The per-pose orientation errors beside a marker-level fit, when the estimator had poses.
@@ -225,6 +233,35 @@ fn solver_mix(log: &[crate::calib::IterationLog]) -> String {
     format!("{} Gauss–Newton, {clarabel} clarabel", log.len() - clarabel)
 }
 
+/// A pixel session's rig: each camera's pixel noise, every term from the file's value to the
+/// fit's, and what was held.
+fn rig_lines(f: &mut fmt::Formatter<'_>, rig: &crate::calib::RigReport) -> fmt::Result {
+    let noise: Vec<String> = rig.pixel_noise_px.iter().map(|(c, s, e)| format!("{c} {s:.3} ± {e:.3} px")).collect();
+    writeln!(f, "pixel noise (σ per coordinate): {}", noise.join(", "))?;
+    if rig.baseline_held_m > 0.0 {
+        writeln!(
+            f,
+            "camera rig (cameras.yaml) refined with the mechanism; its baseline held at {:.2} mm (the rig's scale: an SPM's rotation cannot tell it)",
+            rig.baseline_held_m * 1e3
+        )?;
+    } else {
+        writeln!(
+            f,
+            "camera (cameras.yaml) refined with the mechanism; its scale set by the markers' spacing in the model"
+        )?;
+    }
+    writeln!(f, "rig term               file value       change        std error")?;
+    for t in &rig.terms {
+        let file = t.file_value.map_or("".to_string(), |v| format!("{v:.6}"));
+        let change = match t.std_error {
+            Some(se) => format!("{:+.6} ± {se:.6} {}", t.change, t.unit),
+            None => format!("held {}", t.unit),
+        };
+        writeln!(f, "  {:<20} {file:>14}   {change}", t.name)?;
+    }
+    Ok(())
+}
+
 /// Fitted markers, stereo noise and fast captures of a marker-level calibration.
 fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
     if let Some(l) = &m.latency {
@@ -238,8 +275,11 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
             None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
         }
     }
-    camera_model(f, &m.camera_model)?;
-    if let Some(n) = &m.stereo_noise {
+    match &m.rig {
+        Some(rig) => rig_lines(f, rig)?,
+        None => camera_model(f, &m.camera_model)?,
+    }
+    if let Some(n) = m.stereo_noise.as_ref().filter(|_| m.rig.is_none()) {
         writeln!(
             f,
             "stereo noise at {:.3} m: across the line of sight {:.4} ± {:.4} mm, along it {:.4} ± {:.4} mm",

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::rig::RigSettings;
 use crate::io::files::FileError;
 use crate::model::{CameraModel, CameraTerm};
 
@@ -153,7 +154,9 @@ pub struct Workspace {
     pub min_branch_margin: f64,
 }
 
-/// A Bumblebee-like stereo camera above the MP, looking down.
+/// A Bumblebee-like stereo camera above the MP, looking down: a camera of points with stereo
+/// noise, or with a `rig` section a rig of cameras seen through their pixels (the section's keys
+/// in `configs/simulate_agile_wrist_stereo.yaml`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Camera {
@@ -183,6 +186,16 @@ pub struct Camera {
     pub shear_xz: f64,
     /// Symmetric shear between camera y and the optical axis (an affine camera).
     pub shear_yz: f64,
+    /// A rig of cameras seen through their pixels instead of a camera of points (`camera.rig`);
+    /// none by default.
+    #[cfg(feature = "internals")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rig: Option<RigSettings>,
+    /// A rig of cameras seen through their pixels instead of a camera of points (`camera.rig`,
+    /// see `configs/simulate_agile_wrist_stereo.yaml`); none by default.
+    #[cfg(not(feature = "internals"))]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) rig: Option<RigSettings>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -306,6 +319,7 @@ impl Default for Camera {
             shear_xy: 0.0,
             shear_xz: 0.0,
             shear_yz: 0.0,
+            rig: None,
         }
     }
 }
@@ -448,6 +462,7 @@ impl SimConfig {
                 format!("the camera's scales and shears are nearly singular (det K = {:.3})", model.determinant());
             return Err(("camera.depth_scale".into(), reason));
         }
+        self.check_rig()?;
         if self.camera.height_m <= self.camera.marker_radius_m {
             return Err(("camera.height_m".into(), "the camera must be above the markers".into()));
         }
@@ -455,5 +470,16 @@ impl SimConfig {
             return Err(("name".into(), "`name` must not be empty".into()));
         }
         Ok(())
+    }
+
+    /// The rig's settings, and that a rig comes without the terms of a camera of points: its
+    /// pixels are the cameras' own (their errors are the rig's, `miscalibration`).
+    fn check_rig(&self) -> Result<(), (String, String)> {
+        let Some(rig) = &self.camera.rig else { return Ok(()) };
+        if !self.camera.model().is_perfect() {
+            let reason = "a rig is seen through its cameras' pixels: the terms of a camera of points (`depth_scale`, `scale_y`, the shears) must keep their perfect values with `camera.rig` (the rig's errors are its `miscalibration`)";
+            return Err(("camera.rig".into(), reason.into()));
+        }
+        rig.check()
     }
 }

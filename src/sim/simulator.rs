@@ -12,8 +12,11 @@ use serde::Serialize;
 
 use super::camera::lenses;
 use super::config::{Recording, SimConfig, Trajectory, Workspace};
+use super::rig::{PixelCameras, Sighting};
 use super::scene::CollisionScene;
-use crate::dataset::{Capture, EncoderSample, MIN_MARKERS, Session, SessionPose, Streams, Truth};
+use crate::dataset::{
+    Capture, EncoderSample, MIN_MARKERS, PixelRow, SeenPixel, Session, SessionPose, Streams, Truth, triangulate,
+};
 use crate::math::so3;
 use crate::model::{
     Body, CameraRegistration, GeometrySpread, MarkerPosition, ParameterSource, Parameters, RobotModel, Spm, SpmError,
@@ -44,6 +47,11 @@ pub struct SimSummary {
     pub outliers: usize,
     /// Poses the per-pose estimator cannot use (fewer than 3 markers).
     pub poses_with_too_few_markers: usize,
+    /// Pixels written (a rig's cameras; with a rig, `markers_seen` counts the points its file
+    /// triangulates, `markers_occluded` a marker hidden from one camera, `outliers` pixels).
+    pub pixels_seen: usize,
+    /// Pixels lost behind a camera or outside its image.
+    pub pixels_outside_image: usize,
 }
 
 impl std::fmt::Display for SimSummary {
@@ -62,6 +70,18 @@ impl std::fmt::Display for SimSummary {
                 self.rejected_singular,
                 self.rejected_collision
             )?;
+        }
+        if self.pixels_seen > 0 {
+            return writeln!(
+                f,
+                "pixels: {} seen, {} hidden by the mechanism, {} outside an image, {} outliers; {} points triangulated; {} poses with fewer than 3 points",
+                self.pixels_seen,
+                self.markers_occluded,
+                self.pixels_outside_image,
+                self.outliers,
+                self.markers_seen,
+                self.poses_with_too_few_markers
+            );
         }
         writeln!(
             f,
@@ -284,6 +304,8 @@ struct Simulator<'a> {
     scene: CollisionScene,
     rng: ChaCha8Rng,
     summary: SimSummary,
+    /// The rig's cameras, when the camera is a rig seen through its pixels.
+    pixels: Option<PixelCameras>,
 }
 
 impl SimConfig {
@@ -345,8 +367,9 @@ impl SimConfig {
         let markers =
             model.markers.iter().map(|m| m.position + Vector3::from_fn(|_, _| misplacement.sample(&mut rng))).collect();
         let summary = SimSummary { name: self.name.clone(), seed: self.seed, ..Default::default() };
-        let mut sim =
-            Simulator { config: self, model, spm, camera, markers, scene: CollisionScene::new(model), rng, summary };
+        let pixels = self.pixel_cameras();
+        let scene = CollisionScene::new(model);
+        let mut sim = Simulator { config: self, model, spm, camera, markers, scene, rng, summary, pixels };
         let session = match &self.recording {
             Some(r) => sim.record_streams(r, progress),
             None => sim.run(progress),
@@ -360,6 +383,11 @@ impl SimConfig {
             other => other,
         })?;
         Ok((session, sim.summary))
+    }
+
+    /// The cameras of the config's rig, if it has one.
+    fn pixel_cameras(&self) -> Option<PixelCameras> {
+        self.camera.rig.as_ref().map(|rig| PixelCameras::new(rig, self.camera.outlier_probability))
     }
 }
 
@@ -401,6 +429,7 @@ impl Candidate {
             scene: CollisionScene::new(model),
             rng: ChaCha8Rng::seed_from_u64(config.seed),
             summary: SimSummary::default(),
+            pixels: config.pixel_cameras(),
         };
         let max_attempts = 50 * count + 100;
         let mut out = Vec::with_capacity(count);
@@ -490,8 +519,12 @@ impl Simulator<'_> {
         };
         // Simultaneous capture makes home the per-pose estimator's reference: it must see enough
         // (a plan's first pose need not be home; the session then picks its reference).
-        let reference_blind =
-            plan.is_none() && !self.config.capture.sequential && poses.first().is_some_and(|p| p.seen() < MIN_MARKERS);
+        // (A single camera triangulates nothing: the estimator has no use for its session.)
+        let single = self.pixels.as_ref().is_some_and(|p| p.truth.cameras.len() < 2);
+        let reference_blind = plan.is_none()
+            && !self.config.capture.sequential
+            && !single
+            && poses.first().is_some_and(|p| p.seen() < MIN_MARKERS);
         if !enough || poses.is_empty() || reference_blind {
             let (cause, key) = self.dominant_rejection(poses.first());
             return Err(SimError::TooFewPoses { found: stations, wanted, attempts: self.summary.attempts, cause, key });
@@ -509,17 +542,27 @@ impl Simulator<'_> {
         });
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
         Ok(Session {
-            rig: None,
+            rig: self.file_rig(),
             name: self.config.name.clone(),
             description: Some(description),
             model: self.model.urdf_path.clone(),
             markers: self.model.markers.iter().map(|m| m.name.clone()).collect(),
             reference_pose,
             poses,
-            truth: Some(Truth { parameters, orientations: truth }),
+            truth: Some(Truth { parameters, orientations: truth, rig: self.true_rig() }),
             streams: None,
             folder: None,
         })
+    }
+
+    /// The rig the session's file states, when the camera is a rig.
+    fn file_rig(&self) -> Option<std::sync::Arc<crate::model::Rig>> {
+        self.pixels.as_ref().map(|p| std::sync::Arc::new(p.file.clone()))
+    }
+
+    /// The true rig, when the camera is a rig.
+    fn true_rig(&self) -> Option<crate::model::Rig> {
+        self.pixels.as_ref().map(|p| p.truth.clone())
     }
 
     /// The true parameters (with the camera latency of a recording).
@@ -620,7 +663,7 @@ impl Simulator<'_> {
         let jitter = Normal::new(0.0, r.jitter_s).expect("validated deviation");
         let frames = (r.duration_s * r.camera_rate_hz).floor() as usize;
         let m = self.markers.len();
-        let mut captures = Vec::new();
+        let (mut captures, mut pixels) = (Vec::new(), Vec::new());
         for f in 0..frames {
             let t = (f as f64 + 0.5) / r.camera_rate_hz;
             let rot = at(scale, t);
@@ -633,14 +676,23 @@ impl Simulator<'_> {
                     captures.push(Capture { time_s: stamp, marker, position: *position, line: 0 });
                 }
             }
+            pixels.extend(pose.pixels.into_iter().map(|seen| PixelRow { at: stamp, seen }));
             progress(f + 1);
         }
         captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        pixels.sort_by(|a, b| a.at.total_cmp(&b.at));
         self.summary.poses = frames;
         self.summary.poses_with_too_few_markers = 0;
-        let streams = Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures };
+        let streams = match &self.pixels {
+            // The captures are the points the file's rig triangulates from each frame's pixels, as
+            // the recording's reader makes them.
+            Some(cameras) => {
+                Streams::of_pixels(std::path::PathBuf::from("pixels.csv"), encoders, pixels, &cameras.file).0
+            }
+            None => Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures, pixels },
+        };
         let session = Session {
-            rig: None,
+            rig: self.file_rig(),
             name: self.config.name.clone(),
             description: Some(self.config.description.clone().unwrap_or_else(|| {
                 format!(
@@ -652,7 +704,11 @@ impl Simulator<'_> {
             markers: self.model.markers.iter().map(|mk| mk.name.clone()).collect(),
             reference_pose: 0,
             poses: Vec::new(),
-            truth: Some(Truth { parameters: self.truth_parameters(Some(r.latency_s)), orientations: BTreeMap::new() }),
+            truth: Some(Truth {
+                parameters: self.truth_parameters(Some(r.latency_s)),
+                orientations: BTreeMap::new(),
+                rig: self.true_rig(),
+            }),
             streams: Some(std::sync::Arc::new(streams)),
             folder: None,
         };
@@ -715,7 +771,7 @@ impl Simulator<'_> {
             }
             let Ok(joints) = self.spm.ik(&at) else { continue };
             let mut pose = self.record(first_id + captures.len() as u64, &at, &joints, &[k]);
-            if pose.seen() == 0 {
+            if pose.seen() == 0 && pose.pixels.is_empty() {
                 continue;
             }
             pose.station = Some(station);
@@ -743,15 +799,24 @@ impl Simulator<'_> {
         Some(Candidate { rotation: *r, joints, visible })
     }
 
-    /// The markers both lenses see at a pose.
+    /// Where the lines of sight start, in B: the two lenses of a camera of points, or each
+    /// camera of a rig.
+    fn viewpoints(&self) -> Vec<Vector3<f64>> {
+        match &self.pixels {
+            Some(p) => p.centres().iter().map(|c| self.camera.to_base(c)).collect(),
+            None => lenses(&self.camera, self.config.camera.baseline_m).to_vec(),
+        }
+    }
+
+    /// The markers every lens (every camera of a rig) sees at a pose.
     fn visible(&self, r: &Rotation3<f64>, joints: &Vector3<f64>) -> Vec<usize> {
         let rotations = self.scene.body_rotations(&self.spm, joints, r);
-        let cam = &self.config.camera;
-        let lens = lenses(&self.camera, cam.baseline_m);
+        let radius = self.config.camera.marker_radius_m;
+        let lens = self.viewpoints();
         (0..self.markers.len())
             .filter(|&k| {
                 let point = r * self.markers[k];
-                lens.iter().all(|l| self.scene.occluder(&rotations, &point, l, cam.marker_radius_m).is_none())
+                lens.iter().all(|l| self.scene.occluder(&rotations, &point, l, radius).is_none())
             })
             .collect()
     }
@@ -759,6 +824,74 @@ impl Simulator<'_> {
     /// Encoder readings and camera measurements of the markers `which` at a pose.
     fn record(&mut self, id: u64, r: &Rotation3<f64>, joints: &Vector3<f64>, which: &[usize]) -> SessionPose {
         let readings = self.read_encoders(joints);
+        let (markers, pixels) = if self.pixels.is_some() {
+            self.see_pixels(r, joints, which)
+        } else {
+            (self.measure_points(r, joints, which), Vec::new())
+        };
+        let n = markers.len();
+        SessionPose {
+            pixels,
+            id,
+            joints: readings,
+            time_s: Some(id as f64 * self.config.capture.interval_s),
+            markers,
+            line: 0,
+            marker_lines: vec![0; n],
+            station: None,
+        }
+    }
+
+    /// What each camera of the rig sees of the markers `which` at a pose — the pixels of every
+    /// camera whose line of sight the mechanism leaves free — and the points the rig's file
+    /// triangulates from them (a marker two cameras or more saw).
+    fn see_pixels(
+        &mut self,
+        r: &Rotation3<f64>,
+        joints: &Vector3<f64>,
+        which: &[usize],
+    ) -> (Vec<Option<Vector3<f64>>>, Vec<SeenPixel>) {
+        let rotations = self.scene.body_rotations(&self.spm, joints, r);
+        let radius = self.config.camera.marker_radius_m;
+        let lens = self.viewpoints();
+        let Simulator { pixels: Some(cameras), rng, summary, scene, camera, .. } = self else {
+            unreachable!("called with a rig")
+        };
+        let mut markers = vec![None; self.markers.len()];
+        let mut seen = Vec::new();
+        for &k in which {
+            let point = r * self.markers[k];
+            let in_c = camera.to_camera(&point);
+            for (c, l) in lens.iter().enumerate() {
+                if scene.occluder(&rotations, &point, l, radius).is_some() {
+                    summary.markers_occluded += 1;
+                    continue;
+                }
+                match cameras.see(c, &in_c, rng) {
+                    Sighting::Pixel(pixel, outlier) => {
+                        summary.pixels_seen += 1;
+                        summary.outliers += usize::from(outlier);
+                        seen.push(SeenPixel { marker: k, camera: c, pixel, line: 0 });
+                    }
+                    Sighting::Lost => summary.pixels_outside_image += 1,
+                }
+            }
+        }
+        // As the session's reader will: the same function, the same pixels, the same rig.
+        for (k, point, _) in triangulate(&cameras.file, &seen).points {
+            markers[k] = Some(point);
+            summary.markers_seen += 1;
+        }
+        (markers, seen)
+    }
+
+    /// The camera's measurements of the markers `which` at a pose (`None`: hidden).
+    fn measure_points(
+        &mut self,
+        r: &Rotation3<f64>,
+        joints: &Vector3<f64>,
+        which: &[usize],
+    ) -> Vec<Option<Vector3<f64>>> {
         let rotations = self.scene.body_rotations(&self.spm, joints, r);
         let cam = &self.config.camera;
         let lens = lenses(&self.camera, cam.baseline_m);
@@ -774,16 +907,6 @@ impl Simulator<'_> {
             self.summary.outliers += usize::from(m.outlier);
             markers[k] = Some(m.position);
         }
-        let n = markers.len();
-        SessionPose {
-            pixels: Vec::new(),
-            id,
-            joints: readings,
-            time_s: Some(id as f64 * self.config.capture.interval_s),
-            markers,
-            line: 0,
-            marker_lines: vec![0; n],
-            station: None,
-        }
+        markers
     }
 }

@@ -76,11 +76,15 @@ impl<'s> MarkerLevel<'s> {
             })
             .collect();
         let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
-        let registration = registration::from_markers(&observations, &nominal_r, &markers0)
-            .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
-        let camera_model = config.camera_model;
+        let registration = match session.rig.as_deref() {
+            Some(rig) => registration::from_pixels(&observations, &nominal_r, &markers0, rig),
+            None => registration::from_markers(&observations, &nominal_r, &markers0),
+        }
+        .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
+        // Pixels are seen through the rig, which is refined instead of a camera model.
+        let camera_model = if session.rig.is_some() { CameraModelKind::Rigid } else { config.camera_model };
         let carried = match camera_model {
-            CameraModelKind::Rigid => CameraModelKind::DepthScale,
+            CameraModelKind::Rigid if session.rig.is_none() => CameraModelKind::DepthScale,
             kind => kind,
         };
         let p = Parameterisation::for_markers(
@@ -91,6 +95,10 @@ impl<'s> MarkerLevel<'s> {
             config.camera_terms.model(carried),
             &config.bounds,
         );
+        let p = match &session.rig {
+            Some(rig) => p.with_rig(rig.clone(), &config.rig_terms),
+            None => p,
+        };
         // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
         let streams = session.streams.as_deref();
         let p = match streams {
@@ -226,7 +234,7 @@ impl Level for MarkerLevel<'_> {
             .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
         let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
-            predicted_marker_error(&r.calibrated, ms, cov, &observation_poses, |j| {
+            predicted_marker_error(&r.calibrated, r.problem.unit_scale(), ms, cov, &observation_poses, |j| {
                 eval.orientations[r.problem.pose_of(j)]
             })
         });
@@ -244,7 +252,13 @@ impl Level for MarkerLevel<'_> {
             poses: r.problem.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
             after: MarkerErrors::of(&r.calibrated.evaluation.residuals, observations, &self.names),
-            stereo_noise: r.calibrated.weighting.noise,
+            rig: crate::calib::rig_terms::report(
+                p,
+                x,
+                |i| std_error(cov, free, i),
+                r.calibrated.weighting.noise.as_ref(),
+            ),
+            stereo_noise: r.calibrated.weighting.noise.clone(),
             markers: marker_reports,
             fast_captures: self.streams.map_or_else(Vec::new, |s| {
                 observations
@@ -260,7 +274,7 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         };
-        let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency));
+        let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency), p.rig0.is_some());
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
             format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)

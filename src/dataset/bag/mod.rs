@@ -164,7 +164,7 @@ fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> 
         );
         return Err(FileError::new(bag, reason));
     }
-    Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures })
+    Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures, pixels: Vec::new() })
 }
 
 /// A static pose read from a bag: its first capture's time, the joints' median over the rest,

@@ -219,6 +219,66 @@ case("calib_no_folds_said", {"c.yaml": "folds: 0\n"}, CAL, ["verdict: WARN: no u
 # before the simulator spends its attempts. (One below 1 that this model never reaches is found
 # only by trying: sim_gives_up, whose message names the key to loosen.)
 case("sim_conditioning_never_met", {"s.yaml": replace_once(SIM, "min_conditioning: 0.2", "min_conditioning: 1.5")}, SIMC, f"s.yaml:{line_of(SIM, 'min_conditioning:')}: column `workspace.min_conditioning`: `workspace.min_conditioning` must be below 1 (got 1.5): the conditioning index is at most 1")
+# --- Issue 34: sessions seen through their cameras' pixels (pixels.csv + cameras.yaml, Kalibr's
+# camchain). Every refusal names the file and line: the camchain's key (a missing key: its camera's
+# line), the pixel row.
+CAMERAS = """cam0:
+  camera_model: pinhole
+  intrinsics: [900.0, 900.0, 640.0, 400.0]
+  distortion_model: radtan
+  distortion_coeffs: [-0.1, 0.02, 0.001, -0.001]
+  resolution: [1280, 800]
+  rostopic: /cam0/image_raw
+cam1:
+  T_cn_cnm1:
+  - [0.9987502603949663, 0.0, 0.04997916927067833, -0.12]
+  - [0.0, 1.0, 0.0, 0.0]
+  - [-0.04997916927067833, 0.0, 0.9987502603949663, 0.0]
+  - [0.0, 0.0, 0.0, 1.0]
+  camera_model: pinhole
+  intrinsics: [900.0, 900.0, 640.0, 400.0]
+  distortion_model: radtan
+  distortion_coeffs: [-0.1, 0.02, 0.001, -0.001]
+  resolution: [1280, 800]
+  rostopic: /cam1/image_raw
+"""
+PIXELS = "pose,marker,camera,u_px,v_px\n" + "".join(
+    f"{p},m{k},cam{c},{600.5 + 20 * k - 60 * c + p},{380.25 + 10 * k}\n" for p in range(20) for k in range(1, 5) for c in range(2))
+CAM1 = CAMERAS.index("cam1:")
+
+
+def pixel_session(**changes):
+    files = {"session.yaml": SESSION, "joints.csv": JOINTS, "pixels.csv": PIXELS, "cameras.yaml": CAMERAS}
+    files.update(changes)
+    return files
+
+
+def in_cam1(old, new):
+    """CAMERAS with the first `old` of cam1's entry replaced by `new`."""
+    return CAMERAS[:CAM1] + replace_once(CAMERAS[CAM1:], old, new)
+
+
+EST = ["estimate", "--dataset", "{case}"]
+case("pixels_camera_without_intrinsics", pixel_session(**{"cameras.yaml": in_cam1("  intrinsics: [900.0, 900.0, 640.0, 400.0]\n", "")}), EST, f"cameras.yaml:{line_of(CAMERAS, 'cam1:')}: column `cam1.intrinsics`: `cam1` has no `intrinsics` ([fu, fv, pu, pv] in pixels)")
+case("pixels_camchain_not_a_rotation", pixel_session(**{"cameras.yaml": in_cam1("[0.0, 1.0, 0.0, 0.0]", "[0.0, 1.0, 0.2, 0.0]")}), EST, [f"cameras.yaml:{line_of(CAMERAS, 'T_cn_cnm1:')}: column `cam1.T_cn_cnm1`: `cam1`: the rotation of `T_cn_cnm1` is not a rotation: RᵀR departs from the identity by", "(at most 1e-6 for a rotation)"])
+case("pixels_camchain_reflection", pixel_session(**{"cameras.yaml": in_cam1("[0.0, 1.0, 0.0, 0.0]", "[0.0, -1.0, 0.0, 0.0]")}), EST, f"cameras.yaml:{line_of(CAMERAS, 'T_cn_cnm1:')}: column `cam1.T_cn_cnm1`: `cam1`: the rotation of `T_cn_cnm1` is not a rotation: its determinant is -1.000000, a reflection")
+case("pixels_camchain_unknown_key", pixel_session(**{"cameras.yaml": in_cam1("  rostopic:", "  frame_rate: 20\n  rostopic:")}), EST, f"cameras.yaml:{line_of(CAMERAS, 'rostopic:', CAM1)}: column `cam1.frame_rate`: unknown key `frame_rate` in `cam1`: a camera has T_cn_cnm1, camera_model")
+case("pixels_camchain_bad_distortion_model", pixel_session(**{"cameras.yaml": in_cam1("distortion_model: radtan", "distortion_model: fov")}), EST, f"cameras.yaml:{line_of(CAMERAS, 'distortion_model:', CAM1)}: column `cam1.distortion_model`: `cam1`: distortion model `fov` is not one spmcal reads: `radtan`, `equidistant` or `none`")
+case("pixels_camchain_gap", pixel_session(**{"cameras.yaml": CAMERAS.replace("cam1:", "cam2:")}), EST, f"cameras.yaml:{line_of(CAMERAS, 'cam1:')}: column `cam2`: `cam2` without `cam1`: the cameras are numbered cam0, cam1, … without a gap")
+case("pixels_unknown_camera", pixel_session(**{"pixels.csv": replace_once(PIXELS, "\n3,m2,cam1,", "\n3,m2,cam7,")}), EST, f"pixels.csv:{line_of(PIXELS, chr(10) + '3,m2,cam1,') + 1}: column `camera`: camera `cam7` is not in cameras.yaml (cam0, cam1)")
+case("pixels_seen_twice", pixel_session(**{"pixels.csv": replace_once(PIXELS, "\n1,m4,cam0,", "\n1,m4,cam1,")}), EST, f"pixels.csv:{line_of(PIXELS, chr(10) + '1,m4,cam1,') + 1}: column `camera`: marker `m4` is seen twice by camera `cam1` at pose 1")
+row = line_of(PIXELS, "\n2,m3,cam0,") + 1
+outside = PIXELS.splitlines()
+fields = outside[row - 1].split(",")
+outside[row - 1] = ",".join(fields[:3] + ["1300", fields[4]])
+case("pixels_outside_the_image", pixel_session(**{"pixels.csv": "\n".join(outside) + "\n"}), EST, f"pixels.csv:{row}: column `u_px`: u = 1300.0 px is outside camera `cam0`'s image: its 1280 × 800 pixels (cameras.yaml) span u from -0.5 to 1279.5")
+case("pixels_beside_markers", pixel_session(**{"markers.csv": MARKERS}), EST, "holds marker points (markers.csv) and pixels (pixels.csv): a session's observations are one or the other")
+case("pixels_without_cameras_yaml", {"session.yaml": SESSION, "joints.csv": JOINTS, "pixels.csv": PIXELS}, EST, "cameras.yaml: missing: pixels.csv names the cameras of a rig, which cameras.yaml (Kalibr's camchain) defines")
+case("pixels_of_a_pose_joints_lack", pixel_session(**{"pixels.csv": PIXELS + "99,m1,cam0,600,400\n"}), EST, f"pixels.csv:{PIXELS.count(chr(10)) + 1}: column `pose`: pixels for pose 99, which joints.csv does not have")
+REC_PIXELS = "time_s,marker,camera,u_px,v_px\n0.5,m1,cam0,600,400\n0.5,m1,cam1,540,400\n"
+case("pixels_recording_one_frame", {"session.yaml": SESSION, "encoders.csv": "time_s,theta1_rad,theta2_rad,theta3_rad\n" + "".join(f"{t / 100},0,0,0\n" for t in range(101)), "pixels.csv": REC_PIXELS, "cameras.yaml": CAMERAS}, ["replay", "--dataset", "{case}", "--rrd", "{tmp}/existing.rrd"], "pixels.csv: holds pixels in 1 camera frame: almost nothing to calibrate from")
+
+
 def main():
     # Only the folders this script makes are rewritten: the hand-made cases beside them
     # (clobber_*, agree_*, model_*, limits_*, …) are kept.
