@@ -219,7 +219,7 @@ fn a_calibration_above_the_configs_threshold_is_a_warning() {
 
 /// A ten-minute free-motion recording (some 9,000 poses): its errors against time are bands
 /// (median and 5–95 % per bin), its workspace a grid of counts; the file stays small (an
-/// hour-long recording's report was 14.4 MB before, 0.19 MB after: docs/calibration.md).
+/// hour-long recording's report was 14.4 MB before, 0.17 MB after: docs/calibration.md).
 #[test]
 fn a_long_recording_is_summarised() {
     let dir = tempfile::tempdir().unwrap();

@@ -132,7 +132,7 @@ fn svg(label: &str, class: &str, layout: &Layout, draw: &Draw<'_>) -> String {
         drawn.and_then(|()| root.present().map_err(|e| e.to_string()))
     };
     match result {
-        Ok(()) => out.replacen(
+        Ok(()) => lean(&out).replacen(
             &format!("<svg width=\"{width}\" height=\"{height}\" "),
             &format!(
                 "<svg class=\"{class}\" style=\"max-width:{:.0}px\" role=\"img\" aria-label=\"{}\" ",
@@ -143,6 +143,12 @@ fn svg(label: &str, class: &str, layout: &Layout, draw: &Draw<'_>) -> String {
         ),
         Err(e) => format!("<p class=\"{class}\">(plot not drawn: {})</p>", escape(&e)),
     }
+}
+
+/// The drawing without the attributes plotters writes on every element that only restate SVG's
+/// defaults (`opacity="1"`, no stroke on a filled shape): half the bytes of a dot.
+fn lean(svg: &str) -> String {
+    svg.replace(" opacity=\"1\"", "").replace(" stroke=\"none\" stroke-width=\"1\"", "")
 }
 
 /// The font of tick labels and axis titles.
@@ -193,5 +199,7 @@ mod tests {
         assert!(html.contains("<svg class=\"wide\" style=\"max-width:950px\" role=\"img\" aria-label=\"a dot\" viewBox=\"0 0 760 200\""), "{html}");
         assert!(html.contains("<svg class=\"narrow\" style=\"max-width:475px\" role=\"img\" aria-label=\"a dot\" viewBox=\"0 0 380 100\""), "{html}");
         assert!(!html.contains("<svg width") && html.ends_with("<figcaption>one dot</figcaption></figure>"));
+        // The dot keeps what draws it and loses what restates the defaults.
+        assert!(html.contains("<circle cx=\"5\" cy=\"5\" r=\"2\" fill=\"#0000FF\"/>"), "{html}");
     }
 }
