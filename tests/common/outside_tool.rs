@@ -1,5 +1,5 @@
 //! Cross-checks with tools from outside the project (`check_urdf`, the Rerun CLI, a C compiler,
-//! Python's `rosbags`): where CI runs (`CI=true`) a missing tool fails the test — CI installs
+//! Python's `rosbags`, headless Chromium): where CI runs (`CI=true`) a missing tool fails the test — CI installs
 //! them, so a green run means the check ran. Elsewhere the test is skipped, and says so where a
 //! person looks: at once on the terminal (written past the test harness's output capture, which
 //! hides what a passing test prints) and again at the end of `cargo test`, where the last test

@@ -19,6 +19,7 @@ use crate::calib::report::{
     observations_file,
 };
 use crate::calib::residuals::Residuals;
+use crate::calib::rig_terms;
 use crate::calib::uncertainty::{
     parameter_reports, predicted_marker_error, predicted_orientation_error, released, std_error,
 };
@@ -258,7 +259,7 @@ impl Level for MarkerLevel<'_> {
             poses: r.problem.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
             after: MarkerErrors::of(&r.calibrated.evaluation.residuals, observations, &self.names),
-            rig: crate::calib::rig_terms::report(
+            rig: rig_report(
                 p,
                 x,
                 |i| std_error(cov, free, i),
@@ -480,4 +481,48 @@ fn marker_reports(
             }
         })
         .collect()
+}
+
+/// The report of the rig of `p` at `x`: every term (fitted or held), the baseline held, each
+/// camera's pixel noise.
+fn rig_report(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    std_error: impl Fn(usize) -> Option<f64>,
+    noise: Option<&crate::calib::StereoNoise>,
+) -> Option<crate::calib::report::RigReport> {
+    let rig0 = p.rig0.as_deref()?;
+    let refined = p.rig(x)?;
+    let terms = rig_terms::all_terms(rig0)
+        .into_iter()
+        .map(|term| {
+            let (unit, scale) = rig_terms::display(rig0, term);
+            let entry = p.entries.iter().position(|e| e.kind == Kind::Rig { term });
+            let file_value = match term {
+                crate::model::RigTerm::Intrinsic { camera, k } => Some(rig0.cameras[camera].lens.intrinsics[k]),
+                crate::model::RigTerm::Distortion { camera, k } => Some(rig0.cameras[camera].lens.distortion[k]),
+                _ => None,
+            };
+            let std_error = entry.and_then(&std_error).map(|s| s * scale);
+            crate::calib::report::RigTermReport {
+                name: term.name(rig0),
+                unit,
+                file_value,
+                change: entry.map_or(0.0, |i| x[i] * scale),
+                held: std_error.is_none(),
+                std_error,
+            }
+        })
+        .collect();
+    let pixel_noise_px = rig0
+        .cameras
+        .iter()
+        .enumerate()
+        .map(|(c, cam)| {
+            let sigma = noise.and_then(|n| n.pixel_px.get(c).copied()).unwrap_or(f64::NAN);
+            let error = noise.and_then(|n| n.pixel_std_error_px.get(c).copied()).unwrap_or(f64::NAN);
+            (cam.name.clone(), sigma, error)
+        })
+        .collect();
+    Some(crate::calib::report::RigReport { baseline_held_m: rig0.baseline_m(), terms, pixel_noise_px, refined })
 }
