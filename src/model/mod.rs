@@ -17,6 +17,8 @@ mod params;
 #[cfg(feature = "full")]
 mod perturb;
 #[cfg(feature = "full")]
+// Without `internals`, the projection's derivatives and the fit's terms are the crate's own.
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod rig;
 mod spm;
 #[cfg(feature = "full")]
@@ -40,7 +42,11 @@ pub use params::{CameraRegistration, MarkerPosition, ParameterSource, Parameters
 #[cfg(feature = "full")]
 pub use perturb::GeometrySpread;
 #[cfg(feature = "full")]
-pub use rig::{DistortionModel, Lens, Projection, Rig, RigCamera, RigProjection, RigTerm};
+pub use rig::{DistortionModel, Lens, Rig, RigCamera};
+#[cfg(feature = "internals")]
+pub use rig::{Projection, RigProjection, RigTerm};
+#[cfg(all(feature = "full", not(feature = "internals")))]
+pub(crate) use rig::{Projection, RigProjection, RigTerm};
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
 pub use survey::ModelSurvey;

@@ -259,12 +259,7 @@ impl Level for MarkerLevel<'_> {
             poses: r.problem.poses(),
             before: MarkerErrors::of(&r.nominal.evaluation.residuals, observations, &self.names),
             after: MarkerErrors::of(&r.calibrated.evaluation.residuals, observations, &self.names),
-            rig: rig_report(
-                p,
-                x,
-                |i| std_error(cov, free, i),
-                r.calibrated.weighting.noise.as_ref(),
-            ),
+            rig: rig_report(p, x, |i| std_error(cov, free, i), r.calibrated.weighting.noise.as_ref()),
             stereo_noise: r.calibrated.weighting.noise.clone(),
             markers: marker_reports,
             fast_captures: self.streams.map_or_else(Vec::new, |s| {
