@@ -247,6 +247,25 @@ fn push_row(text: &mut String, at: &str, p: &SeenPixel, names: &[String], rig: &
     let _ = writeln!(text, "{at},{marker},{camera},{},{}", number(p.pixel.x), number(p.pixel.y));
 }
 
+impl Session {
+    /// The same pixel session with its points triangulated through `rig` instead of the file's
+    /// (a calibration's refined rig): what the per-pose estimator and the recording then see.
+    /// A session of points is returned as it is.
+    pub(crate) fn seen_through(&self, rig: &Rig) -> Session {
+        if self.rig.is_none() {
+            return self.clone();
+        }
+        let mut session = Session { rig: Some(std::sync::Arc::new(rig.clone())), ..self.clone() };
+        for pose in &mut session.poses {
+            pose.markers.iter_mut().for_each(|m| *m = None);
+            for (marker, point, _) in triangulate(rig, &pose.pixels).points {
+                pose.markers[marker] = Some(point);
+            }
+        }
+        session
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -305,24 +324,5 @@ mod tests {
         assert_eq!(axis, 1);
         assert!(reason.contains("v = 799.6 px is outside camera `cam1`'s image: its 1280 × 800 pixels"), "{reason}");
         assert_eq!(outside_image(&rig, 0, &Vector2::new(f64::NAN, 1.0)).map(|o| o.0), Some(0));
-    }
-}
-
-impl Session {
-    /// The same pixel session with its points triangulated through `rig` instead of the file's
-    /// (a calibration's refined rig): what the per-pose estimator and the recording then see.
-    /// A session of points is returned as it is.
-    pub(crate) fn seen_through(&self, rig: &Rig) -> Session {
-        if self.rig.is_none() {
-            return self.clone();
-        }
-        let mut session = Session { rig: Some(std::sync::Arc::new(rig.clone())), ..self.clone() };
-        for pose in &mut session.poses {
-            pose.markers.iter_mut().for_each(|m| *m = None);
-            for (marker, point, _) in triangulate(rig, &pose.pixels).points {
-                pose.markers[marker] = Some(point);
-            }
-        }
-        session
     }
 }

@@ -470,6 +470,14 @@ fn shown(value: &Value) -> String {
     }
 }
 
+impl Rig {
+    /// The rig as a Kalibr camchain (`cameras.yaml`): what `spmcal calibrate --cameras-out`
+    /// writes for a pixel session's refined rig.
+    pub fn to_camchain(&self) -> String {
+        camchain_yaml(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -654,13 +662,5 @@ mod tests {
         let e = write_camchain(&dir.path().join("cameras.yaml"), &rig).unwrap_err();
         assert!(e.reason.contains("camera 1 of the rig is named `right`"), "{e}");
         assert!(!dir.path().join("cameras.yaml").exists());
-    }
-}
-
-impl Rig {
-    /// The rig as a Kalibr camchain (`cameras.yaml`): what `spmcal calibrate --cameras-out`
-    /// writes for a pixel session's refined rig.
-    pub fn to_camchain(&self) -> String {
-        camchain_yaml(self)
     }
 }
