@@ -145,9 +145,11 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
     let run = spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap()]);
     let report = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    // The marker-level fit (the default): 18 mechanism and camera-rotation parameters, t_CB, four
-    // markers and the camera's depth scale, all identifiable; the verdict first.
-    assert!(report.contains("verdict:") && report.contains("identifiability: 34 of 34"), "{report}");
+    // The marker-level fit (the default): 18 mechanism and camera-rotation parameters, t_CB and
+    // four markers, all identifiable, and the camera model `auto` chose (rigid for this perfect
+    // camera: no more terms); the verdict first.
+    assert!(report.contains("verdict:") && report.contains("identifiability: 33 of 33"), "{report}");
+    assert!(report.contains("camera model: rigid (auto: cross-validated"), "{report}");
     let written = spmcal::model::Parameters::read(&params).unwrap();
     assert_eq!(written.source, spmcal::model::ParameterSource::Calibrated);
     assert!(written.camera.is_some());

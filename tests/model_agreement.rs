@@ -174,6 +174,15 @@ fn a_leg_matches_within_the_tolerance_and_nearer_than_any_other() {
 fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
     let dir = tempfile::tempdir().unwrap();
     let mut params = fitted();
+    // A projective camera: every camera term and its standard error is a number of the file.
+    let terms = [1.002, 0.999, 0.001, -0.002, 0.003, 0.01, -0.02, 0.03];
+    params.camera_model = spmcal::model::CameraModelKind::Projective
+        .terms()
+        .iter()
+        .zip(terms)
+        .fold(spmcal::model::CameraModel::perfect(spmcal::model::CameraModelKind::Projective), |m, (t, v)| {
+            m.with(*t, v, Some(0.0004))
+        });
     params.markers.push(MarkerPosition {
         name: "m5".into(),
         position: Vector3::new(0.01, 0.02, 0.03),
@@ -220,9 +229,9 @@ fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
         assert_eq!(err.line, Some(expected), "{line} → {huge}: {err}");
         checked += 1;
     }
-    // 3 legs × 12, the camera's 7 and its depth scale with its standard error, 5 markers'
-    // positions and 4 standard errors, the latency.
-    assert_eq!(checked, 36 + 7 + 2 + 15 + 12 + 1);
+    // 3 legs × 12, the camera's 7 and its projective model's 8 terms with their standard errors,
+    // 5 markers' positions and 4 standard errors, the latency.
+    assert_eq!(checked, 36 + 7 + 16 + 15 + 12 + 1);
 }
 
 #[test]

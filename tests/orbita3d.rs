@@ -256,7 +256,9 @@ fn the_shipped_orbita3d_session_calibrates_and_passes() {
     let calibration =
         spmcal::calib::calibrate(&session, &model(), &spmcal::calib::CalibConfig::default(), &mut |_| {}).unwrap();
     let report = &calibration.report;
-    assert_eq!((report.identifiability.rank, report.identifiability.parameters), (34, 34));
+    // Its camera is perfect: `auto` chooses rigid, and every one of the 33 parameters is identified.
+    assert_eq!(calibration.parameters.camera_model.kind, spmcal::model::CameraModelKind::Rigid);
+    assert_eq!((report.identifiability.rank, report.identifiability.parameters), (33, 33));
     assert!(report.verdict.pass, "{:?}", report.verdict);
     assert_eq!(calibration.parameters.legs.map(|g| g.home_branch), [HomeBranch::Positive; 3]);
 }

@@ -312,11 +312,12 @@ fn a_coaxial_spm_leaves_free_only_its_own_gauges() {
     assert_only_the_gauges_are_free(&session, &model);
 }
 
-/// The marker-level calibration of `session` identifies all 34 parameters (33 of the mechanism,
-/// registration and markers, and the camera's depth scale), and the six directions its
-/// parameterisation fixes add nothing: exactly six null directions.
+/// The marker-level calibration of `session` with the depth-scale model identifies all 34
+/// parameters (33 of the mechanism, registration and markers, and the camera's depth scale), and
+/// the six directions its parameterisation fixes add nothing: exactly six null directions.
 fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
-    let calibration = calibrate(session, model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let config = CalibConfig { camera_model: super::CameraModelSetting::DepthScale, ..CalibConfig::default() };
+    let calibration = calibrate(session, model, &config, &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
     assert_eq!((id.rank, id.parameters), (34, 34), "{id:?}");
     assert!(calibration.parameterisation.entries.iter().any(|e| e.name == "camera.depth_scale"));
