@@ -14,7 +14,6 @@ use std::path::Path;
 
 use nalgebra::{Vector2, Vector3};
 
-use super::Session;
 use super::markers::{MAX_COORDINATE_M, MarkerLookup};
 use crate::io::files::{FileError, number};
 use crate::io::table::{Row, Table, first_repeat};
@@ -245,25 +244,6 @@ fn push_row(text: &mut String, at: &str, p: &SeenPixel, names: &[String], rig: &
     let marker = names.get(p.marker).map_or("?", String::as_str);
     let camera = rig.cameras.get(p.camera).map_or("?", |c| c.name.as_str());
     let _ = writeln!(text, "{at},{marker},{camera},{},{}", number(p.pixel.x), number(p.pixel.y));
-}
-
-impl Session {
-    /// The same pixel session with its points triangulated through `rig` instead of the file's
-    /// (a calibration's refined rig): what the per-pose estimator and the recording then see.
-    /// A session of points is returned as it is.
-    pub(crate) fn seen_through(&self, rig: &Rig) -> Session {
-        if self.rig.is_none() {
-            return self.clone();
-        }
-        let mut session = Session { rig: Some(std::sync::Arc::new(rig.clone())), ..self.clone() };
-        for pose in &mut session.poses {
-            pose.markers.iter_mut().for_each(|m| *m = None);
-            for (marker, point, _) in triangulate(rig, &pose.pixels).points {
-                pose.markers[marker] = Some(point);
-            }
-        }
-        session
-    }
 }
 
 #[cfg(test)]

@@ -1019,3 +1019,21 @@ fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
     let rig = if rig_path.exists() { Some(read_camchain(&rig_path)?) } else { None };
     Ok(Some(Truth { parameters, orientations, rig }))
 }
+impl Session {
+    /// The same pixel session with its points triangulated through `rig` instead of the file's
+    /// (a calibration's refined rig): what the per-pose estimator and the recording then see.
+    /// A session of points is returned as it is.
+    pub(crate) fn seen_through(&self, rig: &Rig) -> Session {
+        if self.rig.is_none() {
+            return self.clone();
+        }
+        let mut session = Session { rig: Some(std::sync::Arc::new(rig.clone())), ..self.clone() };
+        for pose in &mut session.poses {
+            pose.markers.iter_mut().for_each(|m| *m = None);
+            for (marker, point, _) in triangulate(rig, &pose.pixels).points {
+                pose.markers[marker] = Some(point);
+            }
+        }
+        session
+    }
+}
