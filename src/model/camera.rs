@@ -146,6 +146,7 @@ impl CameraTerm {
     }
 
     /// Whether it is a term of the denominator's `c` (per metre), not of `K`.
+    #[cfg(feature = "full")] // only the fit bounds them
     pub(crate) fn is_perspective(self) -> bool {
         self.perspective_axis().is_some()
     }
