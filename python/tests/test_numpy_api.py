@@ -273,7 +273,9 @@ def assert_table_is_the_report(calibration: spmcal.Calibration) -> int:
 
 
 def test_the_parameters_table_is_the_text_reports_figures_in_its_units() -> None:
-    calibration = spmcal.calibrate(spmcal.Session.load(SESSION))
+    # The depth-scale model named: the table's depth-scale row against the report's (the default,
+    # `auto`, chooses a perfect camera here and holds the depth scale).
+    calibration = spmcal.calibrate(spmcal.Session.load(SESSION), camera_model="depth_scale")
     assert assert_table_is_the_report(calibration) == 18 + 3 + 1 + 4 * 3
     rows = {r["name"]: r for r in table_rows(calibration.parameters_table())}
     # A link angle's value is the calibrated angle: the nominal model's plus the change.
@@ -288,7 +290,7 @@ def test_the_parameters_table_is_the_text_reports_figures_in_its_units() -> None
 def test_a_free_motion_calibrations_latency_is_in_the_table_in_ms() -> None:
     with pytest.warns(UserWarning):
         session = spmcal.Session.load("datasets/agile_wrist_free_motion_120s")
-    calibration = spmcal.calibrate(session)
+    calibration = spmcal.calibrate(session, camera_model="depth_scale")
     assert assert_table_is_the_report(calibration) > 18
     table = calibration.parameters_table()
     latency = table["value"][table["name"].index("camera.latency")]
