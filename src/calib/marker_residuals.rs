@@ -504,6 +504,7 @@ impl MarkerResiduals<'_> {
         let jc = so3::left_jacobian(&p.registration_vectors(x).0);
         let (camera_model, translation) = (p.camera_model(x), p.translation(x));
         let rig = p.rig(x);
+        let rig_derivatives = rig_terms::PixelDerivatives::new(p, x);
         let mechanism = self.mechanism_needed();
         let shape = (3 * self.observations.len(), p.len());
         let mut jac = match self.spare.take() {
@@ -539,8 +540,8 @@ impl MarkerResiduals<'_> {
                 };
                 block.set_column(i, &column);
             }
-            if let (Some(c), Some(projection)) = (o.camera, projection) {
-                for (i, d) in rig_terms::pixel_derivatives(p, x, c, &y, &projection) {
+            if let (Some(c), Some(projection), Some(derivatives)) = (o.camera, projection, &rig_derivatives) {
+                for (i, d) in derivatives.of(c, &y, &projection) {
                     if self.column_needed(i) {
                         block.set_column(i, &-Vector3::new(d.x, d.y, 0.0));
                     }

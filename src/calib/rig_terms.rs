@@ -66,16 +66,8 @@ impl Parameterisation {
     pub(crate) fn rig(&self, x: &DVector<f64>) -> Option<Rig> {
         let rig0 = self.rig0.as_deref()?;
         let mut rig = rig0.clone();
-        let terms: Vec<(RigTerm, f64)> = self
-            .entries
-            .iter()
-            .enumerate()
-            .filter_map(|(i, e)| match e.kind {
-                Kind::Rig { term } => Some((term, x[i])),
-                _ => None,
-            })
-            .collect();
-        for &(term, value) in &terms {
+        let terms = terms_at(self, x);
+        for &(_, term, value) in &terms {
             match term {
                 RigTerm::Intrinsic { camera, k } => {
                     rig.cameras[camera].lens.intrinsics[k] += value * focal(rig0, camera)
@@ -92,20 +84,32 @@ impl Parameterisation {
     }
 }
 
+/// The rig terms of `p` at `x`: `(entry index, term, value)`.
+fn terms_at(p: &Parameterisation, x: &DVector<f64>) -> Vec<(usize, RigTerm, f64)> {
+    p.entries
+        .iter()
+        .enumerate()
+        .filter_map(|(i, e)| match e.kind {
+            Kind::Rig { term } => Some((i, term, x[i])),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Camera 1's baseline-direction coordinates `β` in `terms`.
+fn baseline_beta(terms: &[(usize, RigTerm, f64)]) -> Vector2<f64> {
+    Vector2::from_fn(|k, _| value(terms, RigTerm::Translation { camera: 1, k }))
+}
+
 /// Camera `c`'s pose relative to cam0 with `terms` applied, and what the derivatives need: the
-/// rotation vector `ω`, camera 1's unnormalised direction `m = n⁰ + β₀ e₀ + β₁ e₁` and its
-/// tangent basis.
-fn extrinsics(rig0: &Rig, terms: &[(RigTerm, f64)], c: usize) -> (Isometry3<f64>, Vector3<f64>, Direction) {
+/// rotation vector `ω` and camera 1's baseline direction.
+fn extrinsics(rig0: &Rig, terms: &[(usize, RigTerm, f64)], c: usize) -> (Isometry3<f64>, Vector3<f64>, Direction) {
     let t0 = rig0.from_cam0(c);
     let omega = Vector3::from_fn(|k, _| value(terms, RigTerm::Rotation { camera: c, k }));
     let rotation = so3::exp(&omega) * t0.rotation.to_rotation_matrix();
     let direction = Direction::of(&t0.translation.vector);
     let translation = if c == 1 {
-        let beta = Vector2::new(
-            value(terms, RigTerm::Translation { camera: 1, k: 0 }),
-            value(terms, RigTerm::Translation { camera: 1, k: 1 }),
-        );
-        direction.at(&beta)
+        direction.at(&baseline_beta(terms))
     } else {
         t0.translation.vector + Vector3::from_fn(|k, _| value(terms, RigTerm::Translation { camera: c, k }))
     };
@@ -118,8 +122,8 @@ pub(crate) fn focal(rig0: &Rig, camera: usize) -> f64 {
     rig0.cameras[camera].lens.intrinsics[0].abs()
 }
 
-fn value(terms: &[(RigTerm, f64)], term: RigTerm) -> f64 {
-    terms.iter().find(|(t, _)| *t == term).map_or(0.0, |(_, v)| *v)
+fn value(terms: &[(usize, RigTerm, f64)], term: RigTerm) -> f64 {
+    terms.iter().find(|(_, t, _)| *t == term).map_or(0.0, |(_, _, v)| *v)
 }
 
 /// Camera 1's translation as a direction on a sphere of the file's baseline length.
@@ -155,51 +159,70 @@ impl Direction {
     }
 }
 
-/// How a pixel of camera `c` at the point `y` (cam0's frame) moves with each rig term of `p` at
-/// `x`: `(entry index, ∂pixel/∂term)` for the terms of that camera.
-pub(crate) fn pixel_derivatives(
-    p: &Parameterisation,
-    x: &DVector<f64>,
-    c: usize,
-    y: &Vector3<f64>,
-    projection: &RigProjection,
-) -> Vec<(usize, Vector2<f64>)> {
-    let Some(rig0) = p.rig0.as_deref() else { return Vec::new() };
-    let terms: Vec<(RigTerm, f64)> = p
-        .entries
-        .iter()
-        .enumerate()
-        .filter_map(|(i, e)| match e.kind {
-            Kind::Rig { term } => Some((term, x[i])),
-            _ => None,
-        })
-        .collect();
-    let (pose, omega, direction) = extrinsics(rig0, &terms, c);
-    let beta = Vector2::new(
-        value(&terms, RigTerm::Translation { camera: 1, k: 0 }),
-        value(&terms, RigTerm::Translation { camera: 1, k: 1 }),
-    );
-    let turned = pose.rotation * y;
-    let d_rotation = -turned.cross_matrix() * so3::left_jacobian(&omega);
-    let lens = &projection.lens;
-    p.entries
-        .iter()
-        .enumerate()
-        .filter_map(|(i, e)| match e.kind {
-            Kind::Rig { term } if term.camera() == c => Some((i, term)),
-            _ => None,
-        })
-        .map(|(i, term)| {
+/// How a pixel moves with each rig term of a parameterisation at one `x`: what depends on the
+/// camera alone (its rotation, `J_l(ω)`, camera 1's direction derivatives, its entries) is worked
+/// out once per evaluation of the Jacobian, not once per observation.
+pub(crate) struct PixelDerivatives {
+    cameras: Vec<CameraDerivatives>,
+}
+
+/// One camera's share of [`PixelDerivatives`].
+struct CameraDerivatives {
+    /// `R_c` (cam0 → camera c) at `x`.
+    rotation: UnitQuaternion<f64>,
+    /// `J_l(ω)` of its rotation's parameters.
+    left_jacobian: Matrix3<f64>,
+    /// `∂t/∂β_k` (camera 1 only; zero otherwise).
+    direction: [Vector3<f64>; 2],
+    /// The intrinsics' unit (its file focal length).
+    focal: f64,
+    /// `(entry index, term)` of its terms.
+    entries: Vec<(usize, RigTerm)>,
+}
+
+impl PixelDerivatives {
+    /// The derivatives of `p`'s rig terms at `x` (`None` for a session of points).
+    pub(crate) fn new(p: &Parameterisation, x: &DVector<f64>) -> Option<Self> {
+        let rig0 = p.rig0.as_deref()?;
+        let terms = terms_at(p, x);
+        let beta = baseline_beta(&terms);
+        let cameras = (0..rig0.cameras.len())
+            .map(|c| {
+                let (pose, omega, direction) = extrinsics(rig0, &terms, c);
+                CameraDerivatives {
+                    rotation: pose.rotation,
+                    left_jacobian: so3::left_jacobian(&omega),
+                    direction: [0, 1].map(|k| if c == 1 { direction.derivative(&beta, k) } else { Vector3::zeros() }),
+                    focal: focal(rig0, c),
+                    entries: terms.iter().filter(|(_, t, _)| t.camera() == c).map(|(i, t, _)| (*i, *t)).collect(),
+                }
+            })
+            .collect();
+        Some(PixelDerivatives { cameras })
+    }
+
+    /// How the pixel where camera `c` sees `y` (cam0's frame; `projection` its projection) moves
+    /// with each of that camera's terms: `(entry index, ∂pixel/∂term)`.
+    pub(crate) fn of<'a>(
+        &'a self,
+        c: usize,
+        y: &Vector3<f64>,
+        projection: &'a RigProjection,
+    ) -> impl Iterator<Item = (usize, Vector2<f64>)> + 'a {
+        let camera = &self.cameras[c];
+        let d_rotation = -(camera.rotation * y).cross_matrix() * camera.left_jacobian;
+        let lens = &projection.lens;
+        camera.entries.iter().map(move |&(i, term)| {
             let d = match term {
-                RigTerm::Intrinsic { camera, k } => lens.d_intrinsics[k] * focal(rig0, camera),
+                RigTerm::Intrinsic { k, .. } => lens.d_intrinsics[k] * camera.focal,
                 RigTerm::Distortion { k, .. } => lens.d_distortion[k],
                 RigTerm::Rotation { k, .. } => lens.d_point * d_rotation.column(k),
-                RigTerm::Translation { camera: 1, k } => lens.d_point * direction.derivative(&beta, k),
+                RigTerm::Translation { camera: 1, k } => lens.d_point * camera.direction[k],
                 RigTerm::Translation { k, .. } => lens.d_point.column(k).into(),
             };
             (i, d)
         })
-        .collect()
+    }
 }
 
 /// A term's unit for a person and the factor from the fit's unit to it: intrinsics in px (the
