@@ -31,13 +31,13 @@
 //! same 49 of 50 rigid choices on a perfect camera.) The report shows each candidate's
 //! cross-validated RMS in millimetres beside the choice.
 
-use nalgebra::{DMatrix, DVector, Rotation3};
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::fit::{FitOutcome, weighted_normal_of};
+use super::fit::FitOutcome;
 use super::parameterisation::Kind;
 use super::residuals::Residuals;
-use super::validation::fold_assignment;
+use super::validation::{FoldNormals, fold_assignment, warm_start};
 use crate::model::CameraModelKind;
 
 /// Which camera model `camera_model: auto` chose, and why.
@@ -136,7 +136,7 @@ pub(crate) fn choose<M: Residuals>(
     gross_sigmas: f64,
 ) -> Option<CameraModelChoice> {
     let fold_of = fold_assignment(problem, folds);
-    let normals = FoldNormals::new(outcome, free, &fold_of, folds, prior);
+    let normals = FoldNormals::new(outcome, free, &fold_of, folds);
     let p = problem.parameterisation();
     // Per candidate, the squared held-out error of each observation scored (in the model's unit,
     // and whitened by the fit's noise model), in one order.
@@ -160,7 +160,7 @@ pub(crate) fn choose<M: Residuals>(
             .map(|kind| {
                 let held =
                     |i: usize| matches!(p.entries[i].kind, Kind::CameraTerm { term } if !kind.terms().contains(&term));
-                let x = normals.leave_out(&outcome.x, fold, &held);
+                let x = leave_out_holding(&normals, prior, &outcome.x, fold, &held);
                 test.evaluate(&x, Some(&warm), false).or_else(|_| test.evaluate(&x, None, false)).ok()
             })
             .collect();
@@ -217,78 +217,36 @@ fn paired_excess(a: &[f64], b: &[f64], groups: &[(bool, u64)]) -> (f64, f64) {
     (mean, std_error)
 }
 
-/// The full fit's orientation of each of `test`'s poses (`rows` of `model`): where each held-out
-/// pose's forward kinematics starts.
-fn warm_start<M: Residuals, N>(model: &M, test: &M, rows: &[usize], outcome: &FitOutcome<N>) -> Vec<Rotation3<f64>> {
-    let mut warm = Vec::with_capacity(test.poses());
-    for (a, &full) in rows.iter().enumerate() {
-        if warm.len() == test.pose_of(a) {
-            warm.push(outcome.evaluation.orientations[model.pose_of(full)]);
+/// The parameters fitted without fold `fold` with the parameters `held` picks at zero (a perfect
+/// camera's terms: the fit started them there): one constrained Gauss–Newton step from `x` on the
+/// other folds' normal equations. Where the step cannot be solved, the held terms alone move.
+fn leave_out_holding(
+    normals: &FoldNormals,
+    prior: Option<&(DMatrix<f64>, DVector<f64>)>,
+    x: &DVector<f64>,
+    fold: usize,
+    held: &dyn Fn(usize) -> bool,
+) -> DVector<f64> {
+    let (h, g) = normals.without(fold, x, prior);
+    let free = &normals.free;
+    let n = free.len();
+    let fixed: Vec<bool> = free.iter().map(|&i| held(i)).collect();
+    let shift = DVector::from_fn(n, |a, _| if fixed[a] { -x[free[a]] } else { 0.0 });
+    let rhs = -(g + &h * &shift);
+    let moving: Vec<usize> = (0..n).filter(|&a| !fixed[a]).collect();
+    let h_mm = DMatrix::from_fn(moving.len(), moving.len(), |a, b| h[(moving[a], moving[b])]);
+    let rhs_m = DVector::from_fn(moving.len(), |a, _| rhs[moving[a]]);
+    let step = h_mm.cholesky().map(|c| c.solve(&rhs_m));
+    let mut moved = x.clone();
+    for (a, &i) in free.iter().enumerate() {
+        moved[i] += shift[a];
+    }
+    if let Some(step) = step {
+        for (a, &m) in moving.iter().enumerate() {
+            moved[free[m]] += step[a];
         }
     }
-    warm
-}
-
-/// The projective fit's normal equations split by fold, over its free parameters.
-struct FoldNormals<'a> {
-    free: Vec<usize>,
-    h: Vec<DMatrix<f64>>,
-    g: Vec<DVector<f64>>,
-    prior: Option<&'a (DMatrix<f64>, DVector<f64>)>,
-}
-
-impl<'a> FoldNormals<'a> {
-    fn new<N>(
-        outcome: &FitOutcome<N>,
-        free: &[bool],
-        fold_of: &[usize],
-        folds: usize,
-        prior: Option<&'a (DMatrix<f64>, DVector<f64>)>,
-    ) -> Self {
-        let free: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
-        let (h, g) = (0..folds)
-            .map(|fold| {
-                let rows: Vec<usize> = (0..fold_of.len()).filter(|&j| fold_of[j] == fold).collect();
-                weighted_normal_of(&outcome.evaluation, &outcome.weighting, &free, &rows)
-            })
-            .unzip();
-        FoldNormals { free, h, g, prior }
-    }
-
-    /// The parameters fitted without fold `fold` with the parameters `held` picks at zero (a
-    /// perfect camera's terms: the fit started them there): one constrained Gauss–Newton step from
-    /// `x`. Where the step cannot be solved, the held terms alone move.
-    fn leave_out(&self, x: &DVector<f64>, fold: usize, held: &dyn Fn(usize) -> bool) -> DVector<f64> {
-        let mut h: DMatrix<f64> = self.h.iter().enumerate().filter(|(k, _)| *k != fold).map(|(_, h)| h).sum();
-        let mut g: DVector<f64> = self.g.iter().enumerate().filter(|(k, _)| *k != fold).map(|(_, g)| g).sum();
-        if let Some((lambda, x0)) = self.prior {
-            let d = x - x0;
-            for (a, &i) in self.free.iter().enumerate() {
-                g[a] += (lambda.row(i) * &d)[0];
-                for (b, &k) in self.free.iter().enumerate() {
-                    h[(a, b)] += lambda[(i, k)];
-                }
-            }
-        }
-        let n = self.free.len();
-        let fixed: Vec<bool> = self.free.iter().map(|&i| held(i)).collect();
-        let shift = DVector::from_fn(n, |a, _| if fixed[a] { -x[self.free[a]] } else { 0.0 });
-        let rhs = -(g + &h * &shift);
-        let moving: Vec<usize> = (0..n).filter(|&a| !fixed[a]).collect();
-        let h_mm = DMatrix::from_fn(moving.len(), moving.len(), |a, b| h[(moving[a], moving[b])]);
-        let rhs_m = DVector::from_fn(moving.len(), |a, _| rhs[moving[a]]);
-        let step = h_mm.cholesky().map(|c| c.solve(&rhs_m));
-        let mut moved = x.clone();
-        for (a, &i) in self.free.iter().enumerate() {
-            moved[i] += shift[a];
-        }
-        if let Some(step) = step {
-            for (a, &m) in moving.iter().enumerate() {
-                moved[self.free[m]] += step[a];
-            }
-        }
-        moved
-    }
+    moved
 }
 
 #[cfg(test)]

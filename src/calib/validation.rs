@@ -157,8 +157,14 @@ pub(crate) fn cross_validate<M: Residuals>(
     })
 }
 
-/// The full fit's orientation of each of `test`'s poses (`rows` of `model`).
-fn warm_start<M: Residuals, N>(model: &M, test: &M, rows: &[usize], outcome: &FitOutcome<N>) -> Vec<Rotation3<f64>> {
+/// The full fit's orientation of each of `test`'s poses (`rows` of `model`): where each held-out
+/// pose's forward kinematics starts.
+pub(super) fn warm_start<M: Residuals, N>(
+    model: &M,
+    test: &M,
+    rows: &[usize],
+    outcome: &FitOutcome<N>,
+) -> Vec<Rotation3<f64>> {
     let mut warm = Vec::with_capacity(test.poses());
     for (a, &full) in rows.iter().enumerate() {
         if warm.len() == test.pose_of(a) {
@@ -170,14 +176,15 @@ fn warm_start<M: Residuals, N>(model: &M, test: &M, rows: &[usize], outcome: &Fi
 
 /// The normal equations of a fit split by fold: `H = Σ_k H_k`, `g = Σ_k g_k` over the free
 /// parameters, each fold's from its own rows of the whitened, weighted Jacobian.
-struct FoldNormals {
-    free: Vec<usize>,
+pub(super) struct FoldNormals {
+    /// The free parameters' indices, in the order of the normal equations' rows.
+    pub(super) free: Vec<usize>,
     h: Vec<DMatrix<f64>>,
     g: Vec<DVector<f64>>,
 }
 
 impl FoldNormals {
-    fn new<N>(outcome: &FitOutcome<N>, free: &[bool], fold_of: &[usize], folds: usize) -> Self {
+    pub(super) fn new<N>(outcome: &FitOutcome<N>, free: &[bool], fold_of: &[usize], folds: usize) -> Self {
         let free: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
         let (h, g) = (0..folds)
             .map(|fold| {
@@ -188,8 +195,14 @@ impl FoldNormals {
         FoldNormals { free, h, g }
     }
 
-    /// The parameters fitted without fold `fold`: one Gauss–Newton step from `x`.
-    fn leave_out(&self, x: &DVector<f64>, fold: usize, prior: Option<&(DMatrix<f64>, DVector<f64>)>) -> DVector<f64> {
+    /// `H` and `g` of every fold but `fold` at `x`, with the weak prior `(Λ, x₀)` on the
+    /// unidentifiable directions when the fit had one.
+    pub(super) fn without(
+        &self,
+        fold: usize,
+        x: &DVector<f64>,
+        prior: Option<&(DMatrix<f64>, DVector<f64>)>,
+    ) -> (DMatrix<f64>, DVector<f64>) {
         let mut h: DMatrix<f64> = self.h.iter().enumerate().filter(|(k, _)| *k != fold).map(|(_, h)| h).sum();
         let mut g: DVector<f64> = self.g.iter().enumerate().filter(|(k, _)| *k != fold).map(|(_, g)| g).sum();
         if let Some((lambda, x0)) = prior {
@@ -201,6 +214,12 @@ impl FoldNormals {
                 }
             }
         }
+        (h, g)
+    }
+
+    /// The parameters fitted without fold `fold`: one Gauss–Newton step from `x`.
+    fn leave_out(&self, x: &DVector<f64>, fold: usize, prior: Option<&(DMatrix<f64>, DVector<f64>)>) -> DVector<f64> {
+        let (h, g) = self.without(fold, x, prior);
         let mut moved = x.clone();
         if let Some(step) = h.cholesky().map(|c| c.solve(&g)) {
             for (a, &i) in self.free.iter().enumerate() {
