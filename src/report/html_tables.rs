@@ -165,8 +165,9 @@ fn convergence(r: &CalibrationReport) -> String {
     }
 }
 
-/// The camera's translation with its standard error, or why there is none.
-fn translation(r: &CalibrationReport) -> String {
+/// The camera's translation with its standard error, or why there is none (the text report's
+/// words too).
+pub(super) fn translation(r: &CalibrationReport) -> String {
     match (r.camera_translation_m, r.camera_translation_std_error_m) {
         (Some(t), Some(se)) => format!(
             "[{:.4}, {:.4}, {:.4}] m (± [{:.4}, {:.4}, {:.4}] mm)",

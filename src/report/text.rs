@@ -122,22 +122,7 @@ impl fmt::Display for CalibrationReport {
             )?;
         }
         predicted(f, r)?;
-        match (r.camera_translation_m, r.camera_translation_std_error_m) {
-            (Some(t), Some(se)) => writeln!(
-                f,
-                "camera translation t_CB: [{:.4}, {:.4}, {:.4}] m (± [{:.4}, {:.4}, {:.4}] mm)",
-                t[0],
-                t[1],
-                t[2],
-                se[0] * 1e3,
-                se[1] * 1e3,
-                se[2] * 1e3
-            )?,
-            _ => writeln!(
-                f,
-                "camera translation t_CB: undetermined (the poses do not fix the centre of rotation); no camera registration written"
-            )?,
-        }
+        writeln!(f, "camera translation t_CB: {}", super::html_tables::translation(r))?;
         if let Some(m) = &r.markers {
             marker_details(f, m)?;
         }
