@@ -311,19 +311,6 @@ impl Rig {
         rays.iter().all(|(o, d)| (point - o).dot(d) > 0.0).then_some(point)
     }
 
-    /// The same rig with camera `c`'s pose relative to cam0 replaced by `to_camera` (the cameras
-    /// after it keep their own poses relative to cam0).
-    #[must_use]
-    pub fn with_pose(&self, c: usize, to_camera: Isometry3<f64>) -> Rig {
-        let poses: Vec<Isometry3<f64>> =
-            (0..self.cameras.len()).map(|k| if k == c { to_camera } else { self.from_cam0(k) }).collect();
-        let mut rig = self.clone();
-        for k in 1..rig.cameras.len() {
-            rig.cameras[k].from_previous = poses[k] * poses[k - 1].inverse();
-        }
-        rig
-    }
-
     /// The first baseline's length (m): the distance between cam0's and cam1's centres, the rig's
     /// metric scale; 0 for one camera.
     pub fn baseline_m(&self) -> f64 {
