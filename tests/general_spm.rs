@@ -104,7 +104,7 @@ fn draw(layout: Layout, seed: u64) -> Drawn {
             let w = u * right.cos() + z * right.sin();
             home_joints[i] = wrap(-delta);
             let home_branch = HomeBranch::of(u.cross(&w).dot(&v0));
-            return LegGeometry { u, z, alpha1: right, alpha2: right, v0, delta, home_branch };
+            return LegGeometry { u, z, alpha1: right, alpha2: right, v0, delta, scale: 1.0, home_branch };
         }
         let mut g = LegGeometry {
             u,
@@ -113,6 +113,7 @@ fn draw(layout: Layout, seed: u64) -> Drawn {
             alpha2: rng.random_range(30.0..150.0) * DEG,
             v0: Vector3::zeros(),
             delta: rng.random_range(-180.0..180.0) * DEG,
+            scale: 1.0,
             home_branch: HomeBranch::Negative,
         };
         let phi = rng.random_range(-180.0..180.0) * DEG;

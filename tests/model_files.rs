@@ -228,3 +228,111 @@ fn an_exported_urdf_gives_the_parameters_files_forward_kinematics_and_check_urdf
         Err(_) => outside_tool::missing("check_urdf", "Debian: apt-get install liburdfdom-tools"),
     }
 }
+
+/// A parameter set with joint scales off by a few tenths of a percent (a transmission's error):
+/// the true geometry of a simulated session with scales `+0.4 / −0.3 / +0.2 %`.
+fn scaled_truth() -> Parameters {
+    let mut params = Parameters::read(Path::new("datasets/agile_wrist_sim_400/truth.yaml")).unwrap();
+    for (g, s) in params.legs.iter_mut().zip([1.004, 0.997, 1.002]) {
+        g.scale = s;
+    }
+    params
+}
+
+#[test]
+fn joint_scales_are_written_only_when_not_1_and_a_file_without_them_reads_as_1() {
+    let params = scaled_truth();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("params.yaml");
+    params.write(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(text.matches("  scale: ").count(), 3, "{text}");
+    let back = Parameters::read(&path).unwrap();
+    assert_eq!(back.legs.map(|g| g.scale), [1.004, 0.997, 1.002]);
+    // A scale of 1 is not written: the file reads as one written before scales existed.
+    let mut one = params.clone();
+    one.legs[1].scale = 1.0;
+    one.write(&path).unwrap();
+    assert_eq!(std::fs::read_to_string(&path).unwrap().matches("  scale: ").count(), 2);
+    // A file written before scales existed (the shipped truth, from before them) loads with 1.
+    let old = std::fs::read_to_string("datasets/agile_wrist_sim_400/truth.yaml").unwrap();
+    assert!(!old.contains("scale:"), "the shipped file predates the scales");
+    assert_eq!(Parameters::read(Path::new("datasets/agile_wrist_sim_400/truth.yaml")).unwrap().legs.map(|g| g.scale), [1.0; 3]);
+    // A scale out of range is located at its line and key.
+    let bad = text.replacen("scale: 0.997", "scale: 3.0", 1);
+    std::fs::write(&path, &bad).unwrap();
+    let err = Parameters::read(&path).unwrap_err();
+    let line = bad.lines().position(|l| l.contains("scale: 3.0")).unwrap() + 1;
+    assert_eq!(err.line, Some(line), "{err}");
+    assert!(err.to_string().contains("leg 2: scale = 3") && err.to_string().contains("ratio"), "{err}");
+}
+
+#[test]
+fn with_joint_scales_ik_returns_readings_that_the_fda_maps_back_and_a_scale_turns_the_joint_further() {
+    let params = scaled_truth();
+    let scaled = params.spm().unwrap();
+    let mut unscaled_legs = params.legs;
+    unscaled_legs.iter_mut().for_each(|g| g.scale = 1.0);
+    let unscaled = Spm::new(unscaled_legs).unwrap();
+    let r = spmcal::math::so3::exp(&Vector3::new(0.3, -0.2, 0.25));
+    let (theta_s, theta_1) = (scaled.ik(&r).unwrap(), unscaled.ik(&r).unwrap());
+    for i in 0..3 {
+        // φ = sθ + δ is the same joint angle: the reading is the unscaled one over s (about home's
+        // own offset: both share δ).
+        let s = params.legs[i].scale;
+        let delta = params.legs[i].delta;
+        assert!(((s * theta_s[i] + delta) - (theta_1[i] + delta)).abs() < 1e-12, "leg {i}");
+    }
+    for mechanism in [&scaled, &unscaled] {
+        let joints = mechanism.ik(&r).unwrap();
+        assert!(spmcal::math::so3::geodesic_angle(&mechanism.forward(&joints).unwrap(), &r) < 1e-12);
+        assert!(spmcal::math::so3::geodesic_angle(&mechanism.track(&joints, &Rotation3::identity()).unwrap(), &r) < 1e-12);
+    }
+    // The same readings put the scaled mechanism elsewhere, by about the scale error times the turn.
+    let off = spmcal::math::so3::geodesic_angle(&scaled.forward(&theta_1).unwrap(), &r);
+    assert!(off > 1e-4, "{off}");
+    // The velocity relation carries the scale: J = A⁻¹B maps reading rates to the angular velocity
+    // (central differences of the FDA).
+    let j = scaled.jacobians(&theta_s, &r).forward().unwrap();
+    let h = 1e-6;
+    for k in 0..3 {
+        let mut step = nalgebra::Vector3::zeros();
+        step[k] = h;
+        let (plus, minus) = (scaled.forward(&(theta_s + step)).unwrap(), scaled.forward(&(theta_s - step)).unwrap());
+        let omega = spmcal::math::so3::log(&(plus * minus.inverse())) / (2.0 * h);
+        assert!((omega - j.column(k)).amax() < 1e-6, "column {k}: {omega} vs {}", j.column(k));
+    }
+}
+
+#[test]
+fn an_exported_urdf_with_joint_scales_gives_the_parameters_files_forward_kinematics() {
+    use rand::{Rng, SeedableRng};
+    let params = scaled_truth();
+    let model = RobotModel::load(Path::new(URDF)).unwrap();
+    let exported = spmcal::model::export(&model, &params, &[]).unwrap();
+    assert!(exported.companion.contains("encoder_scales: [1.004, 0.997, 1.002]"), "{}", exported.companion);
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = dir.path().join("calibrated.urdf");
+    exported.write(&urdf).unwrap();
+    let loaded = RobotModel::load(&urdf).unwrap();
+    let from_params = params.spm().unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+    let (mut worst, mut tested): (f64, usize) = (0.0, 0);
+    while tested < 1000 {
+        let omega = Vector3::new(rng.random_range(-0.45..0.45), rng.random_range(-0.45..0.45), rng.random_range(-0.5..0.5));
+        let Ok(joints) = from_params.ik(&spmcal::math::so3::exp(&omega)) else { continue };
+        let (Ok(a), Ok(b)) = (from_params.forward(&joints), loaded.spm.forward(&joints)) else { continue };
+        worst = worst.max(spmcal::math::so3::geodesic_angle(&a, &b));
+        tested += 1;
+    }
+    assert!(worst < 1e-12, "{worst:e} rad");
+    // IK of the loaded model returns the same encoder readings.
+    let r = spmcal::math::so3::exp(&Vector3::new(0.2, 0.1, -0.3));
+    assert!((loaded.spm.ik(&r).unwrap() - from_params.ik(&r).unwrap()).amax() < 1e-12);
+    // A companion's bad scale is located at its line.
+    let companion = RobotModel::companion_path(&urdf);
+    let text = std::fs::read_to_string(&companion).unwrap().replace("encoder_scales: [1.004,", "encoder_scales: [-1.0,");
+    std::fs::write(&companion, &text).unwrap();
+    let err = RobotModel::load(&urdf).unwrap_err().to_string();
+    assert!(err.contains("encoder scale of leg 1") && err.contains("calibrated.yaml:"), "{err}");
+}

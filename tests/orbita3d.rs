@@ -174,6 +174,7 @@ fn the_geometry_of_the_reference_readme_written_in_code_is_the_loaded_model() {
             alpha2: std::f64::consts::FRAC_PI_2,
             v0: Vector3::new(-eta.sin(), eta.cos(), 0.0),
             delta: 0.0,
+            scale: 1.0,
             home_branch: HomeBranch::Positive,
         }
     });

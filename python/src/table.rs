@@ -33,7 +33,7 @@ pub(crate) fn internal_unit(kind: Kind) -> &'static str {
         | Kind::Reference { .. } => "rad",
         Kind::Translation { .. } | Kind::Marker { .. } => "m",
         Kind::Latency => "s",
-        Kind::CameraTerm { .. } => "",
+        Kind::CameraTerm { .. } | Kind::Scale { .. } => "",
         Kind::Rig { term } => match term {
             RigTerm::Intrinsic { .. } => "px",
             RigTerm::Distortion { .. } => "",
@@ -47,6 +47,7 @@ pub(crate) fn internal_unit(kind: Kind) -> &'static str {
 pub(crate) fn rows(c: &Calibration) -> Vec<Row> {
     let r = &c.report;
     let mut out = angles(c);
+    out.extend(joint_scales(c));
     out.extend(translation(c));
     if let Some(m) = &r.markers {
         out.extend(latency(m));
@@ -89,6 +90,27 @@ fn angles(c: &Calibration) -> Vec<Row> {
                 unit: "deg",
                 status: status(p.std_error_deg, p.at_bound),
             }
+        })
+        .collect()
+}
+
+/// The joints' scales (ppm: the value is the scale itself, its change and standard error in ppm).
+fn joint_scales(c: &Calibration) -> Vec<Row> {
+    c.report
+        .joint_scales
+        .iter()
+        .map(|s| Row {
+            name: format!("leg{}.scale", s.leg),
+            value: s.scale,
+            change: s.change_ppm,
+            std_error: s.std_error_ppm,
+            unit: "ppm",
+            status: match &s.held {
+                None => "fitted".to_string(),
+                Some(why) if why.starts_with("frozen") => "frozen".to_string(),
+                Some(why) if why.starts_with("at its bound") => "at bound".to_string(),
+                Some(_) => "held".to_string(),
+            },
         })
         .collect()
 }

@@ -23,6 +23,9 @@ pub enum Group {
     DistalAngles,
     /// Encoder zero offsets `δ_i`.
     JointOffsets,
+    /// Joint scales `s_i` (`φ = sθ + δ`): frozen, every scale is held at its start (1 unless the
+    /// parameters started from say otherwise); `joint_scales: hold` does the same.
+    JointScales,
     /// Camera rotation `R_CB`.
     CameraRotation,
     /// Orientation of the reference pose's markers in the camera (a property of the session;
@@ -85,6 +88,20 @@ impl From<CameraModelKind> for CameraModelSetting {
             CameraModelKind::Projective => CameraModelSetting::Projective,
         }
     }
+}
+
+/// Whether a calibration fits the joints' scales (`joint_scales`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JointScales {
+    /// Each scale where the session identifies it (its standard error at the start of the fit
+    /// small enough to tell a transmission's error); the others held at their start, and said.
+    #[default]
+    Auto,
+    /// All three, whatever the session.
+    Fit,
+    /// None: held at their start.
+    Hold,
 }
 
 /// What the calibration fits.
@@ -203,6 +220,11 @@ pub struct CalibConfig {
     /// Parameter groups held fixed.
     #[serde(default)]
     pub freeze: Vec<Group>,
+    /// The joints' scales (`φ = sθ + δ`, a transmission ratio's error): `auto` (the default) fits
+    /// each where the session tells it from the joint's offset (its reading spans enough) and holds
+    /// the others at 1, saying so; `fit` fits all three; `hold` holds them (as `freeze:
+    /// [joint_scales]`).
+    pub joint_scales: JointScales,
     /// A session seen through its cameras' pixels: the rig's terms refined with the mechanism
     /// (`focal_lengths`, `principal_points`, `radial_k1`, `radial_k2`, `other_distortion`,
     /// `extrinsics`); the first baseline's length is always held (the rig's metric scale).
@@ -242,6 +264,8 @@ pub struct Bounds {
     pub marker_position_m: f64,
     /// Departure of a camera model's term from `camera_terms` (a scale's from its start, a shear's).
     pub camera_term: f64,
+    /// Departure of a joint scale from its start (0.05: 5 %, far beyond a transmission's error).
+    pub joint_scale: f64,
 }
 
 impl Default for Bounds {
@@ -252,6 +276,7 @@ impl Default for Bounds {
             joint_offset_deg: 30.0,
             marker_position_m: 0.03,
             camera_term: 0.1,
+            joint_scale: 0.05,
         }
     }
 }
@@ -274,6 +299,7 @@ impl Default for CalibConfig {
             huber_threshold: 3.0,
             outlier_threshold: 4.0,
             freeze: Vec::new(),
+            joint_scales: JointScales::Auto,
             rig_terms: RigTermGroup::DEFAULT.to_vec(),
             holdout_every: 4,
             max_iterations: 200,
@@ -287,6 +313,15 @@ impl Default for CalibConfig {
 }
 
 impl CalibConfig {
+    /// The groups held fixed: `freeze`, and the joint scales with `joint_scales: hold`.
+    pub(crate) fn frozen_groups(&self) -> Vec<Group> {
+        let mut groups = self.freeze.clone();
+        if self.joint_scales == JointScales::Hold && !groups.contains(&Group::JointScales) {
+            groups.push(Group::JointScales);
+        }
+        groups
+    }
+
     /// The camera model the config names, or for `auto` the one `auto` chooses when there is
     /// nothing to choose from: a fit that cannot estimate one (the orientation level) or whose
     /// camera terms are frozen takes the camera as perfect (`auto` starts from a perfect camera).
@@ -360,6 +395,7 @@ impl CalibConfig {
             ("bounds.joint_offset_deg", self.bounds.joint_offset_deg),
             ("bounds.marker_position_m", self.bounds.marker_position_m),
             ("bounds.camera_term", self.bounds.camera_term),
+            ("bounds.joint_scale", self.bounds.joint_scale),
             ("min_singular_ratio", self.min_singular_ratio),
             ("max_joint_speed_deg_s", self.max_joint_speed_deg_s),
         ];

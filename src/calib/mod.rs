@@ -10,7 +10,8 @@
 //! parameters), `residuals` (the trait of what a fit fits), `orientation_residuals` and
 //! `marker_residuals` (its two implementations), `registration` (starting registrations), `fit`
 //! (the trust-region fit), `identify`, `uncertainty`, `validation`, `agreement` (how far a
-//! parameter set and the camera disagree), `camera_choice` (which camera model `auto` fits), `report` (the one report and its verdict),
+//! parameter set and the camera disagree), `camera_choice` (which camera model `auto` fits),
+//! `joint_scales` (which joint scales a session identifies), `report` (the one report and its verdict),
 //! `calibration` (what a calibration produces, and its errors), `level` (the trait of a fit level
 //! and what a level hands back), `levels/` (its two implementations) and `pipeline` (the one flow,
 //! over the trait). Nothing imports `pipeline` but this facade.
@@ -21,6 +22,7 @@ mod camera_choice;
 mod config;
 mod fit;
 mod identify;
+mod joint_scales;
 mod level;
 mod levels;
 // Without `internals`, what only the studies and tests use is neither reachable nor used here.
@@ -46,10 +48,13 @@ pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_e
 pub use calibration::{CalibError, Calibration, Fitted, Solution};
 pub use camera_choice::{CameraCandidate, CameraModelChoice};
 pub use config::{
-    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, Loss, RigTermGroup, Unidentifiable,
+    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, JointScales, Loss, RigTermGroup,
+    Unidentifiable,
 };
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
+pub use joint_scales::JointScaleReport;
+pub(crate) use joint_scales::AUTO_MOST_STD_ERROR as JOINT_SCALE_AUTO_MOST_STD_ERROR;
 #[cfg(feature = "internals")]
 pub use marker_residuals::MarkerResiduals;
 #[cfg(not(feature = "internals"))]

@@ -13,7 +13,7 @@
 //!
 //! Every parameter is measured from its initial value, so that bounds are boxes. Angles (radians):
 //! per leg the axis tilts (tangent coordinates of the rotation vector that carries the nominal
-//! axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
+//! axis), `α1`, `α2`, `δ`, and the joint scale `s` (dimensionless); then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
 //! level, the reference rotation `A = exp(a) A⁰` (see `orientation_residuals.rs`). The marker level
 //! has instead of `A` the camera translation `t_CB` and the markers' positions in P (metres), and
 //! for a free-motion recording the camera's latency (seconds).
@@ -46,6 +46,11 @@ pub enum Kind {
     },
     /// Encoder offset δ of a leg.
     Offset {
+        /// Leg index (0-based).
+        leg: usize,
+    },
+    /// Joint scale `s` of a leg (`φ = sθ + δ`), from its start (dimensionless).
+    Scale {
         /// Leg index (0-based).
         leg: usize,
     },
@@ -100,6 +105,7 @@ impl Kind {
             Kind::Alpha1 { .. } => Group::ProximalAngles,
             Kind::Alpha2 { .. } => Group::DistalAngles,
             Kind::Offset { .. } => Group::JointOffsets,
+            Kind::Scale { .. } => Group::JointScales,
             Kind::PlatformTilt { .. } => Group::PlatformAxes,
             Kind::Camera { .. } => Group::CameraRotation,
             Kind::Reference { .. } => Group::ReferenceRotation,
@@ -118,6 +124,7 @@ impl Kind {
             | Kind::Alpha1 { leg }
             | Kind::Alpha2 { leg }
             | Kind::Offset { leg }
+            | Kind::Scale { leg }
             | Kind::PlatformTilt { leg, .. } => Some(leg),
             Kind::Camera { .. }
             | Kind::Reference { .. }
@@ -222,6 +229,7 @@ impl Parameterisation {
             if !(coaxial && leg == 0) {
                 push(Kind::Offset { leg }, format!("leg{n}.delta"), Some(offset));
             }
+            push(Kind::Scale { leg }, format!("leg{n}.scale"), Some(bounds.joint_scale));
             for (k, name) in tilt_names("v0", platform_dirs[leg].len()).into_iter().enumerate() {
                 push(Kind::PlatformTilt { leg, k }, name, Some(tilt));
             }
@@ -406,6 +414,7 @@ impl Parameterisation {
                 alpha2: g.alpha2 + self.value(x, Kind::Alpha2 { leg }),
                 v0: so3::exp(&phi_v) * g.v0,
                 delta: g.delta + self.value(x, Kind::Offset { leg }),
+                scale: g.scale + self.value(x, Kind::Scale { leg }),
                 home_branch: g.home_branch,
             }
         })
@@ -457,6 +466,7 @@ impl Parameterisation {
                     let y = g.u.cross(&z);
                     zero.dot(&y).atan2(zero.dot(&z)) - self.initial[leg].delta
                 }
+                Kind::Scale { leg } => legs[leg].scale - self.initial[leg].scale,
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
                 // `t_CB` and the markers are set by `TruthInGauge::for_markers`; the latency stays 0.

@@ -18,6 +18,7 @@ use super::camera_choice::{CameraModelChoice, MOST_OBSERVATIONS, choose, subsamp
 use super::config::{CalibConfig, FitLevel, Group, IfNotBetter, Unidentifiable};
 use super::fit::{FitOutcome, FitSettings, IterationLog, fit};
 use super::identify::Direction;
+use super::joint_scales;
 use super::level::{Level, LevelResults, MIN_MOTION_DEG, Origin, check_enough};
 use super::parameterisation::Parameterisation;
 use super::report::{CalibrationReport, FlaggedObservation, Verdict};
@@ -175,7 +176,10 @@ fn fit_largest_camera_model(
     let registration = registration_mask(p, &free);
     let nominal = best_registration(&problem, &p.start(), &registration, config).map_err(|e| e.to_string())?;
     let mut identifiability = identifiability_at(p, &nominal, &free, config);
-    let held = unidentified_camera_terms(p, &identifiability);
+    let mut held = unidentified_camera_terms(p, &identifiability);
+    if joint_scales::auto(config) {
+        held.extend(joint_scales::unidentified(p, &identifiability));
+    }
     if !held.is_empty() {
         held.iter().for_each(|&i| free[i] = false);
         identifiability = identifiability_at(p, &nominal, &free, config);
@@ -223,8 +227,19 @@ fn run<L: Level>(
     // A camera term the data cannot determine is held at its start and said so, not fitted into
     // the noise (nor regularised with the mechanism).
     let held_camera = unidentified_camera_terms(p, &identifiability);
-    if !held_camera.is_empty() {
-        held_camera.iter().for_each(|&i| free[i] = false);
+    // So is a joint scale (`joint_scales: auto`) that the joint's span cannot tell from its offset.
+    let spans = joint_scales::spans_deg(session);
+    let scale_legs = joint_scales::entries(p);
+    let leg_of = |i: usize| scale_legs.iter().find(|(k, _)| *k == i).map_or(0, |(_, leg)| *leg);
+    let mut held_scales: Vec<(usize, String)> = match joint_scales::auto(config) {
+        true => joint_scales::unidentified(p, &identifiability)
+            .into_iter()
+            .map(|i| (i, joint_scales::held_reason(leg_of(i), spans[leg_of(i)], None)))
+            .collect(),
+        false => Vec::new(),
+    };
+    if !held_camera.is_empty() || !held_scales.is_empty() {
+        held_camera.iter().chain(held_scales.iter().map(|(i, _)| i)).for_each(|&i| free[i] = false);
         identifiability = identifiability_at(p, &nominal, &free, config);
     }
     let camera_warnings = held_camera.iter().map(|&i| {
@@ -234,7 +249,7 @@ fn run<L: Level>(
             p.entries[i].name
         )
     });
-    let regularised: Vec<String> = identifiability.unidentifiable.iter().map(Direction::describe).collect();
+    let mut regularised: Vec<String> = identifiability.unidentifiable.iter().map(Direction::describe).collect();
     let max_deg = level.motion_deg();
     if max_deg < MIN_MOTION_DEG {
         let weak = if regularised.is_empty() { &identifiability.weakest } else { &identifiability.unidentifiable };
@@ -254,12 +269,35 @@ fn run<L: Level>(
     if !regularised.is_empty() && config.unidentifiable == Unidentifiable::Refuse {
         return Err(CalibError::Unidentifiable(regularised));
     }
-    let prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+    let mut prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
     clock.lap("identifiability", 0);
-    let settings =
+    let mut settings =
         FitSettings { prior: prior.clone(), stage: "calibration", ..FitSettings::from_config(config, free.clone()) };
-    let robust = fit(&problem, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
+    let mut robust = fit(&problem, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
     clock.lap("calibration", robust.log.len());
+    // `joint_scales: auto`: a scale the fit determines too poorly to tell a transmission's error
+    // is held at its start and the fit finished without it.
+    if joint_scales::auto(config) {
+        let cov = covariance(&robust, &free, prior.as_ref().map(|(l, _)| l));
+        let poor = joint_scales::poorly_determined(p, &cov, &free);
+        if !poor.is_empty() {
+            let mut start = robust.x.clone();
+            for &(i, sigma) in &poor {
+                free[i] = false;
+                start[i] = nominal.x[i];
+                held_scales.push((i, joint_scales::held_reason(leg_of(i), spans[leg_of(i)], Some(sigma))));
+            }
+            identifiability = identifiability_at(p, &nominal, &free, config);
+            regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
+            prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+            settings = FitSettings { prior: prior.clone(), ..FitSettings::from_config(config, free.clone()) };
+            settings.stage = "calibration with the joint scales held";
+            let mut again = fit(&problem, &start, &settings, on_iteration).map_err(stage("calibration"))?;
+            again.log = robust.log.iter().chain(&again.log).copied().collect();
+            robust = again;
+            clock.lap("calibration with the joint scales held", robust.log.len());
+        }
+    }
     // Gross errors (centimetres, tens of degrees) are removed, not only down-weighted: they would
     // still pull. The baseline is refitted on the same observations as the calibration.
     let origin = |m: &L::Problem<'_>, j: usize| level.origin(m, j);
@@ -302,7 +340,7 @@ fn run<L: Level>(
     let mut cross_validation =
         cross_validate(&problem, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
-    let mut warnings: Vec<String> = camera_warnings.collect();
+    let mut warnings: Vec<String> = camera_warnings.chain(held_scales.iter().map(|(_, why)| why.clone())).collect();
     if config.folds == 0 {
         // A legitimate quick run, but the one check of unseen poses is gone: say so.
         warnings.push(
@@ -353,6 +391,7 @@ fn run<L: Level>(
         predicted_ms,
         flagged: &flagged,
     };
+    let scales = joint_scales::report(p, &results.calibrated.x, &covariance, &results.free, &held_scales);
     let fitted_poses = results.problem.poses();
     let unit = results.problem.unit();
     let (nominal, calibrated) = (Solution::of(&results.nominal), Solution::of(&results.calibrated));
@@ -392,6 +431,7 @@ fn run<L: Level>(
         camera_translation_m: part.camera_translation_m,
         camera_translation_std_error_m: part.camera_translation_std_error_m,
         markers: part.markers,
+        joint_scales: scales,
         stages: clock.stages,
     };
     report.verdict = Verdict::of(report.cross_validation.as_ref(), &report.before, &report.after, config);

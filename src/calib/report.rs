@@ -339,6 +339,9 @@ pub struct CalibrationReport {
     pub camera_translation_std_error_m: Option<[f64; 3]>,
     /// The marker-level fit's own figures (`fit: markers`).
     pub markers: Option<MarkerFitReport>,
+    /// Each leg's joint scale (`φ = sθ + δ`): its change in ppm with its standard error, or why
+    /// it was held.
+    pub joint_scales: Vec<super::joint_scales::JointScaleReport>,
 }
 
 impl CalibrationReport {

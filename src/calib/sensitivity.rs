@@ -63,12 +63,14 @@ impl<'a> Frames<'a> {
         r: &Rotation3<f64>,
     ) -> f64 {
         let (sa, ca) = g.alpha1.sin_cos();
-        let (sp, cp) = (theta + g.delta).sin_cos();
+        let (sp, cp) = (g.scale * theta + g.delta).sin_cos();
         let y = g.u.cross(&g.z);
         match kind {
             Kind::Alpha1 { .. } => (-g.u * sa + (g.z * cp + y * sp) * ca).dot(v),
             Kind::Alpha2 { .. } => g.alpha2.sin(),
             Kind::Offset { .. } => ((-g.z * sp + y * cp) * sa).dot(v),
+            // φ = sθ + δ: the scale moves the joint's angle θ times as far as the offset does.
+            Kind::Scale { .. } => theta * ((-g.z * sp + y * cp) * sa).dot(v),
             Kind::PlatformTilt { leg, k } => w.dot(&(r * self.platform[leg][k].cross(&g.v0))),
             Kind::ActuatedTilt { leg, k } => {
                 // u moves by du; z = N(z⁰ − (z⁰·u) u) follows it; y = u × z.

@@ -230,6 +230,7 @@ mod tests {
                 alpha2: std::f64::consts::FRAC_PI_2,
                 v0,
                 delta: 0.0,
+                scale: 1.0,
                 home_branch: crate::model::HomeBranch::Negative,
             }
         });

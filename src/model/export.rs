@@ -6,8 +6,9 @@
 //! As in the nominal model, all joint values 0 is the home pose `R = I` and each joint axis in
 //! the file is its axis in B there: the actuated axis `u`, the intermediate axis `w` at home and
 //! the platform axis `v0` of each leg. The calibrated mechanism reaches home at encoder readings
-//! `θ_home` (not 0 in general), so the URDF's joint value of `theta_i` is the reading plus the
-//! companion's `encoder_offsets_deg[i] = −θ_home,i`.
+//! `θ_home` (not 0 in general), so the URDF's joint value of `theta_i` is `s_i (θ_i − θ_home,i)`:
+//! the companion's `encoder_scales[i] = s_i` (written when a scale is not 1) times the reading plus
+//! its `encoder_offsets_deg[i] = −s_i θ_home,i`.
 
 use std::collections::HashMap;
 
@@ -99,7 +100,10 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
             *position = fitted.into();
         }
     }
-    companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -home[i].to_degrees()));
+    // The joint value is `s (θ − θ_home)`: the scale carries over, the offset is `−s θ_home`.
+    let scales = params.legs.map(|g| g.scale);
+    companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -(scales[i] * home[i]).to_degrees()));
+    companion.encoder_scales = scales.iter().any(|&s| s != 1.0).then_some(scales);
     companion.camera = (!params.camera_model.is_perfect()).then(|| CameraRecord::of(None, &params.camera_model));
     let comments: String = provenance.iter().map(|l| format!("  {l}\n")).collect();
     let body = urdf_rs::write_to_string(&robot).map_err(|e| export(format!("the URDF cannot be written: {e}")))?;
@@ -120,7 +124,8 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
 fn companion_text(c: &Companion, provenance: &[String]) -> String {
     let mut text: String = provenance.iter().map(|l| format!("# {l}\n")).collect();
     text += "# The closures and markers of the URDF beside this file (see shared/DESIGN.md); the URDF's\n";
-    text += "# joint value of theta_i is the encoder reading plus encoder_offsets_deg[i].\n";
+    text += "# joint value of theta_i is encoder_scales[i] (1 when absent) times the encoder reading plus\n";
+    text += "# encoder_offsets_deg[i].\n";
     text += &format!("platform_link: {}\nlegs:\n", c.platform_link);
     for leg in &c.legs {
         text += &format!(
@@ -135,6 +140,9 @@ fn companion_text(c: &Companion, provenance: &[String]) -> String {
     }
     if let Some(o) = c.encoder_offsets_deg {
         text += &format!("encoder_offsets_deg: [{:?}, {:?}, {:?}]\n", o[0], o[1], o[2]);
+    }
+    if let Some(s) = c.encoder_scales {
+        text += &format!("encoder_scales: [{:?}, {:?}, {:?}]\n", s[0], s[1], s[2]);
     }
     if let Some(camera) = &c.camera {
         text += "# The camera model the calibration fitted: the camera reports K x for x in its frame.\n";

@@ -2,7 +2,8 @@
 //! that the kinematics evaluate.
 //!
 //! Leg i (conventions of DESIGN.md): actuated axis `u`, joint zero direction `z ⟂ u`,
-//! intermediate axis `w(θ) = cos α1 u + sin α1 (cos φ z + sin φ (u × z))` with `φ = θ + δ`,
+//! intermediate axis `w(θ) = cos α1 u + sin α1 (cos φ z + sin φ (u × z))` with `φ = sθ + δ`
+//! (`s` the joint's scale, nominal 1),
 //! platform axis `v = R v0`, and the loop closure `w(θ) · R v0 = cos α2`. Each leg closes the
 //! loop on two branches, told apart by the sign of `(u × w) · v`; the working mode is the one
 //! that contains home (`R = I`), so each leg carries the sign it has there.
@@ -23,11 +24,20 @@ pub struct LegGeometry {
     pub alpha2: f64,
     /// Platform joint axis, in P.
     pub v0: Vector3<f64>,
-    /// Encoder zero offset: `φ = θ + δ`, radians.
+    /// Encoder zero offset: `φ = sθ + δ`, radians.
     pub delta: f64,
+    /// The joint's scale `s` (`φ = sθ + δ`): how far the joint turns per radian of its reading —
+    /// a transmission ratio's error, a capstan's effective radius. Nominal 1.
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
     /// The leg's branch at home, which the working mode keeps.
     #[serde(default)]
     pub home_branch: HomeBranch,
+}
+
+/// A joint scale of 1 (what files written before scales existed mean).
+fn unit_scale() -> f64 {
+    1.0
 }
 
 /// The sign of `(u × w) · v` of a leg at home (`R = I`): which of its two inverse-kinematics
@@ -90,6 +100,14 @@ pub enum GeometryError {
         /// `u · z`.
         dot: f64,
     },
+    #[error("leg {leg_number}: joint scale {value} is outside [{MIN_JOINT_SCALE}, {MAX_JOINT_SCALE}] (a scale is a ratio: 1.004 for a joint that turns 0.4 % further than its reading)", leg_number = .leg + 1)]
+    /// A joint scale is outside the range a transmission error can make.
+    ScaleOutOfRange {
+        /// Leg index (0-based).
+        leg: usize,
+        /// The scale.
+        value: f64,
+    },
     #[error("leg {leg_number}: {what} = {value_deg:.4}° is outside (0°, 180°)", leg_number = .leg + 1)]
     /// A link angle is outside (0°, 180°).
     LinkAngleOutOfRange {
@@ -106,6 +124,12 @@ pub enum GeometryError {
 /// axes printed with 9 significant digits, tight enough to catch a wrong axis.
 pub(crate) const AXIS_TOLERANCE: f64 = 1e-6;
 
+/// The smallest and largest joint scale a leg may have: a transmission ratio wrong by half is a
+/// wrong gear or a wrong unit, not a calibration error (real ones are 0.1–1 %).
+pub(crate) const MIN_JOINT_SCALE: f64 = 0.5;
+/// See [`MIN_JOINT_SCALE`].
+pub(crate) const MAX_JOINT_SCALE: f64 = 1.5;
+
 impl GeometryError {
     /// The leg the error is about (0-based index; messages print it 1-based).
     pub fn leg(&self) -> usize {
@@ -113,7 +137,8 @@ impl GeometryError {
             GeometryError::NotFinite { leg, .. }
             | GeometryError::NotUnit { leg, .. }
             | GeometryError::ZeroDirectionNotOrthogonal { leg, .. }
-            | GeometryError::LinkAngleOutOfRange { leg, .. } => *leg,
+            | GeometryError::LinkAngleOutOfRange { leg, .. }
+            | GeometryError::ScaleOutOfRange { leg, .. } => *leg,
         }
     }
 }
@@ -130,6 +155,7 @@ impl LegGeometry {
             alpha2,
             v0: Vector3::new(-se * platform_cone.sin(), ce * platform_cone.sin(), platform_cone.cos()),
             delta: 0.0,
+            scale: 1.0,
             home_branch: HomeBranch::Negative,
         }
     }
@@ -153,10 +179,15 @@ impl LegGeometry {
                 return Err(GeometryError::NotUnit { leg, what, norm });
             }
         }
-        for (what, value) in [("alpha1", self.alpha1), ("alpha2", self.alpha2), ("delta", self.delta)] {
+        for (what, value) in
+            [("alpha1", self.alpha1), ("alpha2", self.alpha2), ("delta", self.delta), ("scale", self.scale)]
+        {
             if !value.is_finite() {
                 return Err(GeometryError::NotFinite { leg, what });
             }
+        }
+        if !(MIN_JOINT_SCALE..=MAX_JOINT_SCALE).contains(&self.scale) {
+            return Err(GeometryError::ScaleOutOfRange { leg, value: self.scale });
         }
         for (what, value) in [("alpha1", self.alpha1), ("alpha2", self.alpha2)] {
             if value <= 0.0 || value >= std::f64::consts::PI {
@@ -198,6 +229,8 @@ pub(crate) struct Leg {
     pub sin_a2: f64,
     pub v0: Vector3<f64>,
     pub delta: f64,
+    /// The joint's scale `s`: `φ = sθ + δ`.
+    pub scale: f64,
     /// `−1` or `+1`: the sign of `(u × w) · v` in the working mode.
     pub sign: f64,
 }
@@ -214,14 +247,28 @@ impl Leg {
             sin_a2: g.alpha2.sin(),
             v0: g.v0,
             delta: g.delta,
+            scale: g.scale,
             sign: g.home_branch.sign(),
         }
+    }
+
+    /// The joint's angle `φ = sθ + δ` at reading `θ`.
+    #[inline]
+    pub(crate) fn phi(&self, theta: f64) -> f64 {
+        self.scale * theta + self.delta
+    }
+
+    /// The reading `θ = (φ − δ) / s` at which the joint's angle is `φ` (taken in `(−π, π]` from
+    /// the offset before the scale divides it).
+    #[inline]
+    pub(crate) fn reading(&self, phi: f64) -> f64 {
+        super::spm::wrap_angle(phi - self.delta) / self.scale
     }
 
     /// Intermediate axis `w(θ)` in B.
     #[inline]
     pub(crate) fn w(&self, theta: f64) -> Vector3<f64> {
-        let (s, c) = (theta + self.delta).sin_cos();
+        let (s, c) = self.phi(theta).sin_cos();
         self.u * self.cos_a1 + (self.z * c + self.y * s) * self.sin_a1
     }
 }

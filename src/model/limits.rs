@@ -6,6 +6,7 @@
 //! | joint axes `u`, `z`, `v0` | finite; unit length within 1e-6 (`AXIS_TOLERANCE`); `z ⟂ u` within it | printed with 9+ digits, a unit vector is exact to 1e-9; a wrong axis is off by far more |
 //! | link angles `alpha1_deg`, `alpha2_deg` | finite, in (0°, 180°) | an angle between two axes |
 //! | encoder offsets `delta_deg`, `encoder_offsets_deg` | finite, within ±[`MAX_OFFSET_DEG`] | an angle; a turn either way is already every offset |
+//! | joint scales `scale`, `encoder_scales` | finite, in [0.5, 1.5] (`geometry::MIN_JOINT_SCALE`, `MAX_JOINT_SCALE`) | a ratio; a transmission wrong by half is a wrong gear, not a calibration error |
 //! | positions (`t_cb_m`, marker positions, their standard errors) | finite, within [`MAX_POSITION_M`] of O | a joystick and a camera on a desk; beyond is a unit error |
 //! | `r_cb_wxyz` | finite, unit within 1e-6 | as `so3::from_wxyz` accepts |
 //! | `latency_s` | finite, within ±[`MAX_LATENCY_S`] | the latency bound a recording is loaded with |
@@ -68,6 +69,19 @@ impl Ranges<'_> {
     pub(crate) fn offset_deg(&self, key: &str, what: &str, value: f64) -> Result<(), FileError> {
         if !(value.is_finite() && value.abs() <= MAX_OFFSET_DEG) {
             let reason = format!("{what} = {value}° must be a finite angle within ±{MAX_OFFSET_DEG}°");
+            return Err(self.error(key, reason));
+        }
+        Ok(())
+    }
+
+    /// A finite joint scale within [`MIN_JOINT_SCALE`, `MAX_JOINT_SCALE`] (see `geometry.rs`).
+    pub(crate) fn joint_scale(&self, key: &str, what: &str, value: f64) -> Result<(), FileError> {
+        use super::geometry::{MAX_JOINT_SCALE, MIN_JOINT_SCALE};
+        if !(value.is_finite() && (MIN_JOINT_SCALE..=MAX_JOINT_SCALE).contains(&value)) {
+            let reason = format!(
+                "{what} = {value} must be a ratio from {MIN_JOINT_SCALE} to {MAX_JOINT_SCALE} (1.004: the joint turns \
+                 0.4 % further than its reading)"
+            );
             return Err(self.error(key, reason));
         }
         Ok(())

@@ -14,6 +14,7 @@
 //!     alpha2_deg: 90.0
 //!     v0: [0.0, 0.816496580927726, 0.577350269189626]
 //!     delta_deg: 0.0
+//!     scale: 1.004           # joint scale (phi = scale * theta + delta); written when not 1
 //!     home_branch: negative  # sign of (u×w)·v at home; optional, negative when absent
 //! camera:                    # optional: x_C = R_CB x_B + t_CB, reported at K x_C / (cᵀx_C + 1)
 //!   r_cb_wxyz: [1.0, 0.0, 0.0, 0.0]
@@ -138,6 +139,9 @@ struct LegRecord {
     alpha2_deg: f64,
     v0: [f64; 3],
     delta_deg: f64,
+    /// The joint's scale (`φ = sθ + δ`): written only when it is not 1, read as 1 when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    scale: Option<f64>,
     /// Absent in files written before the signs were kept: those were all negative.
     #[serde(default)]
     home_branch: HomeBranch,
@@ -200,6 +204,7 @@ impl LegRecord {
             alpha2: self.alpha2_deg.to_radians(),
             v0: Vector3::from(self.v0),
             delta: self.delta_deg.to_radians(),
+            scale: self.scale.unwrap_or(1.0),
             home_branch: self.home_branch,
         }
     }
@@ -324,11 +329,13 @@ fn leg_key(e: &GeometryError, leg: &LegGeometry) -> String {
                 Some(k) => format!("legs[{i}].{what}[{k}]"),
                 None => format!("legs[{i}].{what}"),
             },
+            None if *what == "scale" => format!("legs[{i}].scale"),
             None => format!("legs[{i}].{what}_deg"),
         },
         GeometryError::NotUnit { what, .. } => format!("legs[{i}].{what}"),
         GeometryError::ZeroDirectionNotOrthogonal { .. } => format!("legs[{i}].z"),
         GeometryError::LinkAngleOutOfRange { what, .. } => format!("legs[{i}].{what}_deg"),
+        GeometryError::ScaleOutOfRange { .. } => format!("legs[{i}].scale"),
     }
 }
 
@@ -404,6 +411,9 @@ impl Parameters {
             .try_into()
             .map_err(|v: Vec<LegRecord>| check.error("legs", format!("`legs` has {} entries, expected 3", v.len())))?;
         for (i, record) in legs.iter().enumerate() {
+            if let Some(scale) = record.scale {
+                check.joint_scale(&format!("legs[{i}].scale"), &format!("leg {}: scale", i + 1), scale)?;
+            }
             let leg = record.geometry();
             leg.validated(i).map_err(|e| check.error(&leg_key(&e, &leg), e.to_string()))?;
             let delta = format!("legs[{i}].delta_deg");
@@ -501,6 +511,7 @@ impl Parameters {
                     alpha2_deg: g.alpha2.to_degrees(),
                     v0: g.v0.into(),
                     delta_deg: g.delta.to_degrees(),
+                    scale: (g.scale != 1.0).then_some(g.scale),
                     home_branch: g.home_branch,
                 })
                 .collect(),
@@ -521,8 +532,9 @@ impl Parameters {
         format!(
             "# spmcal parameters of a spherical parallel manipulator (conventions: shared/DESIGN.md).\n\
              # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
-             # axis v0 in P, encoder offset delta (phi = theta + delta), home_branch (the sign of\n\
-             # (u x w).v at home, which the working mode keeps). Camera: x_C = R_CB x_B + t_CB.\n\
+             # axis v0 in P, encoder offset delta and scale (phi = scale * theta + delta; scale 1 when\n\
+             # absent), home_branch (the sign of (u x w).v at home, which the working mode keeps).\n\
+             # Camera: x_C = R_CB x_B + t_CB.\n\
              # Markers (when fitted): positions in P, metres.\n{body}"
         )
     }

@@ -48,6 +48,7 @@ impl GeometrySpread {
                 alpha2: g.alpha2 + angle.sample(rng),
                 v0: tilt(&g.v0, self.axis_tilt, rng),
                 delta: g.delta + offset.sample(rng),
+                scale: g.scale,
                 home_branch: g.home_branch,
             }
         })

@@ -131,12 +131,13 @@ pub enum FdaError {
     },
 }
 
-/// Velocity relation `A ω = B θ̇` at a pose: `A` rows `(w_i × v_i)ᵀ`, `B = diag((u_i × w_i) · v_i)`.
+/// Velocity relation `A ω = B θ̇` at a pose: `A` rows `(w_i × v_i)ᵀ`, `B = diag(s_i (u_i × w_i) · v_i)`
+/// (`θ̇` the readings' rates, `s_i` the joints' scales).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Jacobians {
     /// `A`, rows `(w_i × v_i)ᵀ`.
     pub a: Matrix3<f64>,
-    /// `B = diag((u_i × w_i) · v_i)`.
+    /// `B = diag(s_i (u_i × w_i) · v_i)`.
     pub b: Matrix3<f64>,
 }
 
@@ -342,7 +343,7 @@ impl Spm {
             Branch::Other => -leg.sign,
         };
         let phi = psi - sign * gamma;
-        Ok(wrap_angle(phi - leg.delta))
+        Ok(leg.reading(phi))
     }
 
     // ----- Jacobians and singularities ----------------------------------------------------
@@ -352,7 +353,9 @@ impl Spm {
         let w = self.intermediate_axes(joints);
         let v = self.platform_axes(r);
         let a = Matrix3::from_rows(&[0, 1, 2].map(|i| w[i].cross(&v[i]).transpose()));
-        let b = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| self.legs[i].u.cross(&w[i]).dot(&v[i])));
+        let b = Matrix3::from_diagonal(&Vector3::from_fn(|i, _| {
+            self.legs[i].scale * self.legs[i].u.cross(&w[i]).dot(&v[i])
+        }));
         Jacobians { a, b }
     }
 
@@ -454,7 +457,12 @@ impl Spm {
             return Err(FdaError::NotFinite);
         }
         let start = self.home_joints;
-        let delta = Vector3::from_fn(|i, _| wrap_angle(joints[i] - start[i]));
+        // The shortest turn of each joint from home to the readings' angle (a reading a turn away
+        // is the same angle only for a scale of 1: the path ends where `φ = sθ + δ` does).
+        let delta = Vector3::from_fn(|i, _| {
+            let s = self.legs[i].scale;
+            wrap_angle(s * (joints[i] - start[i])) / s
+        });
         let mut r = Rotation3::identity();
         let full_step = (self.settings.continuation_step / delta.amax().max(1e-300)).min(1.0);
         let (mut s, mut ds) = (0.0_f64, full_step);

@@ -6,7 +6,8 @@
 //! tree at the zero configuration (all joint values 0 = the home pose `R = I`):
 //! `u` = actuated axis, `w(0)` = intermediate axis, `v0` = platform axis, all in B;
 //! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, and `δ` the
-//! companion's `encoder_offsets_deg` (0 when absent: joint value = encoder reading + offset).
+//! companion's `encoder_offsets_deg` (0 when absent) and `s` its `encoder_scales` (1 when absent):
+//! joint value = scale × encoder reading + offset.
 
 use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::path::{Path, PathBuf};
@@ -197,6 +198,10 @@ pub(super) struct Companion {
     /// = reading + offset), degrees; absent: 0 (a calibrated URDF has them).
     #[serde(default)]
     pub(super) encoder_offsets_deg: Option<[f64; 3]>,
+    /// Per leg, the URDF joint value's turn per radian of the encoder reading (joint value =
+    /// scale × reading + offset); absent: 1 (a calibrated URDF has them when a scale is not 1).
+    #[serde(default)]
+    pub(super) encoder_scales: Option<[f64; 3]>,
     /// The camera model a calibration fitted (an export writes it; the model carries it).
     #[serde(default)]
     pub(super) camera: Option<CameraRecord>,
@@ -341,6 +346,12 @@ pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), Model
         for (i, offset) in offsets.iter().enumerate() {
             let what = format!("the encoder offset of leg {}", i + 1);
             check.offset_deg(&format!("encoder_offsets_deg[{i}]"), &what, *offset).map_err(companion_error)?;
+        }
+    }
+    if let Some(scales) = companion.encoder_scales {
+        for (i, scale) in scales.iter().enumerate() {
+            check.joint_scale(&format!("encoder_scales[{i}]"), &format!("the encoder scale of leg {}", i + 1), *scale)
+                .map_err(companion_error)?;
         }
     }
     if let Some(camera) = &companion.camera {
@@ -493,6 +504,7 @@ impl<'a> Loader<'a> {
                 alpha2: w0.dot(&(platform.rotation * v0)).clamp(-1.0, 1.0).acos(),
                 v0,
                 delta: companion.encoder_offsets_deg.map_or(0.0, |o| o[i].to_radians()),
+                scale: companion.encoder_scales.map_or(1.0, |s| s[i]),
                 // The zero configuration is home, so the working mode keeps the branch it shows.
                 home_branch: HomeBranch::of(u.cross(&w0).dot(&v0)),
             };

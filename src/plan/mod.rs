@@ -27,7 +27,10 @@ pub use file::PlannedPose;
 pub(crate) use information::{Information, orientation_errors};
 pub(crate) use route::tour;
 
-use crate::calib::{CalibConfig, Kind, MarkerObservation, MarkerResiduals, Parameterisation, marker_pose_errors};
+use crate::calib::{
+    CalibConfig, JOINT_SCALE_AUTO_MOST_STD_ERROR, Kind, MarkerObservation, MarkerResiduals, Parameterisation,
+    marker_pose_errors,
+};
 use crate::dataset::Session;
 use crate::model::{CameraModelKind, Parameters, RobotModel};
 use crate::sim::{Candidate, SimConfig};
@@ -193,6 +196,9 @@ pub struct PlanSummary {
     /// Why the plan is for another camera model than the one asked for, or which of its terms
     /// the plan barely sees.
     pub camera_note: Option<String>,
+    /// The predicted standard error of each joint scale after the plan (`φ = sθ + δ`; a scale
+    /// determined no better than `calibrate`'s `joint_scales: auto` needs is held there).
+    pub joint_scale_std_errors: Vec<(String, f64)>,
 }
 
 /// A capture plan.
@@ -356,6 +362,13 @@ impl Plan {
             .filter(|(_, e)| matches!(e.kind, Kind::CameraTerm { .. }))
             .map(|(i, e)| (e.name.clone(), covariance[(i, i)].max(0.0).sqrt()))
             .collect::<Vec<_>>();
+        let joint_scale_std_errors: Vec<(String, f64)> = p
+            .entries
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| matches!(e.kind, Kind::Scale { .. }))
+            .map(|(i, e)| (e.name.clone(), covariance[(i, i)].max(0.0).sqrt()))
+            .collect();
         let blind: Vec<String> = camera_std_errors
             .iter()
             .filter(|(_, sigma)| *sigma > CAMERA_TERM_SEEN)
@@ -388,6 +401,7 @@ impl Plan {
             camera_std_errors,
             report_prediction_deg,
             camera_note,
+            joint_scale_std_errors,
         };
         Ok(Plan { poses, summary, candidates: pool, uncertainty_deg })
     }
@@ -591,6 +605,13 @@ impl std::fmt::Display for PlanSummary {
         }
         for (name, sigma) in &s.camera_std_errors {
             writeln!(f, "camera model: {name} determined to ±{sigma:.5} (predicted standard error)")?;
+        }
+        for (name, sigma) in &s.joint_scale_std_errors {
+            let held = match *sigma > JOINT_SCALE_AUTO_MOST_STD_ERROR {
+                true => " — too poorly for `joint_scales: auto`, which will hold it: move the joint further",
+                false => "",
+            };
+            writeln!(f, "joint scale: {name} determined to ±{:.0} ppm (predicted standard error){held}", 1e6 * sigma)?;
         }
         writeln!(f, "tour from home and back: {:.0}° of joystick travel", s.travel_deg)
     }

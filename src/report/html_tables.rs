@@ -17,6 +17,9 @@ pub(crate) fn all(c: &Calibration) -> String {
     html += &errors(r);
     html += &fit(r);
     html += &parameter_changes(c).html();
+    if let Some(t) = super::tables::joint_scales(c) {
+        html += &t.html();
+    }
     html += &parameter_notes(r);
     html += &correlations(r);
     html += &residual_sigma(r);

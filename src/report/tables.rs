@@ -131,6 +131,7 @@ pub(crate) fn parameters(title: &str, p: &Parameters) -> String {
             ("α2 (°)", Align::Number),
             ("v0", Align::Text),
             ("δ (°)", Align::Number),
+            ("s", Align::Number),
         ],
     );
     for (i, g) in p.legs.iter().enumerate() {
@@ -142,6 +143,7 @@ pub(crate) fn parameters(title: &str, p: &Parameters) -> String {
             format!("{:.4}", g.alpha2.to_degrees()),
             v(&g.v0),
             format!("{:.4}", g.delta.to_degrees()),
+            format!("{:.6}", g.scale),
         ]);
     }
     s += &table.markdown();
@@ -190,11 +192,44 @@ pub(crate) fn parameter_changes(calibration: &Calibration) -> Table {
     table
 }
 
+/// Each leg's joint scale (`φ = sθ + δ`): its value, its change in ppm with its standard error,
+/// or why it was held; `None` when the fit had no scales.
+pub(crate) fn joint_scales(calibration: &Calibration) -> Option<Table> {
+    let scales = &calibration.report.joint_scales;
+    if scales.is_empty() {
+        return None;
+    }
+    let mut table = Table::new(
+        "Joint scales (φ = s·θ + δ)",
+        &[
+            ("leg", Align::Number),
+            ("s", Align::Number),
+            ("change (ppm)", Align::Number),
+            ("std error (ppm)", Align::Number),
+        ],
+    );
+    for s in scales {
+        let se = match (s.std_error_ppm, &s.held) {
+            (Some(se), _) => format!("{se:.0}"),
+            (None, Some(why)) if why.starts_with("frozen") => "frozen".to_string(),
+            (None, Some(why)) if why.starts_with("at its bound") => "at bound".to_string(),
+            (None, _) => "held (see warnings)".to_string(),
+        };
+        table.row([s.leg.to_string(), format!("{:.6}", s.scale), format!("{:+.0}", s.change_ppm), se]);
+    }
+    Some(table)
+}
+
 /// The calibrated parameter set and each parameter's change with its standard error.
 pub(crate) fn calibrated_parameters(calibration: &Calibration) -> String {
     let mut after = parameters("Calibrated parameters", &calibration.parameters);
     after.push('\n');
-    after + &parameter_changes(calibration).markdown()
+    after += &parameter_changes(calibration).markdown();
+    if let Some(t) = joint_scales(calibration) {
+        after.push('\n');
+        after += &t.markdown();
+    }
+    after
 }
 
 /// A band of tilt or |yaw|, `0–10°` or `> 30°`.

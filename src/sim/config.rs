@@ -212,6 +212,9 @@ pub struct Encoders {
     pub counts_per_revolution: u32,
     /// Reading noise (deg).
     pub noise_deg: f64,
+    /// Each leg's true joint scale (`φ = sθ + δ`: the joint turns `s` radians per radian of its
+    /// reading, a transmission ratio's error); `[1, 1, 1]` by default. Written in `truth.yaml`.
+    pub scales: [f64; 3],
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -335,7 +338,7 @@ impl Default for Camera {
 
 impl Default for Encoders {
     fn default() -> Self {
-        Encoders { counts_per_revolution: 16384, noise_deg: 0.005 }
+        Encoders { counts_per_revolution: 16384, noise_deg: 0.005, scales: [1.0; 3] }
     }
 }
 
@@ -445,6 +448,13 @@ impl SimConfig {
         }
         if !(0.0..=1.0).contains(&self.camera.outlier_probability) {
             return Err(("camera.outlier_probability".into(), "`outlier_probability` must lie in [0, 1]".into()));
+        }
+        if let Some(k) = self.encoders.scales.iter().position(|s| !(s.is_finite() && (0.5..=1.5).contains(s))) {
+            let reason = format!(
+                "`scales` must be ratios from 0.5 to 1.5 (1.004: the joint turns 0.4 % further than its reading; got {})",
+                self.encoders.scales[k]
+            );
+            return Err((format!("encoders.scales[{k}]"), reason));
         }
         if self.encoders.counts_per_revolution == 0 {
             return Err(("encoders.counts_per_revolution".into(), "`counts_per_revolution` must be at least 1".into()));

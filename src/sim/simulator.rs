@@ -355,7 +355,11 @@ impl SimConfig {
             link_angle: t.link_angle_deg.to_radians(),
             joint_offset: t.joint_offset_deg.to_radians(),
         };
-        let spm = Spm::new(spread.perturb(model.spm.geometry(), &mut rng))?;
+        let mut legs = spread.perturb(model.spm.geometry(), &mut rng);
+        for (g, s) in legs.iter_mut().zip(self.encoders.scales) {
+            g.scale *= s;
+        }
+        let spm = Spm::new(legs)?;
         let nominal = self.camera.looking_down();
         let position = Normal::new(0.0, t.camera_position_m).expect("validated deviation");
         let camera_centre =

@@ -120,7 +120,7 @@ impl<'s> MarkerLevel<'s> {
             held_markers,
             max_joint_speed_deg_s: config.max_joint_speed_deg_s,
             camera_model,
-            freeze: config.freeze.clone(),
+            freeze: config.frozen_groups(),
             max_deg: largest_rotation(&nominal_r),
             excluded,
             warnings,
@@ -226,7 +226,9 @@ impl Level for MarkerLevel<'_> {
         let parameters_report = parameter_reports(p, x, cov, free)
             .into_iter()
             .zip(&p.entries)
-            .filter(|(_, e)| e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. }))
+            .filter(|(_, e)| {
+                (e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. })) && !matches!(e.kind, Kind::Scale { .. })
+            })
             .map(|(r, _)| r)
             .collect();
         let mut pose_ids = vec![0; r.problem.poses()];

@@ -9,7 +9,7 @@ use crate::calib::calibration::{CalibError, Fitted};
 use crate::calib::config::{CalibConfig, Group};
 use crate::calib::level::{Level, LevelReport, LevelResults, MIN_MOTION_DEG, Origin, check_enough};
 use crate::calib::orientation_residuals::{Observation, OrientationResiduals, observations};
-use crate::calib::parameterisation::Parameterisation;
+use crate::calib::parameterisation::{Kind, Parameterisation};
 use crate::calib::registration;
 use crate::calib::report::ErrorStats;
 use crate::calib::residuals::Residuals;
@@ -54,7 +54,7 @@ impl OrientationLevel {
             Rotation3::identity(),
             &config.bounds,
         );
-        check_enough(&free_of(&layout, &config.freeze), fitted.len(), "poses")?;
+        check_enough(&free_of(&layout, &config.frozen_groups()), fitted.len(), "poses")?;
         // Nothing moving is its own problem, not "one axis": say which.
         let max_deg = fitted.iter().map(|o| o.measured.angle().to_degrees()).fold(0.0, f64::max);
         if max_deg < MIN_MOTION_DEG {
@@ -74,7 +74,7 @@ impl OrientationLevel {
             fitted,
             held_out,
             vision,
-            freeze: config.freeze.clone(),
+            freeze: config.frozen_groups(),
             max_deg,
             excluded,
             camera_model,
@@ -173,7 +173,13 @@ impl Level for OrientationLevel {
             before,
             after,
             held_out_poses: self.held_out.len(),
-            parameters_report: parameter_reports(p, x, cov, &r.free),
+            // The joint scales are reported on their own (`CalibrationReport::joint_scales`), not in degrees.
+            parameters_report: parameter_reports(p, x, cov, &r.free)
+                .into_iter()
+                .zip(&p.entries)
+                .filter(|(_, e)| !matches!(e.kind, Kind::Scale { .. }))
+                .map(|(r, _)| r)
+                .collect(),
             predicted_error_deg,
             predicted_error_mm: None,
             residual_sigma_deg,

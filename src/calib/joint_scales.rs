@@ -1,0 +1,144 @@
+//! The joints' scales in the fit (`φ = sθ + δ`): which ones a session identifies, and what the
+//! report says about them.
+//!
+//! A scale moves a joint's angle by `θ` times what its offset does: where a joint's reading barely
+//! changes over the session the two cannot be told apart, and where it spans a little they can
+//! only poorly. `joint_scales: auto` (the default) fits a scale only where the fit determines it
+//! to [`AUTO_MOST_STD_ERROR`] and holds the others at their start, saying so with the joint's span;
+//! `fit` fits all three (an unidentifiable one is then regularised like any other direction);
+//! `hold` fits none.
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use super::config::{CalibConfig, JointScales};
+use super::identify::Identifiability;
+use super::parameterisation::{Kind, Parameterisation};
+use super::uncertainty::std_error;
+use crate::dataset::Session;
+
+/// `auto` fits a scale whose standard error is at most this (0.1 %): a transmission's error of
+/// 0.3 % is then seen at 3σ, and one that the data determine no better would add to the
+/// calibrated model's error about as much as it could remove.
+pub(crate) const AUTO_MOST_STD_ERROR: f64 = 1e-3;
+
+/// A scale weighs this much (column-scaled) in an unidentifiable direction: it is part of what
+/// the data cannot determine (as a camera term: `pipeline::CAMERA_IN_NULL_DIRECTION`).
+const SCALE_IN_NULL_DIRECTION: f64 = 0.3;
+
+/// One leg's joint scale as the calibration leaves it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointScaleReport {
+    /// Leg number (1-based).
+    pub leg: usize,
+    /// The scale `s` (`φ = sθ + δ`).
+    pub scale: f64,
+    /// Its change from the start, parts per million.
+    pub change_ppm: f64,
+    /// Its standard error (ppm), when fitted and not at its bound.
+    pub std_error_ppm: Option<f64>,
+    /// Why it was not fitted (`None`: fitted).
+    pub held: Option<String>,
+}
+
+/// The entry indices of the scales in `p`, with their legs.
+pub(crate) fn entries(p: &Parameterisation) -> Vec<(usize, usize)> {
+    p.entries
+        .iter()
+        .enumerate()
+        .filter_map(|(i, e)| match e.kind {
+            Kind::Scale { leg } => Some((i, leg)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The span of each joint's reading over the session's poses (degrees).
+pub(crate) fn spans_deg(session: &Session) -> [f64; 3] {
+    std::array::from_fn(|leg| {
+        let (low, high) = session
+            .poses
+            .iter()
+            .map(|p| p.joints[leg])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), t| (l.min(t), h.max(t)));
+        if high >= low { (high - low).to_degrees() } else { 0.0 }
+    })
+}
+
+/// The scales that take part in an unidentifiable direction (by their share of the column-scaled
+/// direction, so that units do not decide).
+pub(crate) fn unidentified(p: &Parameterisation, identifiability: &Identifiability) -> Vec<usize> {
+    let scales: Vec<usize> = entries(p).into_iter().map(|(i, _)| i).collect();
+    let mut held: Vec<usize> = identifiability
+        .null_vectors
+        .iter()
+        .flat_map(|v| {
+            let scaled = v.component_mul(&identifiability.column_norms);
+            let norm = scaled.norm().max(f64::MIN_POSITIVE);
+            scales.iter().copied().filter(move |&i| (scaled[i] / norm).abs() > SCALE_IN_NULL_DIRECTION)
+        })
+        .collect();
+    held.sort_unstable();
+    held.dedup();
+    held
+}
+
+/// Whether `auto` decides which scales to fit (the setting is `auto` and they are not frozen).
+pub(crate) fn auto(config: &CalibConfig) -> bool {
+    config.joint_scales == JointScales::Auto && !config.freeze.contains(&super::config::Group::JointScales)
+}
+
+/// The free scales whose standard error in `cov` exceeds [`AUTO_MOST_STD_ERROR`]: `(entry, σ)`.
+pub(crate) fn poorly_determined(p: &Parameterisation, cov: &DMatrix<f64>, free: &[bool]) -> Vec<(usize, f64)> {
+    entries(p)
+        .into_iter()
+        .filter_map(|(i, _)| std_error(cov, free, i).map(|s| (i, s)))
+        .filter(|(_, s)| !(*s <= AUTO_MOST_STD_ERROR))
+        .collect()
+}
+
+/// Why a scale was held, in the user's terms: `span` the joint's reading span (degrees), `sigma`
+/// the standard error it would have had (`None`: not identifiable at all).
+pub(crate) fn held_reason(leg: usize, span_deg: f64, sigma: Option<f64>) -> String {
+    let determined = match sigma {
+        Some(s) => format!("tells it from the joint's offset to ±{:.2} % only", 100.0 * s),
+        None => "cannot tell it from the joint's offset".to_string(),
+    };
+    format!(
+        "leg {}'s joint scale is held at its start: the joint's reading spans {span_deg:.1}° in this session, which \
+         {determined} (`joint_scales: auto` fits a scale determined to ±{:.1} %); move the joint further to \
+         calibrate it, or set `joint_scales: fit`",
+        leg + 1,
+        100.0 * AUTO_MOST_STD_ERROR
+    )
+}
+
+/// Each leg's scale at `x` with its standard error, and why held ones were held (`held`: entry
+/// index and reason; a scale frozen by the config is said so).
+pub(crate) fn report(
+    p: &Parameterisation,
+    x: &DVector<f64>,
+    cov: &DMatrix<f64>,
+    free: &[bool],
+    held: &[(usize, String)],
+) -> Vec<JointScaleReport> {
+    let legs = p.legs(x);
+    entries(p)
+        .into_iter()
+        .map(|(i, leg)| {
+            let held = match held.iter().find(|(k, _)| *k == i) {
+                Some((_, why)) => Some(why.clone()),
+                None if p.at_bound(x, i) => Some("at its bound (`bounds.joint_scale`): the data want it further".into()),
+                None if !free[i] => Some("frozen (`joint_scales: hold` or `freeze: [joint_scales]`)".into()),
+                None => None,
+            };
+            JointScaleReport {
+                leg: leg + 1,
+                scale: legs[leg].scale,
+                change_ppm: 1e6 * x[i],
+                std_error_ppm: std_error(cov, free, i).map(|s| 1e6 * s),
+                held,
+            }
+        })
+        .collect()
+}
