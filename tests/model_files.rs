@@ -286,7 +286,9 @@ fn with_joint_scales_ik_returns_readings_that_the_fda_maps_back_and_a_scale_turn
     for mechanism in [&scaled, &unscaled] {
         let joints = mechanism.ik(&r).unwrap();
         assert!(spmcal::math::so3::geodesic_angle(&mechanism.forward(&joints).unwrap(), &r) < 1e-12);
-        assert!(spmcal::math::so3::geodesic_angle(&mechanism.track(&joints, &Rotation3::identity()).unwrap(), &r) < 1e-12);
+        // Tracking from a pose a degree away (the haptic loop's previous orientation).
+        let previous = spmcal::math::so3::exp(&Vector3::new(0.01, 0.01, -0.01)) * r;
+        assert!(spmcal::math::so3::geodesic_angle(&mechanism.track(&joints, &previous).unwrap(), &r) < 1e-12);
     }
     // The same readings put the scaled mechanism elsewhere, by about the scale error times the turn.
     let off = spmcal::math::so3::geodesic_angle(&scaled.forward(&theta_1).unwrap(), &r);

@@ -94,8 +94,8 @@ impl From<CameraModelKind> for CameraModelSetting {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JointScales {
-    /// Each scale where the session identifies it (its standard error at the start of the fit
-    /// small enough to tell a transmission's error); the others held at their start, and said.
+    /// Each scale that the session determines (to ±0.1 %) and shows to differ from its start (by
+    /// 3 standard errors); the others held at their start, and said.
     #[default]
     Auto,
     /// All three, whatever the session.

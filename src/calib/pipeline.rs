@@ -275,17 +275,21 @@ fn run<L: Level>(
         FitSettings { prior: prior.clone(), stage: "calibration", ..FitSettings::from_config(config, free.clone()) };
     let mut robust = fit(&problem, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
     clock.lap("calibration", robust.log.len());
-    // `joint_scales: auto`: a scale the fit determines too poorly to tell a transmission's error
-    // is held at its start and the fit finished without it.
+    // `joint_scales: auto`: a scale the fit determines too poorly to tell a transmission's error,
+    // or does not show to differ from its start, is held there and the fit finished without it.
     if joint_scales::auto(config) {
         let cov = covariance(&robust, &free, prior.as_ref().map(|(l, _)| l));
-        let poor = joint_scales::poorly_determined(p, &cov, &free);
-        if !poor.is_empty() {
+        let holds = joint_scales::auto_holds(p, &robust.x, &cov, &free);
+        if !holds.is_empty() {
             let mut start = robust.x.clone();
-            for &(i, sigma) in &poor {
+            for &(i, sigma, undetermined) in &holds {
                 free[i] = false;
+                let why = match undetermined {
+                    true => joint_scales::held_reason(leg_of(i), spans[leg_of(i)], Some(sigma)),
+                    false => joint_scales::insignificant_reason(robust.x[i] - nominal.x[i], sigma),
+                };
                 start[i] = nominal.x[i];
-                held_scales.push((i, joint_scales::held_reason(leg_of(i), spans[leg_of(i)], Some(sigma))));
+                held_scales.push((i, why));
             }
             identifiability = identifiability_at(p, &nominal, &free, config);
             regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
@@ -340,7 +344,9 @@ fn run<L: Level>(
     let mut cross_validation =
         cross_validate(&problem, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
-    let mut warnings: Vec<String> = camera_warnings.chain(held_scales.iter().map(|(_, why)| why.clone())).collect();
+    // A scale the session cannot tell is a warning; one that shows no error is the report's line only.
+    let scale_warnings = held_scales.iter().filter(|(_, why)| !why.starts_with("not distinguishable"));
+    let mut warnings: Vec<String> = camera_warnings.chain(scale_warnings.map(|(_, why)| why.clone())).collect();
     if config.folds == 0 {
         // A legitimate quick run, but the one check of unseen poses is gone: say so.
         warnings.push(

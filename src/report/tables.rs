@@ -213,6 +213,9 @@ pub(crate) fn joint_scales(calibration: &Calibration) -> Option<Table> {
             (Some(se), _) => format!("{se:.0}"),
             (None, Some(why)) if why.starts_with("frozen") => "frozen".to_string(),
             (None, Some(why)) if why.starts_with("at its bound") => "at bound".to_string(),
+            (None, Some(why)) if why.starts_with("not distinguishable") => {
+                format!("held: {}", why.split(" (").next().unwrap_or(why))
+            }
             (None, _) => "held (see warnings)".to_string(),
         };
         table.row([s.leg.to_string(), format!("{:.6}", s.scale), format!("{:+.0}", s.change_ppm), se]);

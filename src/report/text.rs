@@ -105,6 +105,9 @@ impl fmt::Display for CalibrationReport {
                 (None, Some(why)) if why.starts_with("at its bound") => {
                     writeln!(f, "  {name:<26} {:.6} ({:+.0} ppm, at bound)", s.scale, s.change_ppm)?
                 }
+                (None, Some(why)) if why.starts_with("not distinguishable") => {
+                    writeln!(f, "  {name:<26} {:.6} (held: {why})", s.scale)?
+                }
                 (None, _) => writeln!(f, "  {name:<26} {:.6} (held: see the warnings)", s.scale)?,
             }
         }
