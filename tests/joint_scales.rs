@@ -50,23 +50,26 @@ fn scale_errors_are_recovered_and_cost_the_mechanism_nothing_while_held_they_cos
     let fitted = calibrated(&scaled, &model, JointScales::Auto);
     assert_eq!(fitted.report.joint_scales.len(), 3);
     for s in &fitted.report.joint_scales {
-        assert!(s.held.is_none(), "200 poses over the workspace identify every scale: {s:?}");
+        // 200 poses determine a scale to ~550 ppm: errors of 0.4 and 0.3 % are 7σ and 5σ, and
+        // `auto` then fits all three.
+        assert!(s.held.is_none(), "{s:?}");
         let se = s.std_error_ppm.unwrap();
         let error_ppm = (s.scale - SCALES[s.leg - 1]) * 1e6;
         // Honest standard errors put |z| > 4 once in 16,000: a failure here is a biased or
-        // overconfident scale, not bad luck. The standard error itself is a few hundred ppm at
-        // most (a tenth of the errors to find), else the session would not tell them.
-        assert!(error_ppm.abs() < 4.0 * se && se < 300.0, "leg {}: error {error_ppm:.0} ppm, σ {se:.0} ppm", s.leg);
+        // overconfident scale, not bad luck. 200 poses determine a scale to ~550 ppm (the study's
+        // figure), within the 1,000 ppm `auto` asks for.
+        assert!(error_ppm.abs() < 4.0 * se && se < 1000.0, "leg {}: error {error_ppm:.0} ppm, σ {se:.0} ppm", s.leg);
     }
-    // The calibrated parameters file carries them.
-    assert!(fitted.parameters.to_yaml().matches("  scale: ").count() == 3);
+    // The calibrated parameters file carries the ones fitted.
+    assert_eq!(fitted.parameters.to_yaml().matches("  scale: ").count(), 3);
     let with_scales = held_out_error(&scaled, &fitted);
     let without_error = held_out_error(&clean, &calibrated(&clean, &model, JointScales::Hold));
     let held = held_out_error(&scaled, &calibrated(&scaled, &model, JointScales::Hold));
-    // One session: the study's 1.1× pooled over 20 has room here for one session's spread.
-    assert!(with_scales < 1.25 * without_error, "{with_scales:.4}° with the error, {without_error:.4}° without");
-    // Held, the same scale errors cost far more (the issue measured 1.26× at 200 poses).
-    assert!(held > 1.1 * with_scales, "held {held:.4}° against {with_scales:.4}° fitted");
+    // Three more parameters determined to ~550 ppm add variance (the report's predicted error rises
+    // 20–25 %; the study pools 20 sessions); one session has room for its spread. Held, the same
+    // scale errors cost several times that (the study: 3.5× on 200 poses).
+    assert!(with_scales < 1.5 * without_error, "{with_scales:.4}° with the error, {without_error:.4}° without");
+    assert!(held > 2.0 * with_scales, "held {held:.4}° against {with_scales:.4}° fitted");
     let text = fitted.report.to_string();
     assert!(text.contains("leg1.scale") && text.contains("ppm"), "{text}");
 }
@@ -77,14 +80,16 @@ fn a_session_without_scale_errors_is_not_hurt_by_fitting_them_by_default() {
     let default = calibrated(&clean, &model, JointScales::Auto);
     let held = calibrated(&clean, &model, JointScales::Hold);
     assert!(held.report.joint_scales.iter().all(|s| s.held.as_deref().is_some_and(|h| h.starts_with("frozen"))));
+    // Without a scale error `auto` holds the scales unless their fit differs from 1 by 3σ's worth
+    // (0.3 % of sessions): held, the session is calibrated as with `hold`.
     for s in &default.report.joint_scales {
-        let se = s.std_error_ppm.unwrap();
-        assert!((s.scale - 1.0).abs() * 1e6 < 4.0 * se, "{s:?}");
+        let why = s.held.as_deref().expect("held");
+        assert!(why.starts_with("not distinguishable") && why.contains("ppm"), "{why}");
+        assert_eq!(s.scale, 1.0);
     }
+    assert!(default.report.warnings.iter().all(|w| !w.contains("scale")), "{:?}", default.report.warnings);
     let (a, b) = (held_out_error(&clean, &default), held_out_error(&clean, &held));
-    // Three more parameters, each determined to a few hundred ppm, among ~40: the study measures the
-    // pooled cost; one session may spread a few percent either way.
-    assert!(a < 1.1 * b, "default {a:.4}° against scales held {b:.4}°");
+    assert!(a < 1.03 * b, "default {a:.4}° against scales held {b:.4}°");
     // Nothing written for scales of 1 when held.
     assert!(!held.parameters.to_yaml().contains("  scale: "));
 }

@@ -5,9 +5,8 @@
 //! changes over the session the two cannot be told apart, and where it spans a little they can
 //! only poorly. `joint_scales: auto` (the default) keeps a fitted scale only where the fit
 //! determines it to [`AUTO_MOST_STD_ERROR`] (else it is held at its start with a warning giving the
-//! joint's span) and shows it to differ from its start by [`AUTO_LEAST_Z`] standard errors (else
-//! it is held there, said in the report's line): fitting three scales determined to ±500 ppm
-//! costs a session without a scale error 20–30 % of its accuracy, the test ~1 %;
+//! joint's span) and the scales together differ from their start by 3σ's worth (else they are
+//! held there, said in the report's lines; see [`auto_holds`]);
 //! `fit` fits all three (an unidentifiable one is then regularised like any other direction);
 //! `hold` fits none.
 
@@ -91,39 +90,54 @@ pub(crate) fn auto(config: &CalibConfig) -> bool {
     config.joint_scales == JointScales::Auto && !config.freeze.contains(&super::config::Group::JointScales)
 }
 
-/// A fitted scale is kept by `auto` when its change is at least this many standard errors: on a
-/// session without a scale error a scale is then fitted in 0.3 % of sessions, so that fitting by
-/// default costs such sessions ~1 % of their accuracy, where fitting every scale would cost 20–30 %
-/// (`examples/joint_scales`: a scale determined to ±500 ppm adds that much variance).
-pub(crate) const AUTO_LEAST_Z: f64 = 3.0;
+/// The 99.73 % quantile (3σ's worth) of χ² with 1, 2 and 3 degrees of freedom: `auto` keeps the
+/// fitted scales when their changes, taken together with their covariance, exceed it.
+const CHI2_3_SIGMA: [f64; 3] = [9.0, 11.829, 14.156];
 
-/// What `auto` does with a fitted scale: `Some((σ, undetermined))` to hold it — `undetermined`
-/// when its standard error exceeds [`AUTO_MOST_STD_ERROR`] (the session cannot tell it), else
-/// because its change is within [`AUTO_LEAST_Z`] standard errors of none.
+/// What `auto` does with the fitted scales, as `(entry, σ, undetermined)` for each one to hold:
+/// a scale whose standard error exceeds [`AUTO_MOST_STD_ERROR`] is held (`undetermined`: the
+/// session cannot tell it); the others are kept together or held together, kept when their
+/// changes differ from none by 3σ's worth jointly (the Wald statistic `Δsᵀ C⁻¹ Δs` against χ²'s
+/// 99.73 % quantile). On a session without a scale error they are then fitted in 0.3 % of
+/// sessions — fitting three scales determined to ±500 ppm would cost such a session 20–30 % of its
+/// accuracy (`examples/joint_scales`) — and where one joint's error shows, all are fitted, so that
+/// a smaller error beside it is not left behind.
 pub(crate) fn auto_holds(
     p: &Parameterisation,
     x: &DVector<f64>,
     cov: &DMatrix<f64>,
     free: &[bool],
-) -> Vec<(usize, f64, bool)> {
-    entries(p)
-        .into_iter()
-        .filter_map(|(i, _)| std_error(cov, free, i).map(|s| (i, s)))
-        .filter_map(|(i, s)| match s <= AUTO_MOST_STD_ERROR {
-            false => Some((i, s, true)),
-            true if x[i].abs() < AUTO_LEAST_Z * s => Some((i, s, false)),
-            true => None,
-        })
-        .collect()
+) -> (Vec<(usize, f64, bool)>, f64) {
+    let fitted: Vec<(usize, f64)> =
+        entries(p).into_iter().filter_map(|(i, _)| std_error(cov, free, i).map(|s| (i, s))).collect();
+    let (undetermined, determined): (Vec<_>, Vec<_>) = fitted.into_iter().partition(|(_, s)| !(*s <= AUTO_MOST_STD_ERROR));
+    let mut holds: Vec<(usize, f64, bool)> = undetermined.iter().map(|&(i, s)| (i, s, true)).collect();
+    let k = determined.len();
+    let wald = match k {
+        0 => 0.0,
+        _ => {
+            let c = DMatrix::from_fn(k, k, |a, b| cov[(determined[a].0, determined[b].0)]);
+            let d = DVector::from_fn(k, |a, _| x[determined[a].0]);
+            let eps = 1e-14 * c.amax();
+            c.pseudo_inverse(eps).map_or(f64::INFINITY, |inv| (d.transpose() * inv * &d)[(0, 0)])
+        }
+    };
+    if k > 0 && wald < CHI2_3_SIGMA[k - 1] {
+        holds.extend(determined.iter().map(|&(i, s)| (i, s, false)));
+    }
+    (holds, wald)
 }
 
-/// Why a scale `auto` fitted was held at its start because the data do not show it to differ.
-pub(crate) fn insignificant_reason(change: f64, sigma: f64) -> String {
+/// Why a scale `auto` fitted was held at its start because the data do not show the scales to
+/// differ (`wald`: their joint statistic, over `k` scales).
+pub(crate) fn insignificant_reason(change: f64, sigma: f64, wald: f64, k: usize) -> String {
     format!(
-        "not distinguishable from its start: fitted, it moved {:+.0} ± {:.0} ppm, less than {AUTO_LEAST_Z} standard \
-         errors (`joint_scales: auto` keeps a scale the data show to differ)",
+        "not distinguishable from its start: fitted, it moved {:+.0} ± {:.0} ppm, and the {k} scales together \
+         {wald:.1} (χ² of their changes, under the {:.1} of 3σ) (`joint_scales: auto` keeps scales the data \
+         show to differ)",
         1e6 * change,
-        1e6 * sigma
+        1e6 * sigma,
+        CHI2_3_SIGMA[k.clamp(1, 3) - 1]
     )
 }
 

@@ -279,14 +279,15 @@ fn run<L: Level>(
     // or does not show to differ from its start, is held there and the fit finished without it.
     if joint_scales::auto(config) {
         let cov = covariance(&robust, &free, prior.as_ref().map(|(l, _)| l));
-        let holds = joint_scales::auto_holds(p, &robust.x, &cov, &free);
+        let (holds, wald) = joint_scales::auto_holds(p, &robust.x, &cov, &free);
+        let tested = holds.iter().filter(|h| !h.2).count();
         if !holds.is_empty() {
             let mut start = robust.x.clone();
             for &(i, sigma, undetermined) in &holds {
                 free[i] = false;
                 let why = match undetermined {
                     true => joint_scales::held_reason(leg_of(i), spans[leg_of(i)], Some(sigma)),
-                    false => joint_scales::insignificant_reason(robust.x[i] - nominal.x[i], sigma),
+                    false => joint_scales::insignificant_reason(robust.x[i] - nominal.x[i], sigma, wald, tested),
                 };
                 start[i] = nominal.x[i];
                 held_scales.push((i, why));
