@@ -100,8 +100,10 @@ fn recovered_parameters_lie_within_three_standard_errors_of_the_truth() {
         let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
         let truth = truth(&session, &calibration);
         // The reference rotation is a property of the session's reference markers, not of the device.
+        // So are joint scales `auto` held (no error to show: no standard error).
         let indices: Vec<usize> = (0..calibration.parameterisation.len())
             .filter(|&i| !matches!(calibration.parameterisation.entries[i].kind.group(), Group::ReferenceRotation))
+            .filter(|&i| calibration.covariance[(i, i)] > 0.0)
             .collect();
         let errors: Vec<f64> = indices.iter().map(|&i| calibration.calibrated.x[i] - truth.x[i]).collect();
         z.add_session(&errors, &calibration.covariance, &indices);
@@ -110,7 +112,9 @@ fn recovered_parameters_lie_within_three_standard_errors_of_the_truth() {
     // Honest on both sides: each statistic within the band honest σ's keep with probability 99.9%
     // (`z_scores`: 360 z's, correlated within a session; 20 sessions, as 10 leave σ's 1.5×
     // too large on the band's edge).
-    assert_eq!(z.len(), 360);
+    // 18 per session, more for a session whose scales `auto` fitted (0.3 % of sessions, or a scale
+    // the orientation-level fit determines to 0.1 % beside one it does not).
+    assert!(z.len() >= 360, "{}", z.len());
     z.assert_honest("orientation-level fit, 20 sessions");
 }
 

@@ -111,8 +111,12 @@ fn scales_a_session_cannot_tell_from_the_offsets_are_held_and_said() {
         assert_eq!(s.scale, 1.0);
         assert!(s.std_error_ppm.is_none());
     }
-    let warning = fitted.report.warnings.iter().find(|w| w.contains("joint scale is held")).expect("said");
-    assert!(warning.contains("spans") && warning.contains("joint_scales: fit"), "{warning}");
+    for s in &held {
+        assert!(s.held.as_deref().is_some_and(|h| h.starts_with("not determined") && h.contains("spans")), "{s:?}");
+    }
+    let warnings: Vec<_> = fitted.report.warnings.iter().filter(|w| w.contains("joint scale")).collect();
+    assert_eq!(warnings.len(), 1, "one warning for every scale held: {warnings:?}");
+    assert!(warnings[0].contains("span") && warnings[0].contains("joint_scales: fit"), "{}", warnings[0]);
 }
 
 #[test]

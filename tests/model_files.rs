@@ -257,7 +257,10 @@ fn joint_scales_are_written_only_when_not_1_and_a_file_without_them_reads_as_1()
     // A file written before scales existed (the shipped truth, from before them) loads with 1.
     let old = std::fs::read_to_string("datasets/agile_wrist_sim_400/truth.yaml").unwrap();
     assert!(!old.contains("scale:"), "the shipped file predates the scales");
-    assert_eq!(Parameters::read(Path::new("datasets/agile_wrist_sim_400/truth.yaml")).unwrap().legs.map(|g| g.scale), [1.0; 3]);
+    assert_eq!(
+        Parameters::read(Path::new("datasets/agile_wrist_sim_400/truth.yaml")).unwrap().legs.map(|g| g.scale),
+        [1.0; 3]
+    );
     // A scale out of range is located at its line and key.
     let bad = text.replacen("scale: 0.997", "scale: 3.0", 1);
     std::fs::write(&path, &bad).unwrap();
@@ -321,7 +324,8 @@ fn an_exported_urdf_with_joint_scales_gives_the_parameters_files_forward_kinemat
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
     let (mut worst, mut tested): (f64, usize) = (0.0, 0);
     while tested < 1000 {
-        let omega = Vector3::new(rng.random_range(-0.45..0.45), rng.random_range(-0.45..0.45), rng.random_range(-0.5..0.5));
+        let omega =
+            Vector3::new(rng.random_range(-0.45..0.45), rng.random_range(-0.45..0.45), rng.random_range(-0.5..0.5));
         let Ok(joints) = from_params.ik(&spmcal::math::so3::exp(&omega)) else { continue };
         let (Ok(a), Ok(b)) = (from_params.forward(&joints), loaded.spm.forward(&joints)) else { continue };
         worst = worst.max(spmcal::math::so3::geodesic_angle(&a, &b));
@@ -333,7 +337,8 @@ fn an_exported_urdf_with_joint_scales_gives_the_parameters_files_forward_kinemat
     assert!((loaded.spm.ik(&r).unwrap() - from_params.ik(&r).unwrap()).amax() < 1e-12);
     // A companion's bad scale is located at its line.
     let companion = RobotModel::companion_path(&urdf);
-    let text = std::fs::read_to_string(&companion).unwrap().replace("encoder_scales: [1.004,", "encoder_scales: [-1.0,");
+    let text =
+        std::fs::read_to_string(&companion).unwrap().replace("encoder_scales: [1.004,", "encoder_scales: [-1.0,");
     std::fs::write(&companion, &text).unwrap();
     let err = RobotModel::load(&urdf).unwrap_err().to_string();
     assert!(err.contains("encoder scale of leg 1") && err.contains("calibrated.yaml:"), "{err}");

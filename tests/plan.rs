@@ -108,6 +108,12 @@ fn a_plan_that_augments_a_session_counts_what_the_session_already_knows() {
     let fresh = Plan::design(&model, None, &config, &settings, None).unwrap();
     let added = Plan::design(&model, None, &config, &settings, Some(&session)).unwrap();
     assert_eq!(added.summary.augments, Some(("agile_wrist_sim_20".to_string(), 20)));
+    // The joint scales are counted apart: each one's predicted standard error, better with the
+    // session's 20 poses added (information only adds).
+    let (a, f) = (&added.summary.joint_scale_std_errors, &fresh.summary.joint_scale_std_errors);
+    assert_eq!(a.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["leg1.scale", "leg2.scale", "leg3.scale"]);
+    assert!(a.iter().zip(f).all(|((_, sa), (_, sf))| sa.is_finite() && sa < sf), "{a:?} vs {f:?}");
+    assert!(fresh.summary.to_string().contains("joint scale: leg1.scale determined to ±"), "{}", fresh.summary);
     // 20 poses already captured plus 10 planned predict better than the 10 alone.
     assert!(
         added.summary.plan.rms_deg < fresh.summary.plan.rms_deg,

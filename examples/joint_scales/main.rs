@@ -45,7 +45,8 @@ fn main() {
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).expect("shipped model");
     let mut fixed = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).expect("shipped config");
     fixed.poses = 200;
-    let mut moving = SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).expect("shipped config");
+    let mut moving =
+        SimConfig::read(Path::new("configs/simulate_agile_wrist_free_motion.yaml")).expect("shipped config");
     if let Some(r) = moving.recording.as_mut() {
         r.duration_s = 600.0;
     }
@@ -66,7 +67,12 @@ fn main() {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(c.seed ^ 0x5ca1e);
             c.encoders.scales = std::array::from_fn(|_| 1.0 + rng.random_range(-MOST_SCALE_ERROR..MOST_SCALE_ERROR));
             let (scaled, _) = c.simulate(&model, &mut |_| {}).expect("the simulation succeeds");
-            let runs = [(&clean, JointScales::Auto), (&clean, JointScales::Hold), (&scaled, JointScales::Auto), (&scaled, JointScales::Hold)];
+            let runs = [
+                (&clean, JointScales::Auto),
+                (&clean, JointScales::Hold),
+                (&scaled, JointScales::Auto),
+                (&scaled, JointScales::Hold),
+            ];
             let outcomes: Vec<Result<Outcome, String>> =
                 runs.iter().map(|(session, setting)| run(session, &model, *setting, c.seed)).collect();
             // A session counts in every column or in none, so that the ratios compare like with like.
@@ -120,7 +126,12 @@ fn main() {
 }
 
 /// Calibrate `session` (defaults but `joint_scales`, no cross-validation) and score it against the truth.
-fn run(session: &spmcal::dataset::Session, model: &RobotModel, scales: JointScales, seed: u64) -> Result<Outcome, String> {
+fn run(
+    session: &spmcal::dataset::Session,
+    model: &RobotModel,
+    scales: JointScales,
+    seed: u64,
+) -> Result<Outcome, String> {
     let truth = session.truth.as_ref().expect("simulated");
     let tests = study::test_orientations(&truth.parameters.spm().expect("valid"), 100, seed ^ 0x5eed);
     let config = CalibConfig { folds: 0, joint_scales: scales, ..CalibConfig::default() };

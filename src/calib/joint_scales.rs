@@ -85,6 +85,13 @@ pub(crate) fn unidentified(p: &Parameterisation, identifiability: &Identifiabili
     held
 }
 
+/// `free` as the check of enough observations counts it: under `auto` the scales are fitted only
+/// where the data show them, so a session too small for them is still calibrated without them.
+pub(crate) fn counted(p: &Parameterisation, free: &[bool], config: &CalibConfig) -> Vec<bool> {
+    let auto = auto(config);
+    free.iter().zip(&p.entries).map(|(f, e)| *f && !(auto && matches!(e.kind, Kind::Scale { .. }))).collect()
+}
+
 /// Whether `auto` decides which scales to fit (the setting is `auto` and they are not frozen).
 pub(crate) fn auto(config: &CalibConfig) -> bool {
     config.joint_scales == JointScales::Auto && !config.freeze.contains(&super::config::Group::JointScales)
@@ -110,7 +117,8 @@ pub(crate) fn auto_holds(
 ) -> (Vec<(usize, f64, bool)>, f64) {
     let fitted: Vec<(usize, f64)> =
         entries(p).into_iter().filter_map(|(i, _)| std_error(cov, free, i).map(|s| (i, s))).collect();
-    let (undetermined, determined): (Vec<_>, Vec<_>) = fitted.into_iter().partition(|(_, s)| !(*s <= AUTO_MOST_STD_ERROR));
+    let (undetermined, determined): (Vec<_>, Vec<_>) =
+        fitted.into_iter().partition(|(_, s)| !(*s <= AUTO_MOST_STD_ERROR));
     let mut holds: Vec<(usize, f64, bool)> = undetermined.iter().map(|&(i, s)| (i, s, true)).collect();
     let k = determined.len();
     let wald = match k {
@@ -132,29 +140,52 @@ pub(crate) fn auto_holds(
 /// differ (`wald`: their joint statistic, over `k` scales).
 pub(crate) fn insignificant_reason(change: f64, sigma: f64, wald: f64, k: usize) -> String {
     format!(
-        "not distinguishable from its start: fitted, it moved {:+.0} ± {:.0} ppm, and the {k} scales together \
-         {wald:.1} (χ² of their changes, under the {:.1} of 3σ) (`joint_scales: auto` keeps scales the data \
-         show to differ)",
+        "not distinguishable from its start: fitted, it moved {:+.0} ± {:.0} ppm; the {k} scales' changes together \
+         give χ² = {wald:.1}, under the {:.1} of 3σ",
         1e6 * change,
         1e6 * sigma,
         CHI2_3_SIGMA[k.clamp(1, 3) - 1]
     )
 }
 
-/// Why a scale was held, in the user's terms: `span` the joint's reading span (degrees), `sigma`
-/// the standard error it would have had (`None`: not identifiable at all).
-pub(crate) fn held_reason(leg: usize, span_deg: f64, sigma: Option<f64>) -> String {
+/// Why a scale was held, in the report's line for its leg: `span` the joint's reading span
+/// (degrees), `sigma` the standard error it would have had (`None`: not identifiable at all).
+pub(crate) fn held_reason(span_deg: f64, sigma: Option<f64>) -> String {
     let determined = match sigma {
         Some(s) => format!("tells it from the joint's offset to ±{:.2} % only", 100.0 * s),
         None => "cannot tell it from the joint's offset".to_string(),
     };
     format!(
-        "leg {}'s joint scale is held at its start: the joint's reading spans {span_deg:.1}° in this session, which \
-         {determined} (`joint_scales: auto` fits a scale determined to ±{:.1} %); move the joint further to \
-         calibrate it, or set `joint_scales: fit`",
-        leg + 1,
+        "not determined by this session: the joint's reading spans {span_deg:.1}°, which {determined} \
+         (`joint_scales: auto` fits a scale determined to ±{:.1} %)",
         100.0 * AUTO_MOST_STD_ERROR
     )
+}
+
+/// The one warning for the scales held as undetermined: `(leg, span in degrees, σ)` each.
+pub(crate) fn undetermined_warning(held: &[(usize, f64, Option<f64>)]) -> Option<String> {
+    if held.is_empty() {
+        return None;
+    }
+    let list = |items: Vec<String>| match items.len() {
+        1 => items[0].clone(),
+        n => format!("{} and {}", items[..n - 1].join(", "), items[n - 1]),
+    };
+    let legs = list(held.iter().map(|(leg, _, _)| (leg + 1).to_string()).collect());
+    let spans = list(held.iter().map(|(_, span, _)| format!("{span:.0}°")).collect());
+    let sigmas = list(
+        held.iter().map(|(_, _, s)| s.map_or("not at all".to_string(), |s| format!("±{:.2} %", 100.0 * s))).collect(),
+    );
+    let (noun, held_at, them, span) = match held.len() {
+        1 => ("scale of leg", "is held at its start", "it", "its reading spans"),
+        _ => ("scales of legs", "are held at their start", "them", "their readings span"),
+    };
+    Some(format!(
+        "the joint {noun} {legs} {held_at}: this session tells {them} from the joint offsets to {sigmas} \
+         ({span} {spans}; `joint_scales: auto` fits a scale determined to ±{:.1} %): move the joints further to \
+         calibrate {them}, or set `joint_scales: fit`",
+        100.0 * AUTO_MOST_STD_ERROR
+    ))
 }
 
 /// Each leg's scale at `x` with its standard error, and why held ones were held (`held`: entry
@@ -172,7 +203,9 @@ pub(crate) fn report(
         .map(|(i, leg)| {
             let held = match held.iter().find(|(k, _)| *k == i) {
                 Some((_, why)) => Some(why.clone()),
-                None if p.at_bound(x, i) => Some("at its bound (`bounds.joint_scale`): the data want it further".into()),
+                None if p.at_bound(x, i) => {
+                    Some("at its bound (`bounds.joint_scale`): the data want it further".into())
+                }
                 None if !free[i] => Some("frozen (`joint_scales: hold` or `freeze: [joint_scales]`)".into()),
                 None => None,
             };

@@ -22,7 +22,7 @@ mod camera_choice;
 mod config;
 mod fit;
 mod identify;
-mod joint_scales;
+pub(crate) mod joint_scales;
 mod level;
 mod levels;
 // Without `internals`, what only the studies and tests use is neither reachable nor used here.
@@ -53,8 +53,8 @@ pub use config::{
 };
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
-pub use joint_scales::JointScaleReport;
 pub(crate) use joint_scales::AUTO_MOST_STD_ERROR as JOINT_SCALE_AUTO_MOST_STD_ERROR;
+pub use joint_scales::JointScaleReport;
 #[cfg(feature = "internals")]
 pub use marker_residuals::MarkerResiduals;
 #[cfg(not(feature = "internals"))]

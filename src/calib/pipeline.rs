@@ -169,7 +169,8 @@ fn fit_largest_camera_model(
         Some(rows) => problem.subset(&rows),
         None => problem,
     };
-    check_enough(&free, problem.len(), problem.level().observations()).map_err(|e| e.to_string())?;
+    check_enough(&joint_scales::counted(p, &free, config), problem.len(), problem.level().observations())
+        .map_err(|e| e.to_string())?;
     if level.motion_deg() < MIN_MOTION_DEG {
         return Err(format!("the plate turns {:.2}° at most", level.motion_deg()));
     }
@@ -215,7 +216,7 @@ fn run<L: Level>(
     let p = level.parameterisation();
     let mut free = level.free();
     let problem = level.problem();
-    check_enough(&free, problem.len(), problem.level().observations())?;
+    check_enough(&joint_scales::counted(p, &free, config), problem.len(), problem.level().observations())?;
     let registration = registration_mask(p, &free);
     let stage = |stage| move |error| CalibError::Fit { stage, error };
     let x0 = p.start();
@@ -231,13 +232,16 @@ fn run<L: Level>(
     let spans = joint_scales::spans_deg(session);
     let scale_legs = joint_scales::entries(p);
     let leg_of = |i: usize| scale_legs.iter().find(|(k, _)| *k == i).map_or(0, |(_, leg)| *leg);
+    // The scales held as undetermined, `(leg, span, σ)`, for the one warning that says so.
+    let mut undetermined: Vec<(usize, f64, Option<f64>)> = Vec::new();
     let mut held_scales: Vec<(usize, String)> = match joint_scales::auto(config) {
         true => joint_scales::unidentified(p, &identifiability)
             .into_iter()
-            .map(|i| (i, joint_scales::held_reason(leg_of(i), spans[leg_of(i)], None)))
+            .map(|i| (i, joint_scales::held_reason(spans[leg_of(i)], None)))
             .collect(),
         false => Vec::new(),
     };
+    undetermined.extend(held_scales.iter().map(|(i, _)| (leg_of(*i), spans[leg_of(*i)], None)));
     if !held_camera.is_empty() || !held_scales.is_empty() {
         held_camera.iter().chain(held_scales.iter().map(|(i, _)| i)).for_each(|&i| free[i] = false);
         identifiability = identifiability_at(p, &nominal, &free, config);
@@ -282,14 +286,18 @@ fn run<L: Level>(
         let (holds, wald) = joint_scales::auto_holds(p, &robust.x, &cov, &free);
         let tested = holds.iter().filter(|h| !h.2).count();
         if !holds.is_empty() {
-            let mut start = robust.x.clone();
-            for &(i, sigma, undetermined) in &holds {
+            // From the start again, as `joint_scales: hold` fits: holding every scale then gives
+            // exactly its calibration.
+            let start = nominal.x.clone();
+            for &(i, sigma, unknown) in &holds {
                 free[i] = false;
-                let why = match undetermined {
-                    true => joint_scales::held_reason(leg_of(i), spans[leg_of(i)], Some(sigma)),
+                let why = match unknown {
+                    true => {
+                        undetermined.push((leg_of(i), spans[leg_of(i)], Some(sigma)));
+                        joint_scales::held_reason(spans[leg_of(i)], Some(sigma))
+                    }
                     false => joint_scales::insignificant_reason(robust.x[i] - nominal.x[i], sigma, wald, tested),
                 };
-                start[i] = nominal.x[i];
                 held_scales.push((i, why));
             }
             identifiability = identifiability_at(p, &nominal, &free, config);
@@ -345,9 +353,9 @@ fn run<L: Level>(
     let mut cross_validation =
         cross_validate(&problem, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
-    // A scale the session cannot tell is a warning; one that shows no error is the report's line only.
-    let scale_warnings = held_scales.iter().filter(|(_, why)| !why.starts_with("not distinguishable"));
-    let mut warnings: Vec<String> = camera_warnings.chain(scale_warnings.map(|(_, why)| why.clone())).collect();
+    // Scales the session cannot tell are a warning; ones that show no error the report's lines only.
+    undetermined.sort_by_key(|u| u.0);
+    let mut warnings: Vec<String> = camera_warnings.chain(joint_scales::undetermined_warning(&undetermined)).collect();
     if config.folds == 0 {
         // A legitimate quick run, but the one check of unseen poses is gone: say so.
         warnings.push(

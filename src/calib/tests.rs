@@ -112,9 +112,11 @@ fn analytic_jacobian_matches_finite_differences() {
 #[test]
 fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
     let (session, model) = load("datasets/agile_wrist_sim_400");
-    let calibration = calibrate(&session, &model, &orientation_config(), &mut |_| {}).unwrap();
+    // The joint scales fitted whatever the data say, so that their identifiability is tested too.
+    let config = CalibConfig { joint_scales: super::JointScales::Fit, ..orientation_config() };
+    let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (21, 21), "{id:?}");
+    assert_eq!((id.rank, id.parameters), (24, 24), "{id:?}");
     assert!(calibration.report.regularised.is_empty());
     // Add the six gauge directions as extra columns: tilts of u_1 (2), of u_2 out of its plane (1),
     // of v0_1 (2), of v0_2 out of its plane (1). They must be null: numerically differentiate the
@@ -130,7 +132,7 @@ fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 21, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.rank, 24, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
 
@@ -312,14 +314,19 @@ fn a_coaxial_spm_leaves_free_only_its_own_gauges() {
     assert_only_the_gauges_are_free(&session, &model);
 }
 
-/// The marker-level calibration of `session` with the depth-scale model identifies all 34
-/// parameters (33 of the mechanism, registration and markers, and the camera's depth scale), and
+/// The marker-level calibration of `session` with the depth-scale model identifies all 37
+/// parameters (36 of the mechanism with its joint scales, registration and markers, and the
+/// camera's depth scale), and
 /// the six directions its parameterisation fixes add nothing: exactly six null directions.
 fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
-    let config = CalibConfig { camera_model: super::CameraModelSetting::DepthScale, ..CalibConfig::default() };
+    let config = CalibConfig {
+        camera_model: super::CameraModelSetting::DepthScale,
+        joint_scales: super::JointScales::Fit,
+        ..CalibConfig::default()
+    };
     let calibration = calibrate(session, model, &config, &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (34, 34), "{id:?}");
+    assert_eq!((id.rank, id.parameters), (37, 37), "{id:?}");
     assert!(calibration.parameterisation.entries.iter().any(|e| e.name == "camera.depth_scale"));
     let p = &calibration.parameterisation;
     let x = &calibration.calibrated.x;
@@ -338,7 +345,7 @@ fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 34, "the six gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.rank, 37, "the six gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
 

@@ -262,7 +262,11 @@ impl Leg {
     /// the offset before the scale divides it).
     #[inline]
     pub(crate) fn reading(&self, phi: f64) -> f64 {
-        super::spm::wrap_angle(phi - self.delta) / self.scale
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let a = phi - self.delta;
+        // Wrapped to (−π, π] as `spm::wrap_angle` does (that file imports this one).
+        let w = a - two_pi * (a / two_pi).round();
+        (if w <= -std::f64::consts::PI { w + two_pi } else { w }) / self.scale
     }
 
     /// Intermediate axis `w(θ)` in B.

@@ -350,7 +350,8 @@ pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), Model
     }
     if let Some(scales) = companion.encoder_scales {
         for (i, scale) in scales.iter().enumerate() {
-            check.joint_scale(&format!("encoder_scales[{i}]"), &format!("the encoder scale of leg {}", i + 1), *scale)
+            check
+                .joint_scale(&format!("encoder_scales[{i}]"), &format!("the encoder scale of leg {}", i + 1), *scale)
                 .map_err(companion_error)?;
         }
     }

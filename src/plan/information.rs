@@ -126,6 +126,22 @@ impl Information {
     }
 }
 
+impl Information {
+    /// The same information over the parameters `keep` only (in that order): each candidate's
+    /// information and the weighting restricted to them, the sensitivities' columns selected (the
+    /// common rotations are projected out of every column alike, so selecting commutes with it).
+    pub(crate) fn select(&self, keep: &[usize]) -> Information {
+        let square = |m: &DMatrix<f64>| DMatrix::from_fn(keep.len(), keep.len(), |a, b| m[(keep[a], keep[b])]);
+        let columns = |m: &DMatrix<f64>| DMatrix::from_fn(m.nrows(), keep.len(), |r, b| m[(r, keep[b])]);
+        Information {
+            per_candidate: self.per_candidate.iter().map(square).collect(),
+            sensitivities: self.sensitivities.iter().map(columns).collect(),
+            projected: self.projected.iter().map(columns).collect(),
+            workspace: square(&self.workspace),
+        }
+    }
+}
+
 // The simulated camera's noise in the terms of the marker-level fit: here and not in `sim`,
 // which sits on a floor below the fit's noise model (`calib`).
 impl Camera {

@@ -156,7 +156,8 @@ pub struct PlanSummary {
     pub poses: usize,
     /// Candidates it chose from.
     pub candidates: usize,
-    /// Parameters of the marker-level fit.
+    /// Parameters of the marker-level fit (the joint scales not counted: see
+    /// `joint_scale_std_errors`).
     pub parameters: usize,
     /// The continuous optimum scaled to N poses (a bound no N-pose plan can beat).
     pub continuous_optimum: Predicted,
@@ -274,18 +275,29 @@ impl Plan {
         // The camera model's terms take their share of the information; candidates that cannot
         // determine them (with every candidate taken) plan for a rigid camera, and say so.
         let mut camera_note = None;
-        let (p, info, prior) = loop {
+        // The joint scales are counted apart: a calibration fits them only where the data show a
+        // scale error (`joint_scales: auto`), so the plan is made, and its accuracy predicted, for
+        // the mechanism without them, and says how well it would determine them.
+        let (p, info, prior, with_scales) = loop {
             let kind = if camera_note.is_some() { CameraModelKind::Rigid } else { settings.camera_model };
             let camera_model = params.camera_model.with_kind(kind);
-            let p = Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, camera_model, &bounds);
-            let info = Information::of(&p, &camera, &pool, workspace, &noise).map_err(crate::calib::SetError::Eval)?;
-            let prior = match augment {
-                Some(session) => session_information(session, &p, &spm, &noise)? / n as f64,
-                None => DMatrix::zeros(p.len(), p.len()),
+            let p_all =
+                Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, camera_model, &bounds);
+            let info_all =
+                Information::of(&p_all, &camera, &pool, workspace, &noise).map_err(crate::calib::SetError::Eval)?;
+            let prior_all = match augment {
+                Some(session) => session_information(session, &p_all, &spm, &noise)? / n as f64,
+                None => DMatrix::zeros(p_all.len(), p_all.len()),
             };
+            let keep: Vec<usize> =
+                (0..p_all.len()).filter(|&i| !matches!(p_all.entries[i].kind, Kind::Scale { .. })).collect();
+            let info = info_all.select(&keep);
+            let prior = DMatrix::from_fn(keep.len(), keep.len(), |a, b| prior_all[(keep[a], keep[b])]);
+            let mut p = p_all.clone();
+            p.entries.retain(|e| !matches!(e.kind, Kind::Scale { .. }));
             let every = design::weighted_sum(&info.per_candidate, &vec![1.0; pool.len()], &prior);
             if criterion(&every, &info.workspace).is_finite() {
-                break (p, info, prior);
+                break (p, info, prior, (p_all, info_all.per_candidate, prior_all));
             }
             if kind == CameraModelKind::Rigid {
                 return Err(PlanError::Singular(pool.len()));
@@ -362,12 +374,16 @@ impl Plan {
             .filter(|(_, e)| matches!(e.kind, Kind::CameraTerm { .. }))
             .map(|(i, e)| (e.name.clone(), covariance[(i, i)].max(0.0).sqrt()))
             .collect::<Vec<_>>();
-        let joint_scale_std_errors: Vec<(String, f64)> = p
+        // Each joint scale's standard error, were it fitted with the rest on the plan's poses.
+        let (p_all, per_candidate_all, prior_all) = &with_scales;
+        let m_all = information_of(per_candidate_all, prior_all, &chosen.chosen);
+        let covariance_all = m_all.clone().pseudo_inverse(1e-14 * m_all.amax()).unwrap_or(m_all * f64::NAN);
+        let joint_scale_std_errors: Vec<(String, f64)> = p_all
             .entries
             .iter()
             .enumerate()
             .filter(|(_, e)| matches!(e.kind, Kind::Scale { .. }))
-            .map(|(i, e)| (e.name.clone(), covariance[(i, i)].max(0.0).sqrt()))
+            .map(|(i, e)| (e.name.clone(), covariance_all[(i, i)].max(0.0).sqrt()))
             .collect();
         let blind: Vec<String> = camera_std_errors
             .iter()

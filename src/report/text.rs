@@ -98,9 +98,7 @@ impl fmt::Display for CalibrationReport {
         for s in &r.joint_scales {
             let name = format!("leg{}.scale", s.leg);
             match (s.std_error_ppm, &s.held) {
-                (Some(se), _) => {
-                    writeln!(f, "  {name:<26} {:.6} ({:+.0} ± {se:.0} ppm)", s.scale, s.change_ppm)?
-                }
+                (Some(se), _) => writeln!(f, "  {name:<26} {:.6} ({:+.0} ± {se:.0} ppm)", s.scale, s.change_ppm)?,
                 (None, Some(why)) if why.starts_with("frozen") => writeln!(f, "  {name:<26} {:.6} (frozen)", s.scale)?,
                 (None, Some(why)) if why.starts_with("at its bound") => {
                     writeln!(f, "  {name:<26} {:.6} ({:+.0} ppm, at bound)", s.scale, s.change_ppm)?

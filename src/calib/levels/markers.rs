@@ -227,7 +227,8 @@ impl Level for MarkerLevel<'_> {
             .into_iter()
             .zip(&p.entries)
             .filter(|(_, e)| {
-                (e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. })) && !matches!(e.kind, Kind::Scale { .. })
+                (e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. }))
+                    && !matches!(e.kind, Kind::Scale { .. })
             })
             .map(|(r, _)| r)
             .collect();

@@ -54,7 +54,8 @@ impl OrientationLevel {
             Rotation3::identity(),
             &config.bounds,
         );
-        check_enough(&free_of(&layout, &config.frozen_groups()), fitted.len(), "poses")?;
+        let free = crate::calib::joint_scales::counted(&layout, &free_of(&layout, &config.frozen_groups()), config);
+        check_enough(&free, fitted.len(), "poses")?;
         // Nothing moving is its own problem, not "one axis": say which.
         let max_deg = fitted.iter().map(|o| o.measured.angle().to_degrees()).fold(0.0, f64::max);
         if max_deg < MIN_MOTION_DEG {
