@@ -271,7 +271,7 @@ proptest! {
             initial_radius_deg: numbers[2],
             step_tolerance_deg: numbers[3],
             min_singular_ratio: numbers[4],
-            bounds: spmcal::calib::Bounds { axis_tilt_deg: numbers[5], link_angle_deg: numbers[6], joint_offset_deg: numbers[7], marker_position_m: numbers[5] * 1e-3, camera_term: 0.1 },
+            bounds: spmcal::calib::Bounds { axis_tilt_deg: numbers[5], link_angle_deg: numbers[6], joint_offset_deg: numbers[7], marker_position_m: numbers[5] * 1e-3, camera_term: 0.1, joint_scale: 0.05 },
             max_iterations,
             holdout_every,
             loss: if least_squares { spmcal::calib::Loss::LeastSquares } else { spmcal::calib::Loss::Huber },

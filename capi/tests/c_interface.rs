@@ -69,6 +69,56 @@ fn a_c_program_tracks_ten_thousand_steps_without_allocating_and_matches_rust_bit
     for truth in ["agile_wrist_sim_20", "orbita3d_sim_400"] {
         tracks_as_rust_does(&program, &manifest.join(format!("../datasets/{truth}/truth.yaml")));
     }
+    // Joint scales travel in the parameters file too (`φ = sθ + δ`): the IK round trip below is
+    // then on the scaled readings.
+    tracks_as_rust_does(&program, &scaled_truth(&manifest, "tracked"));
+}
+
+/// The 20-pose session's truth with joint scales off by +0.4 / −0.3 / +0.2 %, in a temporary file.
+fn scaled_truth(manifest: &Path, name: &str) -> PathBuf {
+    let mut params = Parameters::read(&manifest.join("../datasets/agile_wrist_sim_20/truth.yaml")).unwrap();
+    for (g, s) in params.legs.iter_mut().zip([1.004, 0.997, 1.002]) {
+        g.scale = s;
+    }
+    let path = tempfile_dir().join(format!("scaled_truth_{name}.yaml"));
+    std::fs::write(&path, params.to_yaml()).unwrap();
+    path
+}
+
+/// `spmcal_forward` and `spmcal_ik` of a model with joint scales are the library's (what the
+/// command line's `fda` and `ik` print) bit for bit, and a scale changes the readings of a pose
+/// by its factor.
+#[test]
+fn forward_and_ik_with_joint_scales_are_the_librarys() {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = scaled_truth(manifest, "forward");
+    let spm = Parameters::read(&path).unwrap().spm().unwrap();
+    let c_path = std::ffi::CString::new(path.to_str().unwrap()).unwrap();
+    let mut model = std::ptr::null_mut();
+    // SAFETY: a valid string and a pointer to write to.
+    assert_eq!(unsafe { spmcal_c::spmcal_model_load(c_path.as_ptr(), &mut model) }, spmcal_c::SpmcalStatus::Ok);
+    let unscaled = Parameters::read(&manifest.join("../datasets/agile_wrist_sim_20/truth.yaml")).unwrap().spm().unwrap();
+    for omega in [[0.2, -0.1, 0.3], [-0.25, 0.15, -0.2], [0.05, 0.3, 0.1]] {
+        let r = so3::exp(&nalgebra::Vector3::from(omega));
+        let (mut joints, mut q) = ([0.0; 3], [0.0; 4]);
+        let wxyz = so3::to_wxyz(&r);
+        // SAFETY: a loaded model and arrays of the documented lengths.
+        unsafe {
+            assert_eq!(spmcal_c::spmcal_ik(model, wxyz.as_ptr(), joints.as_mut_ptr()), spmcal_c::SpmcalStatus::Ok);
+            assert_eq!(spmcal_c::spmcal_forward(model, joints.as_ptr(), q.as_mut_ptr()), spmcal_c::SpmcalStatus::Ok);
+        }
+        // The rotation the C side reads back from the quaternion.
+        let theta = spm.ik(&so3::from_wxyz(wxyz).unwrap()).unwrap();
+        assert_eq!(joints.map(f64::to_bits), [theta[0], theta[1], theta[2]].map(f64::to_bits));
+        assert_eq!(q.map(f64::to_bits), so3::to_wxyz(&spm.forward(&theta).unwrap()).map(f64::to_bits));
+        assert!(so3::geodesic_angle(&so3::from_wxyz(q).unwrap(), &r) < 1e-12);
+        let plain = unscaled.ik(&r).unwrap();
+        for (i, s) in [1.004, 0.997, 1.002].iter().enumerate() {
+            assert!((s * joints[i] - plain[i]).abs() < 1e-12, "leg {i}: {} vs {}", s * joints[i], plain[i]);
+        }
+    }
+    // SAFETY: from `spmcal_model_load`, not used afterwards.
+    unsafe { spmcal_c::spmcal_model_free(model) };
 }
 
 /// Run the compiled `program` on `parameters` and compare its every step with Rust's.

@@ -39,6 +39,32 @@ def test_forward_is_the_command_lines_fda_to_1e12(cli: str, tmp_path: Path) -> N
     assert np.abs(ref.fda(ref.agile_wrist(), joints) - ref.expm(rotvec)).max() < 1e-12
 
 
+def test_forward_with_joint_scales_is_the_command_lines_fda_to_1e12(cli: str, tmp_path: Path) -> None:
+    # A simulated truth with joint scales off by +0.4 / -0.3 / +0.2 % (phi = s theta + delta).
+    lines = Path("datasets/agile_wrist_sim_400/truth.yaml").read_text().splitlines(keepends=True)
+    scales = iter(["1.004", "0.997", "1.002"])
+    text = "".join(line + (f"  scale: {next(scales)}\n" if line.startswith("  delta_deg:") else "") for line in lines)
+    params = tmp_path / "scaled.yaml"
+    params.write_text(text)
+    model = spmcal.Model.load(str(params))
+    unscaled = spmcal.Model.load("datasets/agile_wrist_sim_400/truth.yaml")
+    rng = np.random.default_rng(11)
+    rotvec = rng.uniform(-0.3, 0.3, size=(50, 3))
+    angle = np.linalg.norm(rotvec, axis=1, keepdims=True)
+    q = np.hstack([np.cos(angle / 2), np.sin(angle / 2) * rotvec / angle])
+    joints = model.ik(q)
+    # The scales change the readings of a pose: s theta is the unscaled reading.
+    assert np.abs(joints * np.array([1.004, 0.997, 1.002]) - unscaled.ik(q)).max() < 1e-12
+    path = tmp_path / "joints.csv"
+    path.write_text("pose,theta1_rad,theta2_rad,theta3_rad\n" + "".join(
+        f"{k},{float(a)!r},{float(b)!r},{float(c)!r}\n" for k, (a, b, c) in enumerate(joints)))
+    out = run(cli, "fda", "--params", str(params), "--joints", str(path), "--json")
+    assert out.returncode == 0, out.stderr
+    expected = np.array([r["q_wxyz"] for r in json.loads(out.stdout)["results"]])
+    assert np.abs(model.forward(joints) - expected).max() < 1e-12
+    assert np.abs(model.forward(joints) - q).max() < 1e-12
+
+
 def test_the_other_kinematics_agree_with_forward() -> None:
     model = spmcal.Model.load(MODEL)
     joints = np.array([[0.1, -0.2, 0.05], [0.12, -0.18, 0.07]])

@@ -118,7 +118,7 @@ pub(crate) fn auto_holds(
     let fitted: Vec<(usize, f64)> =
         entries(p).into_iter().filter_map(|(i, _)| std_error(cov, free, i).map(|s| (i, s))).collect();
     let (undetermined, determined): (Vec<_>, Vec<_>) =
-        fitted.into_iter().partition(|(_, s)| !(*s <= AUTO_MOST_STD_ERROR));
+        fitted.into_iter().partition(|(_, s)| s.is_nan() || *s > AUTO_MOST_STD_ERROR);
     let mut holds: Vec<(usize, f64, bool)> = undetermined.iter().map(|&(i, s)| (i, s, true)).collect();
     let k = determined.len();
     let wald = match k {
