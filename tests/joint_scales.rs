@@ -70,8 +70,13 @@ fn scale_errors_are_recovered_and_cost_the_mechanism_nothing_while_held_they_cos
     // scale errors cost several times that (the study: 3.5× on 200 poses).
     assert!(with_scales < 1.5 * without_error, "{with_scales:.4}° with the error, {without_error:.4}° without");
     assert!(held > 2.0 * with_scales, "held {held:.4}° against {with_scales:.4}° fitted");
+    // The text report, its HTML page's table and `--json` (the report serialised) each carry them.
     let text = fitted.report.to_string();
     assert!(text.contains("leg1.scale") && text.contains("ppm"), "{text}");
+    let html = fitted.html(&text);
+    assert!(html.contains("Joint scales (φ = s·θ + δ)") && html.contains("std error (ppm)"), "no joint-scale table");
+    let found = |leg: usize| fitted.report.joint_scales.iter().any(|s| s.leg == leg && s.std_error_ppm.is_some());
+    assert!((1..=3).all(found));
 }
 
 #[test]

@@ -131,11 +131,12 @@ class Leg:
     v0: Array
     delta: Any
     branch: float
+    scale: Any = 1.0
 
 
 def intermediate_axis(leg: Leg, theta: Array) -> Array:
-    """``w(θ)`` for readings ``(n,)``: ``(n, 3)``."""
-    phi = theta + leg.delta
+    """``w(θ)`` for readings ``(n,)``: ``(n, 3)``, ``φ = sθ + δ``."""
+    phi = leg.scale * theta + leg.delta
     y = cross(leg.u, leg.z)
     out: Array = (np.cos(leg.alpha1) * leg.u
                   + np.sin(leg.alpha1) * (np.cos(phi)[:, None] * leg.z + np.sin(phi)[:, None] * y))
@@ -195,9 +196,10 @@ def ik(legs: Sequence[Leg], r: Array, near: Optional[Array] = None) -> Array:
             chosen = np.where(np.isnan(chosen) & (np.sign(sign) == leg.branch), phi, chosen)
         if np.any(np.isnan(chosen)):
             raise ReferenceError(f"leg {i + 1}: no root on the home branch")
-        theta = chosen - leg.delta
-        centre = np.zeros(n) if near is None else near[:, i]
-        out[:, i] = centre + (theta - centre + np.pi) % (2 * np.pi) - np.pi
+        # φ − δ unwrapped to within π of the scaled `near`, then the scale divided out.
+        angle = chosen - leg.delta
+        centre = np.zeros(n) if near is None else leg.scale * near[:, i]
+        out[:, i] = (centre + (angle - centre + np.pi) % (2 * np.pi) - np.pi) / leg.scale
     return out
 
 
@@ -289,7 +291,7 @@ def parse_name(name: str) -> tuple[str, int, int]:
             if tail.startswith(axis + "_tilt"):
                 k = tail[len(axis) + 5:]
                 return (axis, leg, int(k) - 1 if k else 0)
-        if tail in ("alpha1", "alpha2", "delta"):
+        if tail in ("alpha1", "alpha2", "delta", "scale"):
             return (tail, leg, 0)
     elif head == "camera":
         if tail.startswith("rotation_"):
@@ -319,7 +321,7 @@ def state(start: Start, x: Array) -> State:
     dtype = np.result_type(x, float)
     tilt_u = [np.zeros(3, dtype) for _ in range(3)]
     tilt_v = [np.zeros(3, dtype) for _ in range(3)]
-    add = {key: [dtype.type(0)] * 3 for key in ("alpha1", "alpha2", "delta")}
+    add = {key: [dtype.type(0)] * 3 for key in ("alpha1", "alpha2", "delta", "scale")}
     rotation = np.zeros(3, dtype)
     translation = np.zeros(3, dtype)
     markers = np.zeros(start.markers.shape, dtype)
@@ -346,7 +348,8 @@ def state(start: Start, x: Array) -> State:
         u = expm(tilt_u[i]) @ leg.u
         z = unit(leg.z - u * np.sum(leg.z * u))
         legs.append(Leg(u=u, z=z, alpha1=leg.alpha1 + add["alpha1"][i], alpha2=leg.alpha2 + add["alpha2"][i],
-                        v0=expm(tilt_v[i]) @ leg.v0, delta=leg.delta + add["delta"][i], branch=leg.branch))
+                        v0=expm(tilt_v[i]) @ leg.v0, delta=leg.delta + add["delta"][i], branch=leg.branch,
+                        scale=leg.scale + add["scale"][i]))
     return State(legs=legs, camera_rotation=expm(rotation) @ start.camera_rotation,
                  camera_translation=start.camera_translation + translation, markers=start.markers + markers,
                  k=camera_matrix(start.camera_model, start.camera_terms + terms))
@@ -420,11 +423,12 @@ def finite_difference_jacobian(start: Start, x: Array, joints: Array, markers: A
 
 def legs_from_file(legs: Sequence[dict[str, Any]]) -> list[Leg]:
     """Legs from a parameters file's ``legs`` (docs/sessions-and-formats.md: ``u``, ``z``,
-    ``alpha1_deg``, ``alpha2_deg``, ``v0``, ``delta_deg``, ``home_branch``)."""
+    ``alpha1_deg``, ``alpha2_deg``, ``v0``, ``delta_deg``, ``scale`` (1 when absent), ``home_branch``)."""
     return [Leg(u=np.array(leg["u"], dtype=float), z=np.array(leg["z"], dtype=float),
                 alpha1=math.radians(leg["alpha1_deg"]), alpha2=math.radians(leg["alpha2_deg"]),
                 v0=np.array(leg["v0"], dtype=float), delta=math.radians(leg["delta_deg"]),
-                branch=-1.0 if leg.get("home_branch", "negative") == "negative" else 1.0) for leg in legs]
+                branch=-1.0 if leg.get("home_branch", "negative") == "negative" else 1.0,
+                scale=float(leg.get("scale", 1.0))) for leg in legs]
 
 
 def agile_wrist() -> list[Leg]:

@@ -217,6 +217,9 @@ def report_figures(text: str) -> dict[str, list[str]]:
         if not row:
             break
         figures[row[1]] = [row[2], row[3]]
+    # The joint scales, after the angles: the scale, its change and standard error in ppm, or held.
+    for row in re.finditer(r"^  (leg\d\.scale)\s+(\d\.\d{6}) \((?:([+-]\d+) ± (\d+) ppm|held.*|frozen)\)$", text, re.MULTILINE):
+        figures[row[1]] = [row[2]] + ([row[3], row[4]] if row[3] else [])
     number = r"([+-]?\d+\.\d+)"
     t = re.search(rf"camera translation t_CB: \[{number}, {number}, {number}\] m "
                   rf"\(± \[{number}, {number}, {number}\] mm\)", text)
@@ -261,6 +264,10 @@ def assert_table_is_the_report(calibration: spmcal.Calibration) -> int:
             assert [f"{r['change']:+.5f}", f"{r['std_error']:.5f}"] == printed, r
         elif r["name"].startswith("camera.t_"):
             assert [f"{r['value'] / 1e3:.4f}", f"{r['std_error']:.4f}"] == printed, r
+        elif r["unit"] == "ppm":
+            held = r["status"] != "fitted"
+            assert [f"{r['value']:.6f}"] + ([] if held else [f"{r['change']:+.0f}", f"{r['std_error']:.0f}"]) == printed, r
+            continue
         elif r["unit"] == "ms":
             assert [f"{r['value']:.3f}", f"{r['std_error']:.3f}"] == printed, r
         elif r["unit"] == "":
@@ -276,7 +283,7 @@ def test_the_parameters_table_is_the_text_reports_figures_in_its_units() -> None
     # The depth-scale model named: the table's depth-scale row against the report's (the default,
     # `auto`, chooses a perfect camera here and holds the depth scale).
     calibration = spmcal.calibrate(spmcal.Session.load(SESSION), camera_model="depth_scale")
-    assert assert_table_is_the_report(calibration) == 18 + 3 + 1 + 4 * 3
+    assert assert_table_is_the_report(calibration) == 18 + 3 + 3 + 1 + 4 * 3
     rows = {r["name"]: r for r in table_rows(calibration.parameters_table())}
     # A link angle's value is the calibrated angle: the nominal model's plus the change.
     nominal = spmcal.Model.load(MODEL).to_dict()["legs"][0]["alpha1_deg"]

@@ -46,8 +46,8 @@ def test_forward_with_joint_scales_is_the_command_lines_fda_to_1e12(cli: str, tm
     text = "".join(line + (f"  scale: {next(scales)}\n" if line.startswith("  delta_deg:") else "") for line in lines)
     params = tmp_path / "scaled.yaml"
     params.write_text(text)
-    model = spmcal.Model.load(str(params))
-    unscaled = spmcal.Model.load("datasets/agile_wrist_sim_400/truth.yaml")
+    model = spmcal.Model.from_params(str(params))
+    unscaled = spmcal.Model.from_params("datasets/agile_wrist_sim_400/truth.yaml")
     rng = np.random.default_rng(11)
     rotvec = rng.uniform(-0.3, 0.3, size=(50, 3))
     angle = np.linalg.norm(rotvec, axis=1, keepdims=True)

@@ -220,10 +220,10 @@ pub struct CalibConfig {
     /// Parameter groups held fixed.
     #[serde(default)]
     pub freeze: Vec<Group>,
-    /// The joints' scales (`φ = sθ + δ`, a transmission ratio's error): `auto` (the default) fits
-    /// each where the session tells it from the joint's offset (its reading spans enough) and holds
-    /// the others at 1, saying so; `fit` fits all three; `hold` holds them (as `freeze:
-    /// [joint_scales]`).
+    /// The joints' scales (`φ = sθ + δ`, a transmission ratio's error): `auto` (the default) keeps
+    /// the ones the session determines (to ±0.1 %) when they show an error (3σ's worth together)
+    /// and holds the others at their start, saying so; `fit` fits all three; `hold` holds them (as
+    /// `freeze: [joint_scales]`).
     pub joint_scales: JointScales,
     /// A session seen through its cameras' pixels: the rig's terms refined with the mechanism
     /// (`focal_lengths`, `principal_points`, `radial_k1`, `radial_k2`, `other_distortion`,
