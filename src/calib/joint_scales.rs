@@ -3,10 +3,10 @@
 //!
 //! A scale moves a joint's angle by `θ` times what its offset does: where a joint's reading barely
 //! changes over the session the two cannot be told apart, and where it spans a little they can
-//! only poorly. `joint_scales: auto` (the default) keeps a fitted scale only where the fit
-//! determines it to [`AUTO_MOST_STD_ERROR`] (else it is held at its start with a warning giving the
-//! joint's span) and the scales together differ from their start by 3σ's worth (else they are
-//! held there, said in the report's lines; see [`auto_holds`]);
+//! only poorly. `joint_scales: auto` (the default) fits without them, then frees the ones the fit
+//! would determine to [`AUTO_MOST_STD_ERROR`] (the others are held at their start with a warning
+//! giving the joints' spans) when together they differ from their start by 3σ's worth ([`score`];
+//! else they are held there, said in the report's lines);
 //! `fit` fits all three (an unidentifiable one is then regularised like any other direction);
 //! `hold` fits none.
 
@@ -14,19 +14,15 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use super::config::{CalibConfig, JointScales};
-use super::identify::Identifiability;
+use super::fit::{FitOutcome, weighted_normal};
 use super::parameterisation::{Kind, Parameterisation};
-use super::uncertainty::std_error;
+use super::uncertainty::{residual_scale, std_error};
 use crate::dataset::Session;
 
 /// `auto` fits a scale whose standard error is at most this (0.1 %): a transmission's error of
 /// 0.3 % is then seen at 3σ, and one that the data determine no better would add to the
 /// calibrated model's error about as much as it could remove.
 pub(crate) const AUTO_MOST_STD_ERROR: f64 = 1e-3;
-
-/// A scale weighs this much (column-scaled) in an unidentifiable direction: it is part of what
-/// the data cannot determine (as a camera term: `pipeline::CAMERA_IN_NULL_DIRECTION`).
-const SCALE_IN_NULL_DIRECTION: f64 = 0.3;
 
 /// One leg's joint scale as the calibration leaves it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -67,24 +63,6 @@ pub(crate) fn spans_deg(session: &Session) -> [f64; 3] {
     })
 }
 
-/// The scales that take part in an unidentifiable direction (by their share of the column-scaled
-/// direction, so that units do not decide).
-pub(crate) fn unidentified(p: &Parameterisation, identifiability: &Identifiability) -> Vec<usize> {
-    let scales: Vec<usize> = entries(p).into_iter().map(|(i, _)| i).collect();
-    let mut held: Vec<usize> = identifiability
-        .null_vectors
-        .iter()
-        .flat_map(|v| {
-            let scaled = v.component_mul(&identifiability.column_norms);
-            let norm = scaled.norm().max(f64::MIN_POSITIVE);
-            scales.iter().copied().filter(move |&i| (scaled[i] / norm).abs() > SCALE_IN_NULL_DIRECTION)
-        })
-        .collect();
-    held.sort_unstable();
-    held.dedup();
-    held
-}
-
 /// `free` as the check of enough observations counts it: under `auto` the scales are fitted only
 /// where the data show them, so a session too small for them is still calibrated without them.
 pub(crate) fn counted(p: &Parameterisation, free: &[bool], config: &CalibConfig) -> Vec<bool> {
@@ -97,51 +75,98 @@ pub(crate) fn auto(config: &CalibConfig) -> bool {
     config.joint_scales == JointScales::Auto && !config.freeze.contains(&super::config::Group::JointScales)
 }
 
-/// The 99.73 % quantile (3σ's worth) of χ² with 1, 2 and 3 degrees of freedom: `auto` keeps the
-/// fitted scales when their changes, taken together with their covariance, exceed it.
+/// The 99.73 % quantile (3σ's worth) of χ² with 1, 2 and 3 degrees of freedom: `auto` frees the
+/// scales when their changes, taken together with their covariance, would exceed it.
 const CHI2_3_SIGMA: [f64; 3] = [9.0, 11.829, 14.156];
 
-/// What `auto` does with the fitted scales, as `(entry, σ, undetermined)` for each one to hold:
-/// a scale whose standard error exceeds [`AUTO_MOST_STD_ERROR`] is held (`undetermined`: the
-/// session cannot tell it); the others are kept together or held together, kept when their
-/// changes differ from none by 3σ's worth jointly (the Wald statistic `Δsᵀ C⁻¹ Δs` against χ²'s
-/// 99.73 % quantile). On a session without a scale error they are then fitted in 0.3 % of
-/// sessions — fitting three scales determined to ±500 ppm would cost such a session 20–30 % of its
-/// accuracy (`examples/joint_scales`) — and where one joint's error shows, all are fitted, so that
-/// a smaller error beside it is not left behind.
-pub(crate) fn auto_holds(
-    p: &Parameterisation,
-    x: &DVector<f64>,
-    cov: &DMatrix<f64>,
-    free: &[bool],
-) -> (Vec<(usize, f64, bool)>, f64) {
-    let fitted: Vec<(usize, f64)> =
-        entries(p).into_iter().filter_map(|(i, _)| std_error(cov, free, i).map(|s| (i, s))).collect();
-    let (undetermined, determined): (Vec<_>, Vec<_>) =
-        fitted.into_iter().partition(|(_, s)| s.is_nan() || *s > AUTO_MOST_STD_ERROR);
-    let mut holds: Vec<(usize, f64, bool)> = undetermined.iter().map(|&(i, s)| (i, s, true)).collect();
-    let k = determined.len();
-    let wald = match k {
-        0 => 0.0,
-        _ => {
-            let c = DMatrix::from_fn(k, k, |a, b| cov[(determined[a].0, determined[b].0)]);
-            let d = DVector::from_fn(k, |a, _| x[determined[a].0]);
-            let eps = 1e-14 * c.amax();
-            c.pseudo_inverse(eps).map_or(f64::INFINITY, |inv| (d.transpose() * inv * &d)[(0, 0)])
-        }
-    };
-    if k > 0 && wald < CHI2_3_SIGMA[k - 1] {
-        holds.extend(determined.iter().map(|&(i, s)| (i, s, false)));
-    }
-    (holds, wald)
+/// The score (Lagrange multiplier) test of the scales at a fit that held them: what the data say
+/// about them without fitting them. At the fit's optimum the gradient of the free parameters is
+/// zero; the scales' gradient `g_s`, with the Schur complement `S = H_ss − H_sf H_ff⁻¹ H_fs` of the
+/// weighted normal equations, gives each scale's standard error were it freed (`σ̂² S⁻¹`), the
+/// one-step change it would make (`−S⁻¹ g_s`) and the statistic `g_sᵀ S⁻¹ g_s / σ̂²`, asymptotically
+/// the Wald statistic of the fit with them free. On a session without a scale error it exceeds
+/// χ²'s 99.73 % quantile in 0.3 % of sessions, so fitting by default costs such sessions nothing
+/// measurable — fitting three scales determined to ±500 ppm would cost them 20–30 % of their
+/// accuracy (`examples/joint_scales`) — and where one joint's error shows, all are fitted, so that a
+/// smaller error beside it is not left behind.
+pub(crate) struct Score {
+    /// Scales determined to [`AUTO_MOST_STD_ERROR`]: `(entry, one-step change, σ)`.
+    pub(crate) determined: Vec<(usize, f64, f64)>,
+    /// The others: `(entry, σ)` (`None`: not identifiable at all).
+    pub(crate) undetermined: Vec<(usize, Option<f64>)>,
+    /// The statistic of the determined ones.
+    pub(crate) chi2: f64,
 }
 
-/// Why a scale `auto` fitted was held at its start because the data do not show the scales to
-/// differ (`wald`: their joint statistic, over `k` scales).
+impl Score {
+    /// Whether the determined scales differ from their start by 3σ's worth together.
+    pub(crate) fn shows_error(&self) -> bool {
+        let k = self.determined.len();
+        k > 0 && self.chi2 >= CHI2_3_SIGMA[k - 1]
+    }
+}
+
+/// The score test of the scales `tested` at `outcome`, a fit of the `free` parameters (with the
+/// prior `lambda` on them, when the fit had one).
+pub(crate) fn score<N>(
+    outcome: &FitOutcome<N>,
+    free: &[bool],
+    tested: &[usize],
+    lambda: Option<&DMatrix<f64>>,
+) -> Score {
+    let fitted: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
+    let sigma2 = residual_scale(outcome, fitted.len());
+    let schur = |scales: &[usize]| -> Option<(DMatrix<f64>, DVector<f64>)> {
+        let all: Vec<usize> = fitted.iter().chain(scales).copied().collect();
+        let (mut h, g) = weighted_normal(&outcome.evaluation, &outcome.weighting, &all);
+        if let Some(l) = lambda {
+            for (a, &i) in fitted.iter().enumerate() {
+                for (b, &k) in fitted.iter().enumerate() {
+                    h[(a, b)] += l[(i, k)];
+                }
+            }
+        }
+        let (nf, ns) = (fitted.len(), scales.len());
+        let hff = h.view((0, 0), (nf, nf)).clone_owned();
+        let hfs = h.view((0, nf), (nf, ns)).clone_owned();
+        let hss = h.view((nf, nf), (ns, ns)).clone_owned();
+        let inv = hff.clone().pseudo_inverse(1e-14 * hff.amax()).ok()?;
+        let s = hss - hfs.transpose() * &inv * &hfs;
+        let gs = g.rows(nf, ns) - hfs.transpose() * &inv * g.rows(0, nf);
+        Some((s, gs))
+    };
+    let mut out = Score { determined: Vec::new(), undetermined: Vec::new(), chi2: 0.0 };
+    let Some((s, _)) = schur(tested) else {
+        out.undetermined = tested.iter().map(|&i| (i, None)).collect();
+        return out;
+    };
+    // Each scale's standard error, were all the tested ones freed.
+    let cov = s.clone().pseudo_inverse(1e-12 * s.amax().max(f64::MIN_POSITIVE)).ok();
+    let mut determined = Vec::new();
+    for (a, &i) in tested.iter().enumerate() {
+        let sigma = cov.as_ref().map(|c| (sigma2 * c[(a, a)]).sqrt()).filter(|s| s.is_finite() && *s > 0.0);
+        match sigma {
+            Some(sd) if sd <= AUTO_MOST_STD_ERROR => determined.push(i),
+            _ => out.undetermined.push((i, sigma)),
+        }
+    }
+    if determined.is_empty() {
+        return out;
+    }
+    let Some((s, gs)) = schur(&determined) else { return out };
+    let Some(inv) = s.clone().pseudo_inverse(1e-12 * s.amax().max(f64::MIN_POSITIVE)).ok() else { return out };
+    let step = -(&inv * &gs);
+    out.chi2 = (gs.transpose() * &inv * &gs)[(0, 0)] / sigma2;
+    out.determined = determined.iter().enumerate().map(|(a, &i)| (i, step[a], (sigma2 * inv[(a, a)]).sqrt())).collect();
+    out
+}
+
+/// Why a scale `auto` held at its start: the data do not show the scales to differ (`change` and
+/// `sigma` what freeing it would give, `wald` the statistic of the `k` scales together).
 pub(crate) fn insignificant_reason(change: f64, sigma: f64, wald: f64, k: usize) -> String {
     format!(
-        "not distinguishable from its start: fitted, it moved {:+.0} ± {:.0} ppm; the {k} scales' changes together \
-         give χ² = {wald:.1}, under the {:.1} of 3σ",
+        "not distinguishable from its start: freed, it would move {:+.0} ± {:.0} ppm; the {k} scales' changes \
+         together give χ² = {wald:.1}, under the {:.1} of 3σ",
         1e6 * change,
         1e6 * sigma,
         CHI2_3_SIGMA[k.clamp(1, 3) - 1]

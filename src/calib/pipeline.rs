@@ -178,8 +178,9 @@ fn fit_largest_camera_model(
     let nominal = best_registration(&problem, &p.start(), &registration, config).map_err(|e| e.to_string())?;
     let mut identifiability = identifiability_at(p, &nominal, &free, config);
     let mut held = unidentified_camera_terms(p, &identifiability);
+    // `auto` chooses the camera as it calibrates a session without a scale error: scales held.
     if joint_scales::auto(config) {
-        held.extend(joint_scales::unidentified(p, &identifiability));
+        held.extend(joint_scales::entries(p).into_iter().map(|(i, _)| i));
     }
     if !held.is_empty() {
         held.iter().for_each(|&i| free[i] = false);
@@ -228,22 +229,19 @@ fn run<L: Level>(
     // A camera term the data cannot determine is held at its start and said so, not fitted into
     // the noise (nor regularised with the mechanism).
     let held_camera = unidentified_camera_terms(p, &identifiability);
-    // So is a joint scale (`joint_scales: auto`) that the joint's span cannot tell from its offset.
+    // `joint_scales: auto` fits without the scales first, then frees them only where the data
+    // show a scale error (a score test at that fit: `joint_scales::score`).
     let spans = joint_scales::spans_deg(session);
     let scale_legs = joint_scales::entries(p);
     let leg_of = |i: usize| scale_legs.iter().find(|(k, _)| *k == i).map_or(0, |(_, leg)| *leg);
-    // The scales held as undetermined, `(leg, span, σ)`, for the one warning that says so.
-    let mut undetermined: Vec<(usize, f64, Option<f64>)> = Vec::new();
-    let mut held_scales: Vec<(usize, String)> = match joint_scales::auto(config) {
-        true => joint_scales::unidentified(p, &identifiability)
-            .into_iter()
-            .map(|i| (i, joint_scales::held_reason(spans[leg_of(i)], None)))
-            .collect(),
+    let tested: Vec<usize> = match joint_scales::auto(config) {
+        true => scale_legs.iter().map(|(i, _)| *i).filter(|&i| free[i]).collect(),
         false => Vec::new(),
     };
-    undetermined.extend(held_scales.iter().map(|(i, _)| (leg_of(*i), spans[leg_of(*i)], None)));
-    if !held_camera.is_empty() || !held_scales.is_empty() {
-        held_camera.iter().chain(held_scales.iter().map(|(i, _)| i)).for_each(|&i| free[i] = false);
+    // The scales held, each with why: the report's lines.
+    let mut held_scales: Vec<(usize, String)> = Vec::new();
+    if !held_camera.is_empty() || !tested.is_empty() {
+        held_camera.iter().chain(&tested).for_each(|&i| free[i] = false);
         identifiability = identifiability_at(p, &nominal, &free, config);
     }
     let camera_warnings = held_camera.iter().map(|&i| {
@@ -279,36 +277,32 @@ fn run<L: Level>(
         FitSettings { prior: prior.clone(), stage: "calibration", ..FitSettings::from_config(config, free.clone()) };
     let mut robust = fit(&problem, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
     clock.lap("calibration", robust.log.len());
-    // `joint_scales: auto`: a scale the fit determines too poorly to tell a transmission's error,
-    // or does not show to differ from its start, is held there and the fit finished without it.
-    if joint_scales::auto(config) {
-        let cov = covariance(&robust, &free, prior.as_ref().map(|(l, _)| l));
-        let (holds, wald) = joint_scales::auto_holds(p, &robust.x, &cov, &free);
-        let tested = holds.iter().filter(|h| !h.2).count();
-        if !holds.is_empty() {
-            // From the start again, as `joint_scales: hold` fits: holding every scale then gives
-            // exactly its calibration.
-            let start = nominal.x.clone();
-            for &(i, sigma, unknown) in &holds {
-                free[i] = false;
-                let why = match unknown {
-                    true => {
-                        undetermined.push((leg_of(i), spans[leg_of(i)], Some(sigma)));
-                        joint_scales::held_reason(spans[leg_of(i)], Some(sigma))
-                    }
-                    false => joint_scales::insignificant_reason(robust.x[i] - nominal.x[i], sigma, wald, tested),
-                };
-                held_scales.push((i, why));
-            }
+    // `joint_scales: auto`: the scales the fit without them would determine (to ±0.1 %) are freed
+    // and the fit finished with them when, together, the data show them to differ from their
+    // start (3σ's worth); else the calibration is `hold`'s, each scale's line saying why.
+    let mut undetermined: Vec<(usize, f64, Option<f64>)> = Vec::new();
+    if !tested.is_empty() {
+        let lambda = prior.as_ref().map(|(l, _)| l);
+        let score = joint_scales::score(&robust, &free, &tested, lambda);
+        for &(i, sigma) in &score.undetermined {
+            undetermined.push((leg_of(i), spans[leg_of(i)], sigma));
+            held_scales.push((i, joint_scales::held_reason(spans[leg_of(i)], sigma)));
+        }
+        if score.shows_error() {
+            score.determined.iter().for_each(|&(i, _, _)| free[i] = true);
             identifiability = identifiability_at(p, &nominal, &free, config);
             regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
             prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
             settings = FitSettings { prior: prior.clone(), ..FitSettings::from_config(config, free.clone()) };
-            settings.stage = "calibration with the joint scales held";
-            let mut again = fit(&problem, &start, &settings, on_iteration).map_err(stage("calibration"))?;
+            settings.stage = "calibration with the joint scales";
+            let mut again = fit(&problem, &robust.x, &settings, on_iteration).map_err(stage("calibration"))?;
             again.log = robust.log.iter().chain(&again.log).copied().collect();
             robust = again;
-            clock.lap("calibration with the joint scales held", robust.log.len());
+            clock.lap("calibration with the joint scales", robust.log.len());
+        } else {
+            for &(i, change, sigma) in &score.determined {
+                held_scales.push((i, joint_scales::insignificant_reason(change, sigma, score.chi2, score.determined.len())));
+            }
         }
     }
     // Gross errors (centimetres, tens of degrees) are removed, not only down-weighted: they would

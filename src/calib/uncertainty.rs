@@ -99,7 +99,7 @@ pub(crate) fn released<N>(outcome: &FitOutcome<N>, free: &[bool], i: usize) -> O
 }
 
 /// `σ̂²`: the weighted whitened residual variance per degree of freedom (`free` parameters).
-fn residual_scale<N>(outcome: &FitOutcome<N>, free: usize) -> f64 {
+pub(crate) fn residual_scale<N>(outcome: &FitOutcome<N>, free: usize) -> f64 {
     let w = &outcome.weighting;
     let m = outcome.evaluation.residuals.len();
     let chi2: f64 = outcome
