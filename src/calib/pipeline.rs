@@ -177,11 +177,9 @@ fn fit_largest_camera_model(
     let registration = registration_mask(p, &free);
     let nominal = best_registration(&problem, &p.start(), &registration, config).map_err(|e| e.to_string())?;
     let mut identifiability = identifiability_at(p, &nominal, &free, config);
-    let mut held = unidentified_camera_terms(p, &identifiability);
-    // `auto` chooses the camera as it calibrates a session without a scale error: scales held.
-    if joint_scales::auto(config) {
-        held.extend(joint_scales::entries(p).into_iter().map(|(i, _)| i));
-    }
+    // The joint scales are free here (unless held by the config): held, a camera model would
+    // be chosen to take up a scale error (a projective camera mimics part of one).
+    let held = unidentified_camera_terms(p, &identifiability);
     if !held.is_empty() {
         held.iter().for_each(|&i| free[i] = false);
         identifiability = identifiability_at(p, &nominal, &free, config);
