@@ -71,7 +71,7 @@ fn a_c_program_tracks_ten_thousand_steps_without_allocating_and_matches_rust_bit
     }
     // Joint scales travel in the parameters file too (`φ = sθ + δ`): the IK round trip below is
     // then on the scaled readings.
-    tracks_as_rust_does(&program, &scaled_truth(&manifest, "tracked"));
+    tracks_as_rust_does(&program, &scaled_truth(manifest, "tracked"));
 }
 
 /// The 20-pose session's truth with joint scales off by +0.4 / −0.3 / +0.2 %, in a temporary file.
@@ -97,7 +97,8 @@ fn forward_and_ik_with_joint_scales_are_the_librarys() {
     let mut model = std::ptr::null_mut();
     // SAFETY: a valid string and a pointer to write to.
     assert_eq!(unsafe { spmcal_c::spmcal_model_load(c_path.as_ptr(), &mut model) }, spmcal_c::SpmcalStatus::Ok);
-    let unscaled = Parameters::read(&manifest.join("../datasets/agile_wrist_sim_20/truth.yaml")).unwrap().spm().unwrap();
+    let unscaled =
+        Parameters::read(&manifest.join("../datasets/agile_wrist_sim_20/truth.yaml")).unwrap().spm().unwrap();
     for omega in [[0.2, -0.1, 0.3], [-0.25, 0.15, -0.2], [0.05, 0.3, 0.1]] {
         let r = so3::exp(&nalgebra::Vector3::from(omega));
         let (mut joints, mut q) = ([0.0; 3], [0.0; 4]);

@@ -3,10 +3,11 @@
 //!
 //! A scale moves a joint's angle by `θ` times what its offset does: where a joint's reading barely
 //! changes over the session the two cannot be told apart, and where it spans a little they can
-//! only poorly. `joint_scales: auto` (the default) fits without them, then frees the ones the fit
-//! would determine to [`AUTO_MOST_STD_ERROR`] (the others are held at their start with a warning
-//! giving the joints' spans) when together they differ from their start by 3σ's worth ([`score`];
-//! else they are held there, said in the report's lines);
+//! only poorly. `joint_scales: auto` (the default) fits without them, frees the ones the fit would
+//! determine to [`AUTO_MOST_STD_ERROR`] ([`score`]; the others are held at their start with a
+//! warning giving the joints' spans) and keeps them when together they differ from their start by
+//! 3σ's worth ([`wald`], [`shows_error`]); else the fit without them stands, the report's lines
+//! saying why;
 //! `fit` fits all three (an unidentifiable one is then regularised like any other direction);
 //! `hold` fits none.
 
@@ -83,12 +84,10 @@ const CHI2_3_SIGMA: [f64; 3] = [9.0, 11.829, 14.156];
 /// about them without fitting them. At the fit's optimum the gradient of the free parameters is
 /// zero; the scales' gradient `g_s`, with the Schur complement `S = H_ss − H_sf H_ff⁻¹ H_fs` of the
 /// weighted normal equations, gives each scale's standard error were it freed (`σ̂² S⁻¹`), the
-/// one-step change it would make (`−S⁻¹ g_s`) and the statistic `g_sᵀ S⁻¹ g_s / σ̂²`, asymptotically
-/// the Wald statistic of the fit with them free. On a session without a scale error it exceeds
-/// χ²'s 99.73 % quantile in 0.3 % of sessions, so fitting by default costs such sessions nothing
-/// measurable — fitting three scales determined to ±500 ppm would cost them 20–30 % of their
-/// accuracy (`examples/joint_scales`) — and where one joint's error shows, all are fitted, so that a
-/// smaller error beside it is not left behind.
+/// one-step change it would make (`−S⁻¹ g_s`) and the score statistic `g_sᵀ S⁻¹ g_s / σ̂²`. `auto`
+/// uses the standard errors to choose which scales to try; it decides on the Wald statistic of the
+/// fit with them free, since the score's is blunted where the fit without them bent the camera
+/// model and the robust weights to a scale error (a ten-minute recording, measured).
 pub(crate) struct Score {
     /// Scales determined to [`AUTO_MOST_STD_ERROR`]: `(entry, one-step change, σ)`.
     pub(crate) determined: Vec<(usize, f64, f64)>,
@@ -98,12 +97,20 @@ pub(crate) struct Score {
     pub(crate) chi2: f64,
 }
 
-impl Score {
-    /// Whether the determined scales differ from their start by 3σ's worth together.
-    pub(crate) fn shows_error(&self) -> bool {
-        let k = self.determined.len();
-        k > 0 && self.chi2 >= CHI2_3_SIGMA[k - 1]
-    }
+/// Whether `k` scales whose changes give the Wald statistic `wald` differ from their start by 3σ's
+/// worth together.
+pub(crate) fn shows_error(wald: f64, k: usize) -> bool {
+    k > 0 && wald >= CHI2_3_SIGMA[k.min(3) - 1]
+}
+
+/// The Wald statistic `Δsᵀ C⁻¹ Δs` of the scales `indices` at `x` (their changes from the start)
+/// with the fit's covariance `cov`.
+pub(crate) fn wald(x: &DVector<f64>, cov: &DMatrix<f64>, indices: &[usize]) -> f64 {
+    let k = indices.len();
+    let c = DMatrix::from_fn(k, k, |a, b| cov[(indices[a], indices[b])]);
+    let d = DVector::from_fn(k, |a, _| x[indices[a]]);
+    let eps = 1e-14 * c.amax();
+    c.pseudo_inverse(eps).map_or(f64::INFINITY, |inv| (d.transpose() * inv * &d)[(0, 0)])
 }
 
 /// The score test of the scales `tested` at `outcome`, a fit of the `free` parameters (with the
@@ -165,8 +172,8 @@ pub(crate) fn score<N>(
 /// `sigma` what freeing it would give, `wald` the statistic of the `k` scales together).
 pub(crate) fn insignificant_reason(change: f64, sigma: f64, wald: f64, k: usize) -> String {
     format!(
-        "not distinguishable from its start: freed, it would move {:+.0} ± {:.0} ppm; the {k} scales' changes \
-         together give χ² = {wald:.1}, under the {:.1} of 3σ",
+        "not distinguishable from its start: freed, it moved {:+.0} ± {:.0} ppm; the {k} scales' changes together \
+         give χ² = {wald:.1}, under the {:.1} of 3σ",
         1e6 * change,
         1e6 * sigma,
         CHI2_3_SIGMA[k.clamp(1, 3) - 1]

@@ -286,20 +286,39 @@ fn run<L: Level>(
             undetermined.push((leg_of(i), spans[leg_of(i)], sigma));
             held_scales.push((i, joint_scales::held_reason(spans[leg_of(i)], sigma)));
         }
-        if score.shows_error() {
-            score.determined.iter().for_each(|&(i, _, _)| free[i] = true);
-            identifiability = identifiability_at(p, &nominal, &free, config);
-            regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
-            prior = identifiability.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
-            settings = FitSettings { prior: prior.clone(), ..FitSettings::from_config(config, free.clone()) };
-            settings.stage = "calibration with the joint scales";
-            let mut again = fit(&problem, &robust.x, &settings, on_iteration).map_err(stage("calibration"))?;
-            again.log = robust.log.iter().chain(&again.log).copied().collect();
-            robust = again;
-            clock.lap("calibration with the joint scales", robust.log.len());
-        } else {
-            for &(i, change, sigma) in &score.determined {
-                held_scales.push((i, joint_scales::insignificant_reason(change, sigma, score.chi2, score.determined.len())));
+        // The determined scales freed, from the fit without them; kept when they show an error (the
+        // Wald statistic: the score's own is blunted where the fit without them bent the camera
+        // model and the robust weights to a scale error), else the fit without them stands.
+        if !score.determined.is_empty() {
+            let mut trial_free = free.clone();
+            score.determined.iter().for_each(|&(i, _, _)| trial_free[i] = true);
+            let trial_id = identifiability_at(p, &nominal, &trial_free, config);
+            let trial_prior = trial_id.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+            let trial_settings = FitSettings {
+                prior: trial_prior.clone(),
+                stage: "calibration with the joint scales",
+                ..FitSettings::from_config(config, trial_free.clone())
+            };
+            let mut trial = fit(&problem, &robust.x, &trial_settings, &mut |_| {}).map_err(stage("calibration"))?;
+            let cov = covariance(&trial, &trial_free, trial_prior.as_ref().map(|(l, _)| l));
+            let indices: Vec<usize> = score.determined.iter().map(|&(i, _, _)| i).collect();
+            let wald = joint_scales::wald(&trial.x, &cov, &indices);
+            clock.lap("joint-scale test", trial.log.len());
+            if joint_scales::shows_error(wald, indices.len()) {
+                trial.log.iter().for_each(&mut *on_iteration);
+                trial.log = robust.log.iter().chain(&trial.log).copied().collect();
+                robust = trial;
+                free = trial_free;
+                identifiability = trial_id;
+                regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
+                prior = trial_prior;
+                settings = trial_settings;
+            } else {
+                for &i in &indices {
+                    let sigma = cov[(i, i)].max(0.0).sqrt();
+                    let why = joint_scales::insignificant_reason(trial.x[i] - nominal.x[i], sigma, wald, indices.len());
+                    held_scales.push((i, why));
+                }
             }
         }
     }
