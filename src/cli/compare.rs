@@ -70,7 +70,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
         let params = Parameters::read(path)?;
         warnings.extend(params.check_model(path, &model)?);
         // A free-motion recording is drawn at the parameters' latency.
-        session = SessionArgs::at_latency(session, path, params.latency_s, &mut warnings);
+        session = SessionArgs::at_latency(session, path, &params, &mut warnings);
         let label = format!("{:?}", params.source).to_lowercase();
         sets.push((label, params));
     }
