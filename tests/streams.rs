@@ -203,6 +203,11 @@ fn the_latency_is_estimated_with_an_honest_standard_error() {
     own.assert_honest("the latency alone, 20 recordings");
 }
 
+/// The studies' measures of a calibration against the truth.
+#[path = "../examples/marker_efficiency/study.rs"]
+#[allow(dead_code)]
+mod study;
+
 /// Standardised errors of the fits' parameters against the truth, checked for honest σ's.
 #[path = "common/z_scores.rs"]
 #[allow(dead_code)] // shared by the tests, each using part of it
@@ -389,21 +394,13 @@ fn a_camera_clock_that_runs_fast_is_recovered_and_one_clock_is_not_hurt() {
     let held_at_0 = calibrate(&one, &model, &old, &mut |_| {}).unwrap();
     let r = estimated.report.markers.as_ref().unwrap().clock_rate_ppm.unwrap();
     assert!(r.value.abs() < 3.29 * r.std_error.unwrap(), "{r:?}");
-    let truth = &one.truth.as_ref().unwrap().parameters;
-    let error = |c: &spmcal::calib::Calibration| {
-        let truth = truth.spm().unwrap();
-        let spm = c.parameters.spm().unwrap();
-        // The RMS over the fitted poses of the angle between the calibrated and the true FDA.
-        let poses = &one.poses;
-        let sum: f64 = poses
-            .iter()
-            .filter_map(|p| Some((spm.forward(&p.joints).ok()?, truth.forward(&p.joints).ok()?)))
-            .map(|(a, b)| (a * b.inverse()).angle().powi(2))
-            .sum();
-        (sum / poses.len() as f64).sqrt()
-    };
+    // The calibrated mechanism's error against the truth on 100 unseen poses, up to the rotations
+    // common to every pose (as the report's predicted error and the study measure it).
+    let true_spm = one.truth.as_ref().unwrap().parameters.spm().unwrap();
+    let tests = study::test_orientations(&true_spm, 100, 0x5eed);
+    let error = |c: &spmcal::calib::Calibration| study::calibration_error_up_to_common_rotations(&one, c, &tests);
     let (e, h) = (error(&estimated), error(&held_at_0));
-    eprintln!("one clock: rate estimated {:.5}°, held {:.5}°", e.to_degrees(), h.to_degrees());
+    eprintln!("one clock: rate estimated {e:.5}°, held {h:.5}°");
     assert!(e <= 1.05 * h, "{e} vs {h}");
 }
 
