@@ -33,7 +33,7 @@ pub(crate) fn internal_unit(kind: Kind) -> &'static str {
         | Kind::Reference { .. } => "rad",
         Kind::Translation { .. } | Kind::Marker { .. } => "m",
         Kind::Latency => "s",
-        Kind::ClockRate => "s/s",
+        Kind::ClockRate => "s",
         Kind::CameraTerm { .. } => "",
         Kind::Rig { term } => match term {
             RigTerm::Intrinsic { .. } => "px",

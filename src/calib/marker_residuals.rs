@@ -135,7 +135,7 @@ pub struct StereoNoise {
 }
 
 /// A pose's joints and their rates of change with the camera latency and with the clock's rate
-/// difference (the fraction `ρ·10⁻⁶`).
+/// entry (the drift over the recording, `ρ·10⁻⁶·T`).
 type JointsAndRate = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
 
 /// Smallest σ the whitening uses (0.1 µm): noise-free data must not divide by zero.
@@ -240,9 +240,9 @@ impl<'a> MarkerResiduals<'a> {
     }
 
     /// Each pose's joints at `x` (the camera clock moves them along the encoder stream), with
-    /// their rates of change with the latency and with the clock's rate difference. A capture
-    /// stamped `t` is read at `e = (t − τ) / (1 + r)`, `r = ρ·10⁻⁶`: `∂e/∂τ = −1 / (1 + r)` and
-    /// `∂e/∂r = −e / (1 + r)`, each times the joint velocity `θ̇(e)`.
+    /// their rates of change with the latency and with the clock's rate entry (the drift `r·T`).
+    /// A capture stamped `t` is read at `e = (t − τ) / (1 + r)`, `r = ρ·10⁻⁶`: `∂e/∂τ = −1 / (1 + r)`
+    /// and `∂e/∂(rT) = −e / ((1 + r) T)`, each times the joint velocity `θ̇(e)`.
     fn joints(&self, x: &DVector<f64>) -> Result<Vec<JointsAndRate>, EvalError> {
         let latency = self.p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| self.p.clock(x));
         self.poses
@@ -253,7 +253,7 @@ impl<'a> MarkerResiduals<'a> {
                     match (s.joints_at(e), s.velocity_at(e)) {
                         (Some(j), Some(v)) => {
                             let stretch = 1.0 + clock.rate_ppm * 1e-6;
-                            Ok((j, -v / stretch, -v * (e / stretch)))
+                            Ok((j, -v / stretch, -v * (e / (stretch * self.p.clock_rate_span_s))))
                         }
                         _ => Err(EvalError::OutsideStream {
                             pose,

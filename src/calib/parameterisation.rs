@@ -75,8 +75,9 @@ pub enum Kind {
     /// The camera's latency behind the encoders, `τ − τ⁰` (s; free-motion recordings): at the
     /// encoders' time 0 when the clock rate is a parameter too.
     Latency,
-    /// The camera clock's rate difference `ρ·10⁻⁶` (a fraction, not ppm: s per s; free-motion
-    /// recordings): a capture stamped `t` was taken at `(t − τ) / (1 + ρ·10⁻⁶)` on the encoders' clock.
+    /// The camera clock's rate difference as the drift it makes over the recording,
+    /// `ρ·10⁻⁶·T` (s; `T` = [`Parameterisation::clock_rate_span_s`]; free-motion recordings): a
+    /// capture stamped `t` was taken at `(t − τ) / (1 + ρ·10⁻⁶)` on the encoders' clock.
     ClockRate,
     /// A term of the camera model, from its start (dimensionless).
     CameraTerm {
@@ -174,6 +175,11 @@ pub struct Parameterisation {
     /// Where the fit starts (or holds) the camera clock's rate difference (ppm): the config's
     /// `clock_rate_ppm`.
     pub clock_rate_start_ppm: f64,
+    /// The span `T` (s) over which the clock-rate entry is the drift: the entry is `ρ·10⁻⁶·T`, so
+    /// that its standard error is of the latency's size (a fraction's would be a thousand times
+    /// smaller than any other parameter's, and the trust region, in the parameters' own units,
+    /// would let it roam over many standard errors where the cost is rough).
+    pub clock_rate_span_s: f64,
     /// The camera model at `x = 0` (marker level; a perfect camera otherwise): its kind is the
     /// model fitted, its values where the fit starts.
     pub camera_model0: CameraModel,
@@ -253,6 +259,7 @@ impl Parameterisation {
             latency0: 0.0,
             latency_start: 0.0,
             clock_rate_start_ppm: 0.0,
+            clock_rate_span_s: 1.0,
             camera_model0: CameraModel::rigid(),
             rig0: None,
             entries,
@@ -299,11 +306,13 @@ impl Parameterisation {
     }
 
     /// The same parameterisation with the camera clock's rate difference as a parameter, started
-    /// at `start_ppm` and bounded by `bound_ppm` either side of zero (the entry is the fraction
-    /// `ρ·10⁻⁶`, so that its steps are of the latency's size, not a million times larger).
-    pub(crate) fn with_clock_rate(mut self, start_ppm: f64, bound_ppm: f64) -> Self {
+    /// at `start_ppm` and bounded by `bound_ppm` either side of zero; the entry is the drift over
+    /// `span_s` (the recording's span, at least 1 s), `ρ·10⁻⁶·T`.
+    pub(crate) fn with_clock_rate(mut self, start_ppm: f64, bound_ppm: f64, span_s: f64) -> Self {
         self.clock_rate_start_ppm = start_ppm;
-        let entry = Entry { kind: Kind::ClockRate, name: "camera.clock_rate".into(), bound: Some(bound_ppm * 1e-6) };
+        self.clock_rate_span_s = span_s.max(1.0);
+        let bound = Some(bound_ppm * 1e-6 * self.clock_rate_span_s);
+        let entry = Entry { kind: Kind::ClockRate, name: "camera.clock_rate".into(), bound };
         self.entries.push(entry);
         self
     }
@@ -344,7 +353,7 @@ impl Parameterisation {
             x[i] = self.latency_start;
         }
         if let Some(i) = self.entries.iter().position(|e| e.kind == Kind::ClockRate) {
-            x[i] = self.clock_rate_start_ppm * 1e-6;
+            x[i] = self.clock_rate_start_ppm * 1e-6 * self.clock_rate_span_s;
         }
         x
     }
@@ -352,7 +361,7 @@ impl Parameterisation {
     /// The camera clock's rate difference at `x` (ppm; the start without the parameter).
     pub fn clock_rate_ppm(&self, x: &DVector<f64>) -> f64 {
         match self.entries.iter().position(|e| e.kind == Kind::ClockRate) {
-            Some(i) => x[i] * 1e6,
+            Some(i) => x[i] / self.clock_rate_span_s * 1e6,
             None => self.clock_rate_start_ppm,
         }
     }

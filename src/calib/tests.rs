@@ -412,7 +412,7 @@ fn the_clock_rate_and_latency_columns_match_central_differences_on_a_drifting_cl
         &CalibConfig::default().bounds,
     )
     .with_latency(0.04, 0.2)
-    .with_clock_rate(300.0, 500.0);
+    .with_clock_rate(300.0, 500.0, 10.0);
     let (tau, rate) = (p.len() - 2, p.len() - 1);
     assert_eq!((p.entries[tau].name.as_str(), p.entries[rate].name.as_str()), ("camera.latency", "camera.clock_rate"));
     let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-4 * ((i * 5 + 1) as f64).sin());
@@ -438,9 +438,13 @@ fn the_clock_rate_and_latency_columns_match_central_differences_on_a_drifting_cl
         let jac = at.jacobian.unwrap();
         let stretch = 1.0 + clock.rate_ppm * 1e-6;
         let c = e * stretch;
-        for (i, up, down) in
-            [(tau, 0.01 * stretch, 0.01 * stretch), (rate, c / (e - 0.01) - stretch, stretch - c / (e + 0.01))]
-        {
+        // The rate's entry is the drift over the span T = 10 s, r·T.
+        let span = p.clock_rate_span_s;
+        let drift = |r: f64| r * span;
+        for (i, up, down) in [
+            (tau, 0.01 * stretch, 0.01 * stretch),
+            (rate, drift(c / (e - 0.01) - stretch), drift(stretch - c / (e + 0.01))),
+        ] {
             let (mut plus, mut minus) = (x.clone(), x.clone());
             plus[i] += up;
             minus[i] -= down;

@@ -130,9 +130,13 @@ impl<'s> MarkerLevel<'s> {
             // The fit starts at `latency_s` and keeps the latency within ±`latency_bound_s`: the
             // frames were chosen for that range, and a parameters file holds no more. The same
             // for the clock rate.
-            Some(_) if clock_held.is_none() => p
-                .with_latency(config.latency_s, config.latency_bound_s)
-                .with_clock_rate(config.clock_rate_ppm, config.clock_rate_bound_ppm),
+            Some(_) if clock_held.is_none() => {
+                p.with_latency(config.latency_s, config.latency_bound_s).with_clock_rate(
+                    config.clock_rate_ppm,
+                    config.clock_rate_bound_ppm,
+                    streams.map_or(1.0, Streams::camera_span_s),
+                )
+            }
             Some(_) => p.with_latency(config.latency_s, config.latency_bound_s),
             None => p,
         };
@@ -294,7 +298,7 @@ impl Level for MarkerLevel<'_> {
                 let i = p.entries.iter().position(|e| e.kind == Kind::ClockRate);
                 ClockRate {
                     value: p.clock_rate_ppm(x),
-                    std_error: i.and_then(|i| std_error(cov, free, i)).map(|s| s * 1e6),
+                    std_error: i.and_then(|i| std_error(cov, free, i)).map(|s| s / p.clock_rate_span_s * 1e6),
                     at_bound: i.is_some_and(|i| p.at_bound(x, i)),
                     held: self.clock_held,
                     span_s: self.span_s,
