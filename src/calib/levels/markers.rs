@@ -524,7 +524,8 @@ fn apparent_latency(r: &LevelResults<'_, MarkerResiduals<'_>>, latency: usize) -
     let (first, last) =
         times.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| (a.min(t), b.max(t)));
     let bins = (r.problem.poses() / POSES_PER_BIN).clamp(1, LATENCY_BINS);
-    if !(last > first) {
+    // No timed frame, or all at one time: no bins.
+    if last.partial_cmp(&first) != Some(std::cmp::Ordering::Greater) {
         return Vec::new();
     }
     let width = (last - first) / bins as f64;
