@@ -352,12 +352,34 @@ impl Level for MarkerLevel<'_> {
             markers: Some(markers),
             excluded: self.excluded.iter().cloned().chain(gross).collect(),
             notes: self.warnings.clone(),
-            findings: camera_warnings,
+            findings: camera_warnings.into_iter().chain(self.drift_finding(&markers)).collect(),
         })
     }
 }
 
 impl MarkerLevel<'_> {
+    /// With the clock's rate held, a warning when the apparent latency drifts beyond
+    /// [`CAMERA_SIGNIFICANCE`] standard errors of its slope (its bins' weighted straight line):
+    /// the camera's clock runs at its own rate, and the latency fitted is true of no moment.
+    fn drift_finding(&self, m: &MarkerFitReport) -> Option<String> {
+        let (held, rate) = (self.clock_held?, m.clock_rate_ppm?);
+        let (slope, se) = drift(&m.apparent_latency)?;
+        // The bins lie around the held clock's line: their slope is the rate they imply.
+        let (ppm, se_ppm) = (slope * 1e6, se * 1e6);
+        let how = match held {
+            "short_recording" => "lower `clock_rate_min_duration_s` to fit it",
+            "frozen" => "unfreeze `clock_rate` to fit it",
+            _ => "fit the recording at the marker level (`fit: markers`) to estimate it",
+        };
+        ((ppm - rate.value).abs() > CAMERA_SIGNIFICANCE * se_ppm).then(|| {
+            format!(
+                "the apparent latency drifts: the camera's clock runs {ppm:+.1} ± {se_ppm:.1} ppm against the encoders' ({:.1} standard errors from the {:+.1} ppm held), so the latency fitted holds for no moment of the recording; {how}",
+                (ppm - rate.value).abs() / se_ppm,
+                rate.value
+            )
+        })
+    }
+
     /// The camera model term by term: fitted or held (and why), a held term tested against the
     /// residuals, and what is significant said in words; a held term the residuals want moved is
     /// also a warning (the mechanism took the blame).
@@ -488,6 +510,21 @@ fn joint_speeds(observations: &[MarkerObservation], streams: &Streams, p: &Param
             o.time_s.and_then(|t| streams.velocity_at(clock.encoder_time(t))).map_or(0.0, |v| v.amax().to_degrees())
         })
         .collect()
+}
+
+/// The slope of the apparent latency against time (s per s) and its standard error: the straight
+/// line through the bins `[t, latency, σ]` weighted by `1/σ²`; `None` for fewer than three.
+fn drift(bins: &[[f64; 3]]) -> Option<(f64, f64)> {
+    if bins.len() < 3 {
+        return None;
+    }
+    let w: Vec<f64> = bins.iter().map(|b| 1.0 / (b[2] * b[2])).collect();
+    let sw: f64 = w.iter().sum();
+    let mean = |k: usize| bins.iter().zip(&w).map(|(b, w)| w * b[k]).sum::<f64>() / sw;
+    let (t0, l0) = (mean(0), mean(1));
+    let stt: f64 = bins.iter().zip(&w).map(|(b, w)| w * (b[0] - t0).powi(2)).sum();
+    let stl: f64 = bins.iter().zip(&w).map(|(b, w)| w * (b[0] - t0) * (b[1] - l0)).sum();
+    (stt > 0.0).then(|| (stl / stt, 1.0 / stt.sqrt()))
 }
 
 /// Time bins of the apparent latency: at most this many, of at least [`POSES_PER_BIN`] poses.
