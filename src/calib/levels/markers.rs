@@ -331,6 +331,7 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         };
+        let drift = self.drift_finding(&markers);
         let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency), p.rig0.is_some());
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
@@ -352,7 +353,7 @@ impl Level for MarkerLevel<'_> {
             markers: Some(markers),
             excluded: self.excluded.iter().cloned().chain(gross).collect(),
             notes: self.warnings.clone(),
-            findings: camera_warnings.into_iter().chain(self.drift_finding(&markers)).collect(),
+            findings: camera_warnings.into_iter().chain(drift).collect(),
         })
     }
 }
