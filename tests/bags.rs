@@ -203,8 +203,8 @@ fn a_free_motion_bag_calibrates_exactly_as_the_csv_recording_of_the_same_numbers
     // entry the last, after the latency's.
     let (bag_x, csv_x) = (parameters(&from_bag), parameters(&from_csv));
     assert_eq!(bag_x, csv_x);
-    let model = RobotModel::load(Path::new(MODEL)).unwrap();
-    let fit = calibrate(&from_bag, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let robot = RobotModel::load(Path::new(MODEL)).unwrap();
+    let fit = calibrate(&from_bag, &robot, &CalibConfig::default(), &mut |_| {}).unwrap();
     let names: Vec<&str> = fit.parameterisation.entries.iter().map(|e| e.name.as_str()).collect();
     assert_eq!(names[names.len() - 2..], ["camera.latency", "camera.clock_rate"]);
     assert!(fit.report.markers.as_ref().unwrap().clock_rate_ppm.unwrap().std_error.is_some());
