@@ -376,6 +376,10 @@ impl Residuals for MarkerResiduals<'_> {
         self.observations.len()
     }
 
+    fn rows(&self, j: usize) -> usize {
+        if self.observations[j].camera.is_some() { 2 } else { 3 }
+    }
+
     fn with_columns(mut self, columns: Vec<bool>) -> Self {
         self.columns = Some(columns);
         self

@@ -30,6 +30,15 @@ pub(crate) fn all(c: &Calibration) -> String {
     html + &flagged(r)
 }
 
+/// Which unseen poses the orientation error is predicted for, in words: the workspace the config
+/// names, or poses like the session's own.
+pub(crate) fn predicted_over(e: &crate::calib::PredictedError) -> String {
+    match &e.workspace {
+        Some(w) => format!("of the workspace (tilt ≤ {:.0}°, yaw ±{:.0}°)", w.max_tilt_deg, w.max_yaw_deg),
+        None => "like the session's".to_string(),
+    }
+}
+
 /// A paragraph of plain text.
 fn note(text: &str) -> String {
     format!("<p class=\"note\">{}</p>", escape(text))
