@@ -615,3 +615,46 @@ for name in sorted(chain, key=lambda n: int(n[3:])):
         assert_eq!(lines.next(), Some(resolution.as_str()));
     }
 }
+
+/// `convert --points` writes a pixel session's triangulated points — as a session folder, or as a
+/// bag, which carries points only (without `--points` the bag is refused, saying so): the points
+/// read back are the ones the rig triangulates.
+#[test]
+fn convert_writes_a_pixel_sessions_triangulated_points_as_a_folder_or_a_bag() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = "datasets/agile_wrist_stereo_200";
+    let convert = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"))
+            .args(["convert", "--dataset", dataset])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let bag = dir.path().join("points.mcap");
+    let refused = convert(&["--to-bag", bag.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && stderr.contains("--points") && !bag.exists(), "{stderr}");
+    let folder = dir.path().join("points");
+    for extra in [["--out", folder.to_str().unwrap()], ["--to-bag", bag.to_str().unwrap()]] {
+        let run = convert(&[extra[0], extra[1], "--points"]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    }
+    let (pixels, _) = Session::load(Path::new(dataset), None).unwrap();
+    let expected = pixels.as_points();
+    assert!(expected.rig.is_none() && expected.poses.iter().all(|p| p.pixels.is_empty()));
+    for path in [&folder, &bag] {
+        let (points, _) = Session::load(path, None).unwrap();
+        assert!(points.rig.is_none(), "{}", path.display());
+        assert_eq!(points.poses.len(), expected.poses.len(), "{}", path.display());
+        for (a, b) in points.poses.iter().zip(&expected.poses) {
+            assert_eq!(a.joints, b.joints);
+            for (m, n) in a.markers.iter().zip(&b.markers) {
+                match (m, n) {
+                    // Written with 9 significant digits: within a nanometre.
+                    (Some(m), Some(n)) => assert!((m - n).norm() < 1e-9, "{m} {n}"),
+                    _ => assert_eq!(m.is_some(), n.is_some()),
+                }
+            }
+        }
+    }
+}
