@@ -65,15 +65,9 @@ pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 #[cfg(not(feature = "internals"))]
 pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
-// The clock rate's report: a field of the marker fit's report, named by the studies and tests (the
-// API's count of public items has no room for it; its JSON is the user's interface).
-#[cfg(feature = "internals")]
-pub use report::ClockRate;
-#[cfg(not(feature = "internals"))]
-pub(crate) use report::ClockRate;
 pub use report::{
-    CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,
-    MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
+    CalibrationReport, CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, FlaggedObservation,
+    Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;

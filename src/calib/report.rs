@@ -148,7 +148,6 @@ pub struct Latency {
 
 /// How much faster the camera's clock runs than the encoders', for a free-motion recording.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[cfg_attr(not(feature = "internals"), allow(unreachable_pub))]
 pub struct ClockRate {
     /// The rate difference (ppm): estimated, or as held.
     pub value: f64,
