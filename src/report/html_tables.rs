@@ -206,7 +206,7 @@ pub(super) fn clock_rate(c: &ClockRate) -> String {
         ),
         (None, Some("frozen")) => format!("{:+.2} ppm (as given; frozen)", c.value),
         (None, Some("short_recording")) => format!(
-            "{:+.2} ppm (held: the recording spans {:.0} s, shorter than `clock_rate_min_duration_s`)",
+            "{:+.2} ppm (held: the recording spans {:.1} s, shorter than `clock_rate_min_duration_s`)",
             c.value, c.span_s
         ),
         (None, Some(_)) => format!("{:+.2} ppm (held: the orientation-level fit does not estimate it)", c.value),

@@ -146,7 +146,7 @@ impl<'s> MarkerLevel<'s> {
         let mut warnings: Vec<String> = warnings;
         if clock_held == Some("short_recording") {
             warnings.push(format!(
-                "the camera clock's rate is held at {} ppm: the recording spans {span_s:.0} s, shorter than `clock_rate_min_duration_s` = {} s (the latency is then the recording's average)",
+                "the camera clock's rate is held at {} ppm: the recording spans {span_s:.1} s, shorter than `clock_rate_min_duration_s` = {} s (the latency is then the recording's average)",
                 config.clock_rate_ppm, config.clock_rate_min_duration_s
             ));
         }
