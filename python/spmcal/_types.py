@@ -11,13 +11,15 @@ class ParametersTable(TypedDict):
     report's units and order (``pandas.DataFrame(table)`` reads it as a table).
 
     ``value`` is the calibrated value (a link angle's or an offset's in degrees, the camera
-    translation and the markers' positions in mm, the latency in ms, a camera term unitless); an
+    translation and the markers' positions in mm, the latency in ms, the camera clock's rate in ppm,
+    a camera term unitless); an
     axis tilt or a rotation component is itself a departure, so its value is its change.
     ``change`` is the departure from the nominal model (link angles, offsets, tilts), from the
     starting registration (camera rotation and translation), from the model's marker positions,
     or from a perfect camera (scale 1, shear 0). ``std_error`` is NaN where the parameter was not
     fitted; ``status`` says why: ``fitted``, ``frozen``, ``at bound``, or for a camera term
-    ``rigid`` or ``unidentifiable``. ``unit`` is ``deg``, ``mm``, ``ms`` or ``""`` (unitless).
+    ``rigid`` or ``unidentifiable``. ``unit`` is ``deg``, ``mm``, ``ms``, ``ppm`` or ``""``
+    (unitless).
     """
 
     name: list[str]

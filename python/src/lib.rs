@@ -656,7 +656,9 @@ impl Calibration {
 
     /// The unit of each entry of the parameter vector, as `parameter_names` orders them: `rad`
     /// (axis tilts, link angles, offsets, rotations), `m` (camera translation, marker positions),
-    /// `s` (latency), `""` (camera model terms, dimensionless). The units of `covariance` and
+    /// `s` (latency), `s` (also the camera clock's rate, as the drift it makes over the recording:
+    /// ppm × 1e-6 × the recording's span), `""` (camera
+    /// model terms, dimensionless). The units of `covariance` and
     /// `std_errors`.
     #[getter]
     fn parameter_units(&self) -> Vec<&'static str> {

@@ -37,6 +37,8 @@ pub enum Group {
     MarkerPositions,
     /// The camera's latency (free-motion recordings): frozen, `latency_s` is used as it is.
     Latency,
+    /// The camera clock's rate (free-motion recordings): frozen, `clock_rate_ppm` is used as it is.
+    ClockRate,
     /// The camera model's terms (marker-level fit): frozen, `camera_terms` are used as they are.
     CameraModel,
     /// A pixel session's camera rig (`rig_terms`): frozen, the rig is used as `cameras.yaml` gives it.
@@ -166,6 +168,18 @@ pub enum Unidentifiable {
     Regularise,
 }
 
+/// A workspace of orientations: the MP tilted from home up to `max_tilt_deg` in any direction and
+/// turned about its own axis by up to ±`max_yaw_deg` (`R = exp(tilt) · exp(yaw ẑ)`, tilt about an
+/// axis of the base's xy plane), as `plan` and `simulate` draw poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictionWorkspace {
+    /// Largest tilt of the MP from home (deg).
+    pub max_tilt_deg: f64,
+    /// Largest yaw of the MP about its own axis, either way (deg).
+    pub max_yaw_deg: f64,
+}
+
 /// The most iterations a fit may be given: a fit converges in tens; more is a typo.
 pub(crate) const MAX_ITERATIONS: u32 = 10_000;
 /// The most folds of the cross-validation (each costs a solve of the normal equations).
@@ -195,9 +209,25 @@ pub struct CalibConfig {
     pub latency_s: f64,
     /// The bound on the estimated latency, either sign (s).
     pub latency_bound_s: f64,
+    /// How much faster the camera's clock runs than the encoders' (ppm), for free-motion
+    /// recordings: a capture stamped `t` was taken at `(t − latency) / (1 + rate·10⁻⁶)`, the
+    /// latency being the one at the encoders' time 0. The marker-level fit estimates it from here
+    /// (within ±`clock_rate_bound_ppm`) on a recording that spans at least
+    /// `clock_rate_min_duration_s`, unless `clock_rate` is frozen; a shorter one holds it here.
+    pub clock_rate_ppm: f64,
+    /// The bound on the estimated clock rate difference, either sign (ppm).
+    pub clock_rate_bound_ppm: f64,
+    /// The shortest recording (camera time from its first frame to its last, s) on which the
+    /// clock rate is estimated: over a shorter one the drift of any plausible rate is lost in the
+    /// latency's own uncertainty.
+    pub clock_rate_min_duration_s: f64,
     /// Free-motion recordings: a capture taken while a joint turns faster than this (deg/s) is
     /// flagged and its noise inflated in proportion (blur, interpolation error).
     pub max_joint_speed_deg_s: f64,
+    /// The orientations the predicted error is for (`max_tilt_deg`, `max_yaw_deg`): where the
+    /// model will be used. Absent (the default): the session's own poses. A workspace beyond the
+    /// session's poses is predicted as the model extrapolates there, and the report says so.
+    pub workspace: Option<PredictionWorkspace>,
     /// The camera model the marker-level fit estimates with the mechanism: `auto` (the default:
     /// the simplest of the others that the cross-validation supports), `rigid` (a perfect camera),
     /// `depth_scale` (depths read `s` times their length), `affine` (per-axis scales and shears)
@@ -291,7 +321,11 @@ impl Default for CalibConfig {
             pass_held_out_deg: 0.5,
             latency_s: 0.0,
             latency_bound_s: 0.2,
+            clock_rate_ppm: 0.0,
+            clock_rate_bound_ppm: 500.0,
+            clock_rate_min_duration_s: 60.0,
             max_joint_speed_deg_s: 90.0,
+            workspace: None,
             camera_model: CameraModelSetting::Auto,
             camera_terms: CameraTerms::default(),
             vision_method: Method::Kabsch,
@@ -423,6 +457,37 @@ impl CalibConfig {
                 self.latency_bound_s, self.latency_s
             );
             return Err(("latency_s".into(), reason));
+        }
+        // The same for the clock rate.
+        let most = crate::model::limits::MAX_CLOCK_RATE_PPM;
+        let bound = self.clock_rate_bound_ppm;
+        if !(bound.is_finite() && bound > 0.0 && bound <= most) {
+            let reason = format!("`clock_rate_bound_ppm` must be in (0, {most}] ppm (got {bound})");
+            return Err(("clock_rate_bound_ppm".into(), reason));
+        }
+        if !(self.clock_rate_ppm.is_finite() && self.clock_rate_ppm.abs() < bound) {
+            let reason = format!(
+                "`clock_rate_ppm` must lie inside ±`clock_rate_bound_ppm` = {bound} ppm (got {})",
+                self.clock_rate_ppm
+            );
+            return Err(("clock_rate_ppm".into(), reason));
+        }
+        if !(self.clock_rate_min_duration_s.is_finite() && self.clock_rate_min_duration_s >= 0.0) {
+            let reason = format!(
+                "`clock_rate_min_duration_s` must be a non-negative time (got {})",
+                self.clock_rate_min_duration_s
+            );
+            return Err(("clock_rate_min_duration_s".into(), reason));
+        }
+        if let Some(w) = &self.workspace {
+            if !(w.max_tilt_deg.is_finite() && w.max_tilt_deg > 0.0 && w.max_tilt_deg < 90.0) {
+                let reason = format!("`workspace.max_tilt_deg` must be in (0°, 90°) (got {})", w.max_tilt_deg);
+                return Err(("workspace.max_tilt_deg".into(), reason));
+            }
+            if !(w.max_yaw_deg.is_finite() && w.max_yaw_deg >= 0.0 && w.max_yaw_deg <= 180.0) {
+                let reason = format!("`workspace.max_yaw_deg` must be in [0°, 180°] (got {})", w.max_yaw_deg);
+                return Err(("workspace.max_yaw_deg".into(), reason));
+            }
         }
         if self.max_iterations == 0 || self.max_iterations > MAX_ITERATIONS {
             let reason = format!("`max_iterations` must be from 1 to {MAX_ITERATIONS} (got {})", self.max_iterations);

@@ -42,14 +42,15 @@ mod sensitivity;
 mod tests;
 mod uncertainty;
 mod validation;
+mod workspace;
 
 pub use agreement::{MarkerErrors, SetError};
 pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_errors};
 pub use calibration::{CalibError, Calibration, Fitted, Solution};
 pub use camera_choice::{CameraCandidate, CameraModelChoice};
 pub use config::{
-    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, JointScales, Loss, RigTermGroup,
-    Unidentifiable,
+    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, JointScales, Loss, PredictionWorkspace,
+    RigTermGroup, Unidentifiable,
 };
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
@@ -59,7 +60,7 @@ pub use joint_scales::JointScaleReport;
 pub use marker_residuals::MarkerResiduals;
 #[cfg(not(feature = "internals"))]
 pub(crate) use marker_residuals::MarkerResiduals;
-pub(crate) use marker_residuals::per_pose_rms_mm;
+pub(crate) use marker_residuals::per_pose_rms;
 pub use marker_residuals::{MarkerObservation, StereoNoise};
 pub use orientation_residuals::Observation;
 pub(crate) use orientation_residuals::observations;
@@ -69,8 +70,8 @@ pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
-    CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,
-    MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
+    CalibrationReport, CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, FlaggedObservation,
+    Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;

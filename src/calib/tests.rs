@@ -12,7 +12,7 @@ use super::fit::{FitSettings, fit};
 use super::identify::Identifiability;
 use super::marker_residuals::{MarkerObservation, MarkerResiduals};
 use super::orientation_residuals::{Observation, OrientationResiduals};
-use super::parameterisation::Parameterisation;
+use super::parameterisation::{Kind, Parameterisation};
 use super::pipeline::calibrate;
 use super::residuals::{EvalError, Evaluation, Residuals};
 use crate::dataset::Session;
@@ -403,6 +403,76 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
     assert_eq!(agree, observations.len(), "{agree} of {} frames agree", observations.len());
 }
 
+#[test]
+fn the_clock_rate_and_latency_columns_match_central_differences_on_a_drifting_clock() {
+    // 10 s of the shipped recording's settings, its camera clock 300 ppm fast (3 ms over 10 s).
+    let (session, model) = free_motion(10.0, 20.0);
+    let (recording, _) = session.at_clock(0.04, 300.0);
+    let truth = session.truth.as_ref().unwrap();
+    let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &truth.parameters.camera.unwrap(),
+        &markers,
+        &recording.markers,
+        CameraModel::rigid(),
+        &CalibConfig::default().bounds,
+    )
+    .with_latency(0.04, 0.2)
+    .with_clock_rate(300.0, 500.0, 10.0);
+    let (tau, rate) = (p.len() - 2, p.len() - 1);
+    assert_eq!((p.entries[tau].name.as_str(), p.entries[rate].name.as_str()), ("camera.latency", "camera.clock_rate"));
+    let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-4 * ((i * 5 + 1) as f64).sin());
+    let clock = p.clock(&x);
+    let streams = recording.streams.as_ref().unwrap();
+    let (observations, _) = MarkerObservation::of_session(&recording, &model.spm);
+    // The analytic columns use the joint velocity over ±10 ms (`VELOCITY_WINDOW_S`), and the
+    // slope of one 1 ms interval is quantisation, not motion: each frame is differenced between
+    // the steps that read it exactly 10 ms either side, as the latency's test does. For the
+    // latency, ∓0.01·(1 + r); for the rate r = ρ·10⁻⁶, which reads `e = c / (1 + r)` (`c = t − τ`),
+    // `1 + r + h± = c / (e ∓ 0.01)`: a secant over `h₊ + h₋`, whose slope in `e` differs from
+    // `∂e/∂r = −e / (1 + r)` by a relative `O(h / (1 + r))` ≤ 0.3 % from 4 s on. Frames from 4 s
+    // on, and 50 ms inside the stream's end.
+    let end = streams.encoders[streams.encoders.len() - 1].time_s - 0.05;
+    let mut checked = 0;
+    for frame in observations.chunk_by(|a, b| a.pose == b.pose).step_by(7) {
+        let e = clock.encoder_time(frame[0].time_s.unwrap());
+        if !(4.0..end).contains(&e) {
+            continue;
+        }
+        let m = MarkerResiduals::new(&p, frame).with_streams(streams);
+        let at = m.evaluate(&x, None, true).unwrap();
+        let jac = at.jacobian.unwrap();
+        let stretch = 1.0 + clock.rate_ppm * 1e-6;
+        let c = e * stretch;
+        // The rate's entry is the drift over the span T = 10 s, r·T.
+        let span = p.clock_rate_span_s;
+        let drift = |r: f64| r * span;
+        for (i, up, down) in [
+            (tau, 0.01 * stretch, 0.01 * stretch),
+            (rate, drift(c / (e - 0.01) - stretch), drift(stretch - c / (e + 0.01))),
+        ] {
+            let (mut plus, mut minus) = (x.clone(), x.clone());
+            plus[i] += up;
+            minus[i] -= down;
+            let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+            let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+            for j in 0..frame.len() {
+                let numeric = (rp[j] - rm[j]) / (up + down);
+                let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+                // Up to the curvature of the motion over ±10 ms (as for the latency alone): 1%.
+                assert!(
+                    (numeric - analytic).norm() <= 0.01 * analytic.norm() + 1e-6,
+                    "{} at {e:.2} s: {numeric} vs {analytic}",
+                    p.entries[i].name
+                );
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked} frames checked");
+}
+
 /// The six directions the parameterisation fixes (the gauge), as extra Jacobian columns: `jac`
 /// with six columns added: the central-difference derivatives of the residuals along tilts
 /// of `u_1` (2), of `u_2` out of its plane with `u_1` (1; for a coaxial SPM, a turn of leg 1's
@@ -521,5 +591,61 @@ fn a_fit_restarted_at_its_solution_stays_there() {
             assert!(moved < 0.1, "{name}, {}: {moved} σ", p.entries[i].name);
         }
         assert!(again.log.len() <= 15, "{name}: {} iterations from the solution", again.log.len());
+    }
+}
+
+/// The pixel-level Jacobian with every rig term free (intrinsics, all distortion coefficients,
+/// the second camera's rotation and baseline direction), on a rig of a radial-tangential and an
+/// equidistant camera, against central differences: the rig's columns through the whole fit's
+/// residuals, not only the lens's own derivatives.
+#[test]
+fn the_analytic_jacobian_of_a_pixel_session_matches_central_differences() {
+    use crate::calib::config::RigTermGroup;
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_stereo.yaml")).unwrap();
+    (config.poses, config.seed) = (15, 3);
+    let rig = config.camera.rig.as_mut().unwrap();
+    rig.cameras[0].distortion_coeffs = [0.01, -0.004, 0.0005, -0.0003];
+    rig.cameras[1].distortion_model = "equidistant".into();
+    rig.cameras[1].distortion_coeffs = [0.01, -0.003, 0.001, -0.0005];
+    rig.miscalibration.distortion_left_out = false;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
+    let every = [
+        RigTermGroup::FocalLengths,
+        RigTermGroup::PrincipalPoints,
+        RigTermGroup::RadialK1,
+        RigTermGroup::RadialK2,
+        RigTermGroup::OtherDistortion,
+        RigTermGroup::Extrinsics,
+    ];
+    let p = parameterisation(&session, &model).with_rig(session.rig.clone().unwrap(), &every);
+    let rig_columns = p.entries.iter().filter(|e| matches!(e.kind, Kind::Rig { .. })).count();
+    // 4 intrinsics and 4 distortion coefficients per camera; cam1's rotation (3) and direction (2).
+    assert_eq!(rig_columns, 2 * 8 + 5);
+    let (observations, failed) = MarkerObservation::of_session(&session, &model.spm);
+    assert!(failed.is_empty() && observations.iter().all(|o| o.camera.is_some()));
+    let m = MarkerResiduals::new(&p, &observations);
+    let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
+    let at = m.evaluate(&x, None, true).unwrap();
+    let jac = at.jacobian.as_ref().unwrap();
+    let h = 1e-6;
+    for i in 0..p.len() {
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[i] += h;
+        minus[i] -= h;
+        let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+        let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+        for j in 0..observations.len() {
+            let numeric = (rp[j] - rm[j]) / (2.0 * h);
+            let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+            // Residuals of ~1,000 px: rounding 2e-13 px over 2h = 2e-6 is 1e-7 px; the O(h²)
+            // truncation is far below. 1e-5 px (relative 1e-8 of a column of ~1e3) is above both.
+            assert!(
+                (numeric - analytic).amax() < 1e-5 * analytic.amax().max(1.0),
+                "{}: numeric {numeric:?}, analytic {analytic:?}",
+                p.entries[i].name
+            );
+            assert_eq!(analytic.z, 0.0, "a pixel residual has two rows");
+        }
     }
 }

@@ -42,7 +42,7 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     let mut session = session;
     if let (Some(path), Some(p)) = (&args.params, &params) {
         warnings.extend(p.check_model(path, &model)?);
-        session = SessionArgs::at_latency(session, path, p.latency_s, &mut warnings);
+        session = SessionArgs::at_latency(session, path, p, &mut warnings);
         session = SessionArgs::corrected(session, path, p)?;
     }
     let summary = record(&outputs, slot, &spmcal::record::Scene::replay(&session, &model, params.as_ref())?)?;

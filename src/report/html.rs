@@ -11,6 +11,10 @@ use super::html_tables;
 use super::tables::{Align, Table, escape};
 use crate::calib::{Calibration, CalibrationReport, FitLevel};
 
+/// The title of a free-motion recording's section on its camera clock (`camera-clock`, after
+/// the pose-by-pose errors).
+const CLOCK_TITLE: &str = "Camera clock: the apparent latency against time";
+
 /// The sections of the report, in order: `(id, title)`.
 const SECTIONS: [(&str, &str); 7] = [
     ("verdict", "Verdict"),
@@ -42,6 +46,12 @@ impl Calibration {
                 html += &weakest(report);
             }
             html += "</section>";
+            // A free-motion recording's camera clock, after the errors against time.
+            if *id == "per-pose"
+                && let Some(clock) = charts::apparent_latency(self)
+            {
+                let _ = write!(html, "<section id=\"camera-clock\"><h2>{CLOCK_TITLE}</h2>{}</section>", clock.html());
+            }
         }
         let _ = writeln!(
             html,
@@ -126,7 +136,11 @@ fn predicted(report: &CalibrationReport) -> String {
     let columns = [("", Align::Text), ("RMS", n), ("90 % range", n), ("worst pose", n)];
     let mut t = Table::new("Predicted error of the calibrated model on unseen poses", &columns).with_named_rows();
     let markers = format!("markers, {}", report.markers.as_ref().map_or("mm", |m| m.before.unit));
-    let rows = [("orientation (FDA), °", &report.predicted_error_deg), (markers.as_str(), &report.predicted_error_mm)];
+    let orientation = report
+        .predicted_error_deg
+        .as_ref()
+        .map_or(String::new(), |e| format!("orientation (FDA) on poses {}, °", super::html_tables::predicted_over(e)));
+    let rows = [(orientation.as_str(), &report.predicted_error_deg), (markers.as_str(), &report.predicted_error_mm)];
     for (what, e) in rows {
         if let Some(e) = e {
             t.row([

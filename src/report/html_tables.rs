@@ -4,7 +4,9 @@
 //! (the verdict, the warnings and the predicted error head the page instead).
 
 use super::tables::{Align, Table, escape, parameter_changes};
-use crate::calib::{Calibration, CalibrationReport, CameraModelReport, Convergence, MarkerFitReport};
+use crate::calib::{
+    Calibration, CalibrationReport, CameraModelReport, ClockRate, Convergence, Latency, MarkerFitReport,
+};
 use crate::math::stats::Stats;
 
 /// How many excluded or flagged items are listed before "… and N more", as in the text report.
@@ -28,9 +30,21 @@ pub(crate) fn all(c: &Calibration) -> String {
     }
     if let Some(m) = &r.markers {
         html += &camera_terms(&m.camera_model).html();
+        if let Some(rig) = &m.rig {
+            html += &rig_terms(rig);
+        }
         html += &markers(m).html();
     }
     html + &flagged(r)
+}
+
+/// Which unseen poses the orientation error is predicted for, in words: the workspace the config
+/// names, or poses like the session's own.
+pub(crate) fn predicted_over(e: &crate::calib::PredictedError) -> String {
+    match &e.workspace {
+        Some(w) => format!("of the workspace (tilt ≤ {:.0}°, yaw ±{:.0}°)", w.max_tilt_deg, w.max_yaw_deg),
+        None => "like the session's".to_string(),
+    }
 }
 
 /// A paragraph of plain text.
@@ -109,15 +123,10 @@ fn fit(r: &CalibrationReport) -> String {
     t.row(["camera translation t_CB".to_string(), translation(r)]);
     if let Some(m) = &r.markers {
         if let Some(l) = &m.latency {
-            let latency = match l.std_error_s {
-                Some(se) => format!("{:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3),
-                None if l.at_bound => format!(
-                    "{:.3} ms, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
-                    l.value_s * 1e3
-                ),
-                None => format!("{:.3} ms (as given; frozen)", l.value_s * 1e3),
-            };
-            t.row(["camera latency".to_string(), latency]);
+            t.row(["camera latency".to_string(), latency(l, m.clock_rate_ppm.as_ref())]);
+        }
+        if let Some(c) = &m.clock_rate_ppm {
+            t.row(["camera clock rate".to_string(), clock_rate(c)]);
         }
         t.row(["camera model".to_string(), camera_model(&m.camera_model)]);
         if let Some(n) = &m.stereo_noise {
@@ -168,6 +177,46 @@ fn convergence(r: &CalibrationReport) -> String {
     }
 }
 
+/// The camera latency in words (the text report's too): at time 0 when the clock's rate was
+/// estimated.
+pub(super) fn latency(l: &Latency, rate: Option<&ClockRate>) -> String {
+    let at = match rate {
+        Some(c) if c.held.is_none() => " at time 0",
+        _ => "",
+    };
+    match l.std_error_s {
+        Some(se) => format!("{:.3} ± {:.3} ms{at} (estimated)", l.value_s * 1e3, se * 1e3),
+        None if l.at_bound => format!(
+            "{:.3} ms{at}, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
+            l.value_s * 1e3
+        ),
+        None => format!("{:.3} ms{at} (as given; frozen)", l.value_s * 1e3),
+    }
+}
+
+/// How much faster the camera's clock runs, in words (the text report's too): estimated, with
+/// the drift it makes over the recording, or held and why.
+pub(super) fn clock_rate(c: &ClockRate) -> String {
+    let drift = c.value * 1e-6 * c.span_s * 1e3;
+    match (c.std_error, c.held) {
+        (Some(se), _) => format!(
+            "{:+.2} ± {se:.2} ppm (estimated): the latency drifts {drift:+.2} ms over the recording's {:.0} s",
+            c.value, c.span_s
+        ),
+        (None, None) if c.at_bound => format!(
+            "{:+.2} ppm, AT ITS BOUND (`clock_rate_bound_ppm`): the data want it further; no standard error",
+            c.value
+        ),
+        (None, Some("frozen")) => format!("{:+.2} ppm (as given; frozen)", c.value),
+        (None, Some("short_recording")) => format!(
+            "{:+.2} ppm (held: the recording spans {:.1} s, shorter than `clock_rate_min_duration_s`)",
+            c.value, c.span_s
+        ),
+        (None, Some(_)) => format!("{:+.2} ppm (held: the orientation-level fit does not estimate it)", c.value),
+        (None, None) => format!("{:+.2} ppm (unidentifiable: no standard error)", c.value),
+    }
+}
+
 /// The camera's translation with its standard error, or why there is none (the text report's
 /// words too).
 pub(super) fn translation(r: &CalibrationReport) -> String {
@@ -210,6 +259,32 @@ fn camera_terms(c: &CameraModelReport) -> Table {
         t.row([term.name.clone(), format!("{:.5}", term.value), se, held]);
     }
     t
+}
+
+/// A pixel session's rig, as the text report gives it: each camera's pixel noise, what was held
+/// for scale, and every term from the file's value to the fit's.
+fn rig_terms(rig: &crate::calib::RigReport) -> String {
+    let noise: Vec<String> = rig.pixel_noise_px.iter().map(|(c, s, e)| format!("{c} {s:.3} ± {e:.3} px")).collect();
+    let scale = if rig.baseline_held_m > 0.0 {
+        format!(
+            "its baseline held at {:.2} mm (the rig's scale: an SPM's rotation cannot tell it)",
+            rig.baseline_held_m * 1e3
+        )
+    } else {
+        "its scale set by the markers' spacing in the model".to_string()
+    };
+    let n = Align::Number;
+    let columns = [("term", Align::Label), ("file value", n), ("change", n), ("std error", n), ("unit", Align::Text)];
+    let mut t = Table::new("Camera rig (cameras.yaml) refined with the mechanism", &columns);
+    for term in &rig.terms {
+        let file = term.file_value.map_or(String::new(), |v| format!("{v:.6}"));
+        let (change, se) = match term.std_error {
+            Some(se) => (format!("{:+.6}", term.change), format!("{se:.6}")),
+            None => ("held".to_string(), String::new()),
+        };
+        t.row([term.name.clone(), file, change, se, term.unit.to_string()]);
+    }
+    note(&format!("Pixel noise (σ per coordinate): {}. The rig is {scale}.", noise.join(", "))) + &t.html()
 }
 
 /// Which changes are not distinguishable from nominal and which ended at a bound (the

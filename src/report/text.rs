@@ -149,8 +149,12 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
     if let Some(e) = &r.predicted_error_deg {
         writeln!(
             f,
-            "predicted error of the calibrated FDA on unseen poses (as `compare` measures it, from the parameter covariance): {:.4} deg RMS (90%: {:.4}–{:.4}), worst pose {:.4} deg",
-            e.rms, e.interval_90[0], e.interval_90[1], e.max
+            "predicted error of the calibrated FDA on unseen poses {} (as `compare` measures it, from the parameter covariance): {:.4} deg RMS (90%: {:.4}–{:.4}), worst pose {:.4} deg",
+            super::html_tables::predicted_over(e),
+            e.rms,
+            e.interval_90[0],
+            e.interval_90[1],
+            e.max
         )?;
     }
     if let Some(e) = &r.predicted_error_mm {
@@ -264,15 +268,10 @@ fn rig_lines(f: &mut fmt::Formatter<'_>, rig: &crate::calib::RigReport) -> fmt::
 /// Fitted markers, stereo noise and fast captures of a marker-level calibration.
 fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
     if let Some(l) = &m.latency {
-        match l.std_error_s {
-            Some(se) => writeln!(f, "camera latency: {:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3)?,
-            None if l.at_bound => writeln!(
-                f,
-                "camera latency: {:.3} ms, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
-                l.value_s * 1e3
-            )?,
-            None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
-        }
+        writeln!(f, "camera latency: {}", super::html_tables::latency(l, m.clock_rate_ppm.as_ref()))?;
+    }
+    if let Some(c) = &m.clock_rate_ppm {
+        writeln!(f, "camera clock rate: {}", super::html_tables::clock_rate(c))?;
     }
     match &m.rig {
         Some(rig) => rig_lines(f, rig)?,
