@@ -427,25 +427,50 @@ fn a_pixel_session_is_recorded_in_each_cameras_image_plane() {
         assert!(origins.iter().any(|o| o == camera), "{camera} not in {origins:?}");
     }
 
-    // `replay` with the calibrated parameters: measured and predicted pixels in each camera, and
-    // the official CLI verifies the file.
+    // `replay` with the calibrated parameters: measured and predicted pixels in each camera. Seen
+    // through the refined rig (`--cameras`, the camchain `calibrate --cameras-out` writes), its
+    // predictions (projected by the recording) are the fit's (measured less residual) to f32's
+    // precision; through the file's rig they are pixels off.
     let params = dir.path().join("p.yaml");
     calibration.parameters.write(&params).unwrap();
-    let replayed = dir.path().join("replay.rrd");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"))
-        .args(["replay", "--dataset", dataset.to_str().unwrap(), "--params", params.to_str().unwrap()])
-        .args(["--rrd", replayed.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let chunks = self::chunks(&replayed);
-    for camera in ["cam0", "cam1"] {
-        let measured = points2d(&chunks, &format!("world/camera/{camera}/measured"));
-        let predicted = points2d(&chunks, &format!("world/camera/{camera}/predicted"));
-        let total: usize = measured.values().map(Vec::len).sum();
-        assert_eq!(total, rows.iter().filter(|((_, c), _)| c == camera).map(|(_, n)| n).sum::<usize>());
-        assert_eq!(predicted.values().map(Vec::len).sum::<usize>(), total, "{camera}");
-    }
+    let refined = dir.path().join("cameras.yaml");
+    std::fs::write(&refined, rig.to_camchain()).unwrap();
+    let rms = |chunks: &[Chunk]| {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for camera in ["cam0", "cam1"] {
+            let measured = points2d(chunks, &format!("world/camera/{camera}/measured"));
+            let predicted = points2d(chunks, &format!("world/camera/{camera}/predicted"));
+            let total: usize = measured.values().map(Vec::len).sum();
+            assert_eq!(total, rows.iter().filter(|((_, c), _)| c == camera).map(|(_, n)| n).sum::<usize>());
+            assert_eq!(predicted.values().map(Vec::len).sum::<usize>(), total, "{camera}");
+            for (pose, m) in &measured {
+                for (a, b) in m.iter().zip(&predicted[pose]) {
+                    sum += f64::from(a[0] - b[0]).powi(2) + f64::from(a[1] - b[1]).powi(2);
+                    n += 1;
+                }
+            }
+        }
+        (sum / n as f64).sqrt()
+    };
+    let fitted = rms(&chunks);
+    let replay = |name: &str, cameras: Option<&Path>| {
+        let path = dir.path().join(name);
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"));
+        command.args(["replay", "--dataset", dataset.to_str().unwrap(), "--params", params.to_str().unwrap()]);
+        command.args(["--rrd", path.to_str().unwrap()]);
+        if let Some(c) = cameras {
+            command.arg("--cameras").arg(c);
+        }
+        let out = command.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        path
+    };
+    let replayed = replay("replay.rrd", Some(&refined));
+    let through_refined = rms(&self::chunks(&replayed));
+    assert!((through_refined - fitted).abs() < 1e-3 * fitted, "{through_refined} px vs the fit's {fitted} px");
+    let through_file = rms(&self::chunks(&replay("replay_file_rig.rrd", None)));
+    eprintln!("pixel RMS: fit {fitted} px, replay through the refined rig {through_refined} px, through the file's {through_file} px");
+    assert!(through_file > 3.0 * fitted, "{through_file} px through the file's rig vs {fitted} px");
     if let Ok(v) = std::process::Command::new("rerun").arg("--version").output()
         && String::from_utf8_lossy(&v.stdout).contains("0.36")
     {

@@ -56,7 +56,7 @@ pub use identify::{Direction, Identifiability};
 pub use marker_residuals::MarkerResiduals;
 #[cfg(not(feature = "internals"))]
 pub(crate) use marker_residuals::MarkerResiduals;
-pub(crate) use marker_residuals::per_pose_rms_mm;
+pub(crate) use marker_residuals::per_pose_rms;
 pub use marker_residuals::{MarkerObservation, StereoNoise};
 pub use orientation_residuals::Observation;
 pub(crate) use orientation_residuals::observations;

@@ -1036,10 +1036,11 @@ impl Session {
         points
     }
 
-    /// The same pixel session with its points triangulated through `rig` instead of the file's
-    /// (a calibration's refined rig): what the per-pose estimator and the recording then see.
-    /// A session of points is returned as it is.
-    pub(crate) fn seen_through(&self, rig: &Rig) -> Session {
+    /// The same pixel session seen through `rig` instead of its file's (a calibration's refined
+    /// rig, `calibrate --cameras-out`): its pixels through that rig and the points it
+    /// triangulates — what the per-pose estimator, `compare` and the recording then see. A session
+    /// of points is returned as it is.
+    pub fn seen_through(&self, rig: &Rig) -> Session {
         if self.rig.is_none() {
             return self.clone();
         }

@@ -7,7 +7,7 @@ use nalgebra::{Rotation3, Vector2, Vector3};
 
 use super::scene::{ImagePlanes, PixelLayer, PoseFrames, Scene, Series};
 use crate::calib::FitLevel as Level;
-use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms_mm, registration};
+use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms, registration};
 use crate::compare::SetComparison;
 use crate::dataset::Session;
 use crate::model::{CameraModel, CameraRegistration, Parameters, Rig, RobotModel, Spm};
@@ -349,10 +349,16 @@ fn fits_pixels(calibration: &Calibration) -> bool {
 /// Per-pose RMS over its markers of the distance between measured and predicted markers: in mm
 /// (`markers_mm/NAME`), or for pixels in px (`pixels_px/NAME`).
 fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
-    let rms = per_pose_rms_mm(marker_observations_of(calibration), residuals).into_iter();
+    let observations = marker_observations_of(calibration);
     match fits_pixels(calibration) {
-        true => Series { name: format!("pixels_px/{name}"), values: rms.map(|(p, v)| (p, v * 1e-3)).collect() },
-        false => Series { name: format!("markers_mm/{name}"), values: rms.collect() },
+        true => Series {
+            name: format!("pixels_px/{name}"),
+            values: per_pose_rms(observations, residuals, 1.0).into_iter().collect(),
+        },
+        false => Series {
+            name: format!("markers_mm/{name}"),
+            values: per_pose_rms(observations, residuals, 1e3).into_iter().collect(),
+        },
     }
 }
 
@@ -371,13 +377,10 @@ fn marker_residuals(session: &Session, calibration: &Calibration, residuals: &[n
                 .filter(|(o, _)| o.marker == k)
                 .map(|(o, r)| (*o, *r))
                 .unzip();
-            let rms = per_pose_rms_mm(&observations, &residuals).into_iter();
-            match pixels {
-                true => Series {
-                    name: format!("pixel_residuals_px/{name}"),
-                    values: rms.map(|(p, v)| (p, v * 1e-3)).collect(),
-                },
-                false => Series { name: format!("marker_residuals_mm/{name}"), values: rms.collect() },
+            let (prefix, scale) = if pixels { ("pixel_residuals_px", 1.0) } else { ("marker_residuals_mm", 1e3) };
+            Series {
+                name: format!("{prefix}/{name}"),
+                values: per_pose_rms(&observations, &residuals, scale).into_iter().collect(),
             }
         })
         .collect()
@@ -505,11 +508,12 @@ impl Scene<'_> {
     }
 }
 
-/// The entity of a comparison's per-pose errors: `fda_vs_vision/LABEL` (degrees) or
-/// `markers_mm/LABEL`.
+/// The entity of a comparison's per-pose errors: `fda_vs_vision/LABEL` (degrees),
+/// `markers_mm/LABEL`, or for a pixel session's reprojection error `pixels_px/LABEL`.
 fn comparison_series(r: &SetComparison) -> String {
-    match r.level {
-        Level::Orientations => format!("fda_vs_vision/{}", r.label),
-        Level::Markers => format!("markers_mm/{}", r.label),
+    match (r.level, r.unit) {
+        (Level::Orientations, _) => format!("fda_vs_vision/{}", r.label),
+        (Level::Markers, "px") => format!("pixels_px/{}", r.label),
+        (Level::Markers, _) => format!("markers_mm/{}", r.label),
     }
 }
