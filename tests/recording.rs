@@ -469,7 +469,9 @@ fn a_pixel_session_is_recorded_in_each_cameras_image_plane() {
     let through_refined = rms(&self::chunks(&replayed));
     assert!((through_refined - fitted).abs() < 1e-3 * fitted, "{through_refined} px vs the fit's {fitted} px");
     let through_file = rms(&self::chunks(&replay("replay_file_rig.rrd", None)));
-    eprintln!("pixel RMS: fit {fitted} px, replay through the refined rig {through_refined} px, through the file's {through_file} px");
+    eprintln!(
+        "pixel RMS: fit {fitted} px, replay through the refined rig {through_refined} px, through the file's {through_file} px"
+    );
     assert!(through_file > 3.0 * fitted, "{through_file} px through the file's rig vs {fitted} px");
     if let Ok(v) = std::process::Command::new("rerun").arg("--version").output()
         && String::from_utf8_lossy(&v.stdout).contains("0.36")
