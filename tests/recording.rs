@@ -421,6 +421,7 @@ fn a_pixel_session_is_recorded_in_each_cameras_image_plane() {
     }
     // The fit's residuals in pixels, not in mm.
     assert!(found.contains("errors/pixels_px/calibrated") && !found.contains("errors/markers_mm/calibrated"));
+    assert!(found.contains("errors/predicted_error_px") && !found.contains("errors/predicted_error_mm"), "{found:?}");
     // The default layout shows each camera's image.
     let origins = blueprint_views(&path);
     for camera in ["/world/camera/cam0", "/world/camera/cam1"] {

@@ -416,10 +416,12 @@ impl Scene<'_> {
             series.extend(marker_residuals(session, calibration, after));
         }
         // The report's predicted error of the calibrated model at each pose (the same figures as
-        // `--json`'s `predicted_error_deg` / `predicted_error_mm`).
+        // `--json`'s `predicted_error_deg` / `predicted_error_mm`, the latter in px for a fit of
+        // pixels, and so recorded as `predicted_error_px`).
         let report = &calibration.report;
+        let markers = if fits_pixels(calibration) { "predicted_error_px" } else { "predicted_error_mm" };
         for (name, predicted) in
-            [("predicted_error_deg", &report.predicted_error_deg), ("predicted_error_mm", &report.predicted_error_mm)]
+            [("predicted_error_deg", &report.predicted_error_deg), (markers, &report.predicted_error_mm)]
         {
             if let Some(e) = predicted {
                 series.push(Series { name: name.into(), values: e.per_pose.iter().copied().collect() });

@@ -100,6 +100,13 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
                 .into(),
         );
     }
+    if has("predicted_error_px") {
+        panels.push(
+            TimeSeriesView::new("predicted pixel error after calibration (px)")
+                .with_origin("errors/predicted_error_px")
+                .into(),
+        );
+    }
     let mut documents: Vec<rerun::blueprint::ContainerLike> = Vec::new();
     if !scene.iterations.is_empty() {
         documents.push(TextDocumentView::new("fit").with_origin(FIT_TABLE).into());
