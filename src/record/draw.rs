@@ -179,15 +179,14 @@ impl Logger<'_> {
                         (rerun_pixel(p.x, p.y), scene.session.markers.get(*m).cloned().unwrap_or_default())
                     })
                     .unzip();
-                let radius = if layer.name == "measured" { 4.0f32 } else { 2.5 };
+                // The measured pixels carry the markers' names; the predictions beside them are
+                // smaller and unlabelled (three labels a marker would hide the points).
+                let measured = layer.name == "measured";
                 let entity = format!("{}/{}", image_plane(&camera.name), layer.name);
-                self.log(
-                    &entity,
-                    &Points2D::new(points)
-                        .with_labels(labels)
-                        .with_colors([pixel_colour(&layer.name)])
-                        .with_radii([rerun::Radius::new_ui_points(radius)]),
-                )?;
+                let points = Points2D::new(points)
+                    .with_colors([pixel_colour(&layer.name)])
+                    .with_radii([rerun::Radius::new_ui_points(if measured { 4.0 } else { 2.5 })]);
+                self.log(&entity, &if measured { points.with_labels(labels) } else { points })?;
             }
         }
         Ok(())
