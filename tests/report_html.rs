@@ -167,7 +167,10 @@ fn the_report_has_every_section_and_plot_with_the_reports_numbers() {
     assert!(text.contains("PASS") && text.contains("threshold 1.000 mm"));
     // The predicted error once under one title, a row per unit, with the report's numbers.
     assert_eq!(text.matches("Predicted error of the calibrated model on unseen poses").count(), 1);
-    for (row, key) in [("orientation (FDA), °", "predicted_error_deg"), ("markers, mm", "predicted_error_mm")] {
+    for (row, key) in [
+        ("orientation (FDA) on poses like the session's, °", "predicted_error_deg"),
+        ("markers, mm", "predicted_error_mm"),
+    ] {
         let e = &report[key];
         let [rms, low, high, max] = ["rms", "interval_90", "interval_90", "max"].map(|k| &e[k]);
         let cells = [
