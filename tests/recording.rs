@@ -381,6 +381,7 @@ fn a_pixel_session_is_recorded_in_each_cameras_image_plane() {
         for k in ["Pinhole:image_from_camera", "Pinhole:resolution", "Transform3D:translation"] {
             assert!(components.contains(k), "{plane}: {k} missing; {components:?}");
         }
+        assert!(found.contains(&format!("{plane}/border")), "{plane}/border missing");
         let measured = points2d(&chunks, &format!("{plane}/measured"));
         let predicted = points2d(&chunks, &format!("{plane}/predicted"));
         let nominal = points2d(&chunks, &format!("{plane}/nominal"));

@@ -162,6 +162,13 @@ impl Logger<'_> {
                 .with_camera_xyz(rerun::components::ViewCoordinates::RDF)
                 .with_image_plane_distance(0.05f32);
             self.log_static(&entity, &pinhole)?;
+            // The image's edges, so that the 2-D view shows where in the image the markers are.
+            let (w, h) = (width as f32, height as f32);
+            self.log_static(
+                &format!("{entity}/border"),
+                &rerun::LineStrips2D::new([[[0.0, 0.0], [w, 0.0], [w, h], [0.0, h], [0.0, 0.0]]])
+                    .with_colors([Color::from_rgb(110, 110, 110)]),
+            )?;
         }
         Ok(())
     }
