@@ -345,7 +345,8 @@ pub struct CalibrationReport {
     /// session's workspace, as `compare` measures it (up to the common rotations no measurement
     /// sees), from the parameter covariance; the same definition at both fit levels.
     pub predicted_error_deg: Option<PredictedError>,
-    /// The same for the markers' positions, mm (marker-level fit).
+    /// The same for the markers' positions, mm (marker-level fit) — px for a session seen through its
+    /// cameras' pixels (the reprojection of the markers; `unit` says which).
     pub predicted_error_mm: Option<PredictedError>,
     /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
     /// `(markers, poses, [σx, σy, σz])` (orientation-level fit).

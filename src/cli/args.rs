@@ -133,6 +133,20 @@ impl SessionArgs {
         moved
     }
 
+    /// `--cameras`: the pixel session seen through that camchain instead of its own (a session of
+    /// points has no pixels to see: an error naming it).
+    pub(crate) fn seen_through(&self, session: Session, cameras: Option<&std::path::Path>) -> Result<Session> {
+        match cameras {
+            Some(path) if session.rig.is_none() => anyhow::bail!(
+                "--cameras {}: {} is a session of points, not pixels (pixels.csv + cameras.yaml): there are no pixels to see through a rig",
+                path.display(),
+                self.dataset.display()
+            ),
+            Some(path) => Ok(session.seen_through(&spmcal::model::Rig::read(path)?)),
+            None => Ok(session),
+        }
+    }
+
     /// The session as the camera model of the parameters file at `params` corrects it (every
     /// marker by `K⁻¹`): what a perfect camera would have reported.
     pub(crate) fn corrected(session: Session, params: &std::path::Path, p: &Parameters) -> Result<Session> {

@@ -343,6 +343,13 @@ impl Streams {
         self.encoders.len()
     }
 
+    /// The pixels of a recording seen through its cameras (`pixels.csv`'s rows, time
+    /// non-decreasing): each as its capture's time on the camera's clock (s) and what was seen;
+    /// nothing for a recording of points.
+    pub fn pixels(&self) -> impl Iterator<Item = (f64, &super::SeenPixel)> {
+        self.pixels.iter().map(|r| (r.at, &r.seen))
+    }
+
     /// How many marker captures the recording holds.
     pub fn capture_count(&self) -> usize {
         self.captures.len()
