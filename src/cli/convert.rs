@@ -26,7 +26,8 @@ pub(crate) struct ConvertArgs {
     /// The bag to write from the session (one `.mcap` file).
     #[arg(long, requires = "dataset")]
     pub(crate) to_bag: Option<PathBuf>,
-    /// The URDF model (overrides the session's, or the bag mapping's).
+    /// The model (overrides the session's, or the bag mapping's): a shipped model's name
+    /// (agile_wrist, orbita3d) or a URDF's path [default for a bag: agile_wrist].
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,
     /// Print a machine-readable summary (JSON).

@@ -20,6 +20,8 @@ mod perturb;
 // Without `internals`, the projection's derivatives and the fit's terms are the crate's own.
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod rig;
+#[cfg(feature = "full")]
+pub(crate) mod shipped;
 mod spm;
 #[cfg(feature = "full")]
 mod survey;

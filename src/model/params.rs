@@ -6,7 +6,8 @@
 //! ```yaml
 //! format: spmcal-parameters/1
 //! source: nominal            # nominal | calibrated | truth
-//! model: models/agile_wrist.urdf
+//! model: agile_wrist        # a shipped model's name, or the URDF's path relative to this file
+//! model_sha256: 9f2c…         # the model's identity (SHA-256 of its URDF and companion)
 //! legs:                      # three, in leg order
 //!   - u: [0.0, 0.816496580927726, -0.577350269189626]
 //!     z: [1.0, 0.0, 0.0]
@@ -90,8 +91,13 @@ impl CameraRegistration {
 pub struct Parameters {
     /// Where the parameters came from.
     pub source: ParameterSource,
-    /// The model the parameters were derived from, as written in the file.
+    /// The model the parameters were derived from: a shipped model's name (`agile_wrist`) or the
+    /// URDF's path. [`Parameters::read`] resolves a relative path against the file's folder and
+    /// [`Parameters::write`] writes it relative to the file's folder again.
     pub model: Option<String>,
+    /// The model's identity when the parameters were made (SHA-256 of its URDF's bytes followed
+    /// by its companion's): how a copied file finds its model and notices a changed one.
+    pub model_sha256: Option<String>,
     /// The geometry of the three legs.
     pub legs: [LegGeometry; 3],
     /// The camera registration, when known.
@@ -339,6 +345,8 @@ struct ParametersRecord {
     source: ParameterSource,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     model: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    model_sha256: Option<String>,
     legs: Vec<LegRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     camera: Option<CameraRecord>,
@@ -356,6 +364,7 @@ impl Parameters {
         Parameters {
             source: ParameterSource::Nominal,
             model,
+            model_sha256: None,
             legs: *spm.geometry(),
             camera: None,
             camera_model: CameraModel::rigid(),
@@ -470,9 +479,19 @@ impl Parameters {
             };
             return Err(check.error("latency_s", reason));
         }
+        if let Some(hash) = &record.model_sha256
+            && !(hash.len() == 64 && hash.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)))
+        {
+            let reason = format!("`model_sha256` is `{hash}`; a model's identity is 64 lowercase hexadecimal digits");
+            return Err(check.error("model_sha256", reason));
+        }
         Ok(Parameters {
             source: record.source,
-            model: record.model,
+            model: record.model.map(|m| {
+                let folder = path.parent().unwrap_or(Path::new(""));
+                crate::io::files::resolve_reference(folder, Path::new(&m)).display().to_string()
+            }),
+            model_sha256: record.model_sha256,
             legs,
             camera,
             camera_model,
@@ -491,6 +510,7 @@ impl Parameters {
             format: PARAMETERS_FORMAT.to_string(),
             source: self.source,
             model: self.model.clone(),
+            model_sha256: self.model_sha256.clone(),
             legs: self
                 .legs
                 .iter()
@@ -519,7 +539,7 @@ impl Parameters {
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");
         format!(
-            "# spmcal parameters of a spherical parallel manipulator (conventions: shared/DESIGN.md).\n\
+            "# spmcal parameters of a spherical parallel manipulator (conventions: docs/conventions.md).\n\
              # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
              # axis v0 in P, encoder offset delta (phi = theta + delta), home_branch (the sign of\n\
              # (u x w).v at home, which the working mode keeps). Camera: x_C = R_CB x_B + t_CB.\n\
@@ -533,6 +553,9 @@ impl Parameters {
     /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
     #[cfg(feature = "full")]
     pub fn write(&self, path: &Path) -> Result<(), FileError> {
-        write_atomic(path, self.to_yaml().as_bytes())
+        let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let model = self.model.as_ref().map(|m| super::shipped::reference_from(folder, Path::new(m)));
+        let relative = Parameters { model: model.map(|m| m.display().to_string()), ..self.clone() };
+        write_atomic(path, relative.to_yaml().as_bytes())
     }
 }

@@ -97,8 +97,11 @@ pub struct BodyShape {
 pub struct RobotModel {
     /// Robot name (URDF).
     pub name: String,
-    /// The URDF file.
+    /// The URDF file, or a shipped model's name (`agile_wrist`): how the model was named.
     pub urdf_path: PathBuf,
+    /// The model's identity: the SHA-256 (hex) of its URDF's bytes followed by its companion's
+    /// (`cat m.urdf m.yaml | sha256sum`), which a parameters file records as `model_sha256`.
+    pub sha256: String,
     /// The nominal mechanism.
     pub spm: Spm,
     /// Markers on the MP (companion).
@@ -247,8 +250,12 @@ impl RobotModel {
     ///
     /// # Errors
     /// A [`ModelError`] naming the file and the joint or link for anything `check_urdf` rejects, a missing or invalid companion, axes that miss the centre, or legs that do not close.
+    ///
+    /// `urdf` may also be a shipped model's name as written — `agile_wrist`, `orbita3d` (no
+    /// folder, no extension) — which loads the model compiled into the program.
     pub fn load(urdf: &Path) -> Result<Self, ModelError> {
-        let robot = urdf_rs::read_file(urdf)
+        let texts = ModelTexts::of(urdf)?;
+        let robot = urdf_rs::read_from_string(&texts.urdf)
             .map_err(|e| ModelError::Unreadable { path: urdf.to_path_buf(), reason: e.to_string() })?;
         super::urdf_check::check(&robot).map_err(|fault| {
             let path = urdf.to_path_buf();
@@ -258,11 +265,76 @@ impl RobotModel {
                 Fault::Robot(reason) => ModelError::Unreadable { path, reason: format!("the robot {reason}") },
             }
         })?;
-        let companion_file = companion_path(urdf);
-        let (companion, keys) = read_companion(&companion_file)?;
-        check_names(urdf, &robot, &companion, &Ranges { path: &companion_file, keys: &keys })
+        let (companion, keys) = parse_companion(&texts.companion_path, &texts.companion)?;
+        check_names(urdf, &robot, &companion, &Ranges { path: &texts.companion_path, keys: &keys })
             .map_err(companion_error)?;
-        Loader { path: urdf, robot: &robot }.build(companion)
+        let mut model = Loader { path: urdf, robot: &robot }.build(companion)?;
+        model.sha256 = texts.sha256();
+        Ok(model)
+    }
+
+    /// The names of the models that ship with spmcal (compiled in): `agile_wrist`, `orbita3d`.
+    pub fn shipped() -> [&'static str; 2] {
+        super::shipped::NAMES
+    }
+
+    /// Whether `reference` names a shipped model (its name as written: no folder, no extension)
+    /// rather than a URDF file.
+    pub fn is_shipped(reference: &Path) -> bool {
+        super::shipped::named(reference).is_some()
+    }
+
+    /// A model reference written in a file in `folder` (a session's, a config's `model:`), as
+    /// seen from the working folder: a name or an absolute path as written, a relative path
+    /// joined to `folder`.
+    pub fn reference_in(folder: &Path, reference: &Path) -> PathBuf {
+        crate::io::files::resolve_reference(folder, reference)
+    }
+
+    /// How a file that names this model records it: the shipped model's name when its content is
+    /// a shipped model's (whichever path it was loaded from), else its path.
+    pub(crate) fn reference(&self) -> PathBuf {
+        super::shipped::with_sha256(&self.sha256).map_or_else(|| self.urdf_path.clone(), |s| PathBuf::from(s.name))
+    }
+}
+
+/// The two texts of a model: its files', or a shipped model's.
+pub(crate) struct ModelTexts {
+    pub(crate) urdf: String,
+    pub(crate) companion: String,
+    /// The companion as messages name it: the file, or `agile_wrist.yaml (shipped)`.
+    pub(crate) companion_path: PathBuf,
+}
+
+impl ModelTexts {
+    /// The texts of the model `urdf` names (a path, or a shipped model's name).
+    pub(crate) fn of(urdf: &Path) -> Result<Self, ModelError> {
+        if let Some(shipped) = super::shipped::named(urdf) {
+            return Ok(ModelTexts {
+                urdf: shipped.urdf.to_string(),
+                companion: shipped.companion.to_string(),
+                companion_path: PathBuf::from(format!("{}.yaml (shipped)", shipped.name)),
+            });
+        }
+        let text = std::fs::read_to_string(urdf).map_err(|e| {
+            let hint = if e.kind() == std::io::ErrorKind::NotFound {
+                format!(" (the models that ship with spmcal are named {})", super::shipped::listed())
+            } else {
+                String::new()
+            };
+            ModelError::Unreadable { path: urdf.to_path_buf(), reason: format!("cannot read: {e}{hint}") }
+        })?;
+        let companion_path = companion_path(urdf);
+        let companion = crate::io::yaml::read_bounded(&companion_path).map_err(|e| ModelError::Unreadable {
+            path: companion_path.clone(),
+            reason: format!("cannot read the URDF companion: {}", e.reason),
+        })?;
+        Ok(ModelTexts { urdf: text, companion, companion_path })
+    }
+
+    /// The model's identity.
+    pub(crate) fn sha256(&self) -> String {
+        super::shipped::identity(self.urdf.as_bytes(), self.companion.as_bytes())
     }
 }
 
@@ -309,14 +381,16 @@ fn companion_error(e: FileError) -> ModelError {
     ModelError::File(e)
 }
 
-pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
-    let (mut companion, keys) = crate::io::yaml::read::<Companion>(path).map_err(|e| match e.line {
-        None if e.reason.starts_with("cannot read") => ModelError::Unreadable {
-            path: path.to_path_buf(),
-            reason: format!("cannot read the URDF companion: {}", e.reason),
-        },
-        _ => companion_error(e),
-    })?;
+/// The companion of the model `urdf` names (a path or a shipped model's name), with its keys'
+/// lines and its path as messages name it.
+pub(super) fn read_companion(urdf: &Path) -> Result<(Companion, KeyLines, PathBuf), ModelError> {
+    let texts = ModelTexts::of(urdf)?;
+    let (companion, keys) = parse_companion(&texts.companion_path, &texts.companion)?;
+    Ok((companion, keys, texts.companion_path))
+}
+
+pub(super) fn parse_companion(path: &Path, text: &str) -> Result<(Companion, KeyLines), ModelError> {
+    let (mut companion, keys) = crate::io::yaml::parse::<Companion>(path, text).map_err(companion_error)?;
     let check = Ranges { path, keys: &keys };
     if companion.legs.len() != 3 {
         let reason = format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len());
@@ -509,6 +583,7 @@ impl<'a> Loader<'a> {
             markers,
             shapes,
             camera_model: companion.camera_model,
+            sha256: String::new(),
         })
     }
 
