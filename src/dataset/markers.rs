@@ -54,15 +54,20 @@ pub(crate) const MAX_MEASURED_M: f64 = 10.0;
 /// The reason a marker coordinate `value` (m) is refused, when it is beyond [`MAX_MEASURED_M`]:
 /// it looks like millimetres.
 pub(crate) fn millimetres_reason(value: f64) -> Option<String> {
-    (value.abs() > MAX_MEASURED_M).then(|| {
-        format!(
-            "{} m is farther than the {MAX_MEASURED_M} m a camera measures this mechanism's markers within: it looks \
-             like millimetres; spmcal reads metres ({} mm is {} m)",
-            crate::io::files::number(value),
-            crate::io::files::number(value),
+    let shown = crate::io::files::number(value);
+    if value.abs() <= MAX_MEASURED_M {
+        None
+    } else if value.abs() <= 1000.0 * MAX_MEASURED_M {
+        Some(format!(
+            "{shown} m is farther than the {MAX_MEASURED_M} m a camera measures this mechanism's markers within: it \
+             looks like millimetres; spmcal reads metres ({shown} mm is {} m)",
             crate::io::files::number(value / 1000.0)
-        )
-    })
+        ))
+    } else {
+        Some(format!(
+            "{shown} m is no marker position: a camera measures this mechanism's markers within {MAX_MEASURED_M} m"
+        ))
+    }
 }
 
 /// The marker position in the three columns from `first` (`x_m`, `y_m`, `z_m`): finite numbers

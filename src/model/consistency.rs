@@ -242,7 +242,8 @@ impl Parameters {
                 let model = RobotModel::load(path)?;
                 if let Some(h) = self.model_sha256.as_deref().filter(|h| *h != model.sha256) {
                     warnings.push(format!(
-                        "{}: these parameters were made with a model of identity {}… (`model_sha256`), not the                          --model {} given (identity {}…): used as asked",
+                        "{}: these parameters were made with a model of identity {}… (`model_sha256`), not the \
+                                 --model {} given (identity {}…): used as asked",
                         file.display(),
                         short(h),
                         path.display(),
@@ -257,7 +258,9 @@ impl Parameters {
                     if let Some(h) = self.model_sha256.as_deref().filter(|h| *h != model.sha256) {
                         return Err(ModelError::File(FileError {
                             reason: format!(
-                                "the model `{named}` this file names has changed since these parameters were made:                                  its identity is {}… where `model_sha256` says {}…; give the model they were made                                  with, or pass --model {named} to use this one anyway",
+                                "the model `{named}` this file names has changed since these parameters were made: \
+                                 its identity is {}… where `model_sha256` says {}…; give the model they were made \
+                                 with, or pass --model {named} to use this one anyway",
                                 short(&model.sha256),
                                 short(h)
                             ),
@@ -271,7 +274,8 @@ impl Parameters {
                     None => {
                         return Err(ModelError::File(FileError {
                             reason: format!(
-                                "the model `{named}` named by this parameters file (its `model:`) cannot be loaded                                  ({e}); give the model with --model (a URDF's path, or a shipped model's name: {})",
+                                "the model `{named}` named by this parameters file (its `model:`) cannot be loaded \
+                                 ({e}); give the model with --model (a URDF's path, or a shipped model's name: {})",
                                 super::shipped::listed()
                             ),
                             ..at("model")

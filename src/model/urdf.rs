@@ -2,7 +2,7 @@
 //!
 //! URDF holds trees only, so `NAME.urdf` comes with `NAME.yaml` beside it, which names the
 //! three joints of each leg, says which link of legs 2 and 3 is rigidly the MP once the loop
-//! is closed, and gives the marker positions in P. The geometry of DESIGN.md is read off the
+//! is closed, and gives the marker positions in P. The geometry of docs/conventions.md is read off the
 //! tree at the zero configuration (all joint values 0 = the home pose `R = I`):
 //! `u` = actuated axis, `w(0)` = intermediate axis, `v0` = platform axis, all in B;
 //! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, and `δ` the
@@ -317,12 +317,18 @@ impl ModelTexts {
             });
         }
         let text = std::fs::read_to_string(urdf).map_err(|e| {
-            let hint = if e.kind() == std::io::ErrorKind::NotFound {
-                format!(" (the models that ship with spmcal are named {})", super::shipped::listed())
-            } else {
-                String::new()
+            let shipped = super::shipped::listed();
+            let reason = match e.kind() {
+                std::io::ErrorKind::NotFound if crate::io::files::is_name(urdf) => format!(
+                    "no model ships with spmcal under this name (the shipped models are {shipped}), nor is there a \
+                     file of this name"
+                ),
+                std::io::ErrorKind::NotFound => {
+                    format!("cannot read: {e} (the models that ship with spmcal are named {shipped})")
+                }
+                _ => format!("cannot read: {e}"),
             };
-            ModelError::Unreadable { path: urdf.to_path_buf(), reason: format!("cannot read: {e}{hint}") }
+            ModelError::Unreadable { path: urdf.to_path_buf(), reason }
         })?;
         let companion_path = companion_path(urdf);
         let companion = crate::io::yaml::read_bounded(&companion_path).map_err(|e| ModelError::Unreadable {

@@ -1,5 +1,5 @@
 //! ROS 2 bags (rosbag2, MCAP storage) as sessions: joint encoders as `sensor_msgs/msg/JointState`,
-//! markers as `geometry_msgs/msg/PointStamped` in the camera frame (format in DESIGN.md; mapping
+//! markers as `geometry_msgs/msg/PointStamped` in the camera frame (format in docs/conventions.md; mapping
 //! in [`mapping`]). A bag is a free-motion recording, or a static session when the joints rest
 //! around every capture; [`write`] makes a bag of a session (the streams exact to the nanosecond;
 //! static poses at their own times when 0.2 s apart or more, else 0, 1, 2 … s).
