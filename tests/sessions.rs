@@ -136,5 +136,8 @@ fn joints_in_degrees_are_said_to_be_degrees() {
     let e = Session::load(dir.path(), Some(model)).unwrap_err();
     assert_eq!((e.line, e.column.as_deref()), (Some(line), Some(format!("theta{column}_rad").as_str())), "{e}");
     let text = e.to_string();
-    assert!(text.contains("joints.csv:") && text.contains("looks like degrees; spmcal reads joints in radians"), "{text}");
+    assert!(
+        text.contains("joints.csv:") && text.contains("looks like degrees; spmcal reads joints in radians"),
+        "{text}"
+    );
 }

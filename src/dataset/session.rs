@@ -139,7 +139,14 @@ impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.topic {
             Some(topic) => {
-                write!(f, "{}: {topic}, message {}: pose {}: {}", self.path.display(), self.line, self.pose, self.message)
+                write!(
+                    f,
+                    "{}: {topic}, message {}: pose {}: {}",
+                    self.path.display(),
+                    self.line,
+                    self.pose,
+                    self.message
+                )
             }
             None => write!(f, "{}:{}: pose {}: {}", self.path.display(), self.line, self.pose, self.message),
         }

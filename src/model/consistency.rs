@@ -291,9 +291,10 @@ impl Parameters {
     /// The model [`Parameters::load_model`] tries first: `given`, else the file's `model:`, else
     /// the default model's name.
     pub fn model_reference(&self, given: Option<&Path>) -> PathBuf {
-        given.map(Path::to_path_buf).or_else(|| self.model.as_ref().map(PathBuf::from)).unwrap_or_else(|| {
-            PathBuf::from(super::shipped::DEFAULT_MODEL)
-        })
+        given
+            .map(Path::to_path_buf)
+            .or_else(|| self.model.as_ref().map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from(super::shipped::DEFAULT_MODEL))
     }
 }
 

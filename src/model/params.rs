@@ -553,9 +553,17 @@ impl Parameters {
     /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
     #[cfg(feature = "full")]
     pub fn write(&self, path: &Path) -> Result<(), FileError> {
+        write_atomic(path, self.to_yaml_at(path).as_bytes())
+    }
+
+    /// The file text as written at `path`: [`Parameters::to_yaml`] with the model named as a file
+    /// there names it — a shipped model by its name (also when loaded from a copy of its files), a
+    /// URDF by its path relative to `path`'s folder (absolute when they share no folder but the
+    /// root, or when it was given absolute).
+    #[cfg(feature = "full")]
+    pub fn to_yaml_at(&self, path: &Path) -> String {
         let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let model = self.model.as_ref().map(|m| super::shipped::reference_from(folder, Path::new(m)));
-        let relative = Parameters { model: model.map(|m| m.display().to_string()), ..self.clone() };
-        write_atomic(path, relative.to_yaml().as_bytes())
+        Parameters { model: model.map(|m| m.display().to_string()), ..self.clone() }.to_yaml()
     }
 }
