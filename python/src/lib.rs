@@ -91,7 +91,8 @@ impl Model {
     /// The model of the parameters file at `params` (e.g. a calibration's), with the model it was
     /// made with: `urdf` (a shipped model's name, a URDF's path or a `Model`) when given, else the
     /// file's `model:` (relative to the file; the shipped model of the file's `model_sha256` when
-    /// that path is not found), else the shipped Agile Wrist.
+    /// that path is not found; an error naming the file's line when neither is found). A file that
+    /// names no model gives a geometry alone (it computes; it is no model where one is expected).
     #[staticmethod]
     #[pyo3(signature = (params, urdf=None))]
     fn from_params(py: Python<'_>, params: PathBuf, urdf: Option<&Bound<'_, PyAny>>) -> PyResult<Model> {
@@ -103,17 +104,20 @@ impl Model {
                 for w in p.check_model(&params, &robot).map_err(raise!(ModelError))? {
                     warn(py, &w)?;
                 }
-                robot
+                Some(robot)
             }
+            // A file that names no model is a geometry alone: it computes, and is no model where
+            // one is needed.
+            None if p.model.is_none() => None,
             None => {
                 let (robot, warnings) = p.load_model(&params, None).map_err(raise!(ModelError))?;
                 for w in warnings {
                     warn(py, &w)?;
                 }
-                Arc::new(robot)
+                Some(Arc::new(robot))
             }
         };
-        Ok(Model { spm, robot: Some(robot), params: p, source: params.display().to_string() })
+        Ok(Model { spm, robot, params: p, source: params.display().to_string() })
     }
 
     /// The MP orientation for joint readings `joints` (`(n, 3)` or `(3,)`, rad) by the working-mode
@@ -252,9 +256,8 @@ impl Model {
     /// (a parameters file's model without a URDF found cannot be one).
     fn robot(&self, name: &str) -> PyResult<Arc<RobotModel>> {
         self.robot.clone().ok_or_else(|| {
-            let named = self.params.model.as_deref().unwrap_or("no URDF");
             ModelError::new_err(format!(
-                "{name}: the Model of {} has no URDF (its `model:` is {named}, not found): load it with Model.from_params(params, urdf=...)",
+                "{name}: the Model of {} names no model (no `model:`): load it with Model.from_params(params, urdf=...)",
                 self.source
             ))
         })

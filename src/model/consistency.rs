@@ -275,7 +275,7 @@ impl Parameters {
                         return Err(ModelError::File(FileError {
                             reason: format!(
                                 "the model `{named}` named by this parameters file (its `model:`) cannot be loaded \
-                                 ({e}); give the model with --model (a URDF's path, or a shipped model's name: {})",
+                                 ({e}); give the model with --model (Python: urdf=), a URDF's path or a shipped model's name ({})",
                                 super::shipped::listed()
                             ),
                             ..at("model")
