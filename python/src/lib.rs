@@ -122,13 +122,22 @@ impl Model {
 
     /// The MP orientation for joint readings `joints` (`(n, 3)` or `(3,)`, rad) by the working-mode
     /// FDA: `(n, 4)` quaternions `qw, qx, qy, qz`, or `(n, 3, 3)` matrices with `matrices=True`.
-    /// Raises `KinematicsError` naming the first row without a solution.
+    /// Raises `KinematicsError` naming the first row without a solution, or with a reading beyond a
+    /// full turn (degrees, not radians).
     #[pyo3(signature = (joints, matrices=false))]
     fn forward<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>, matrices: bool) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = rows3(joints, JOINTS)?;
         let spm = &self.spm;
         let solved: Result<Vec<Rotation3<f64>>, (usize, String)> =
-            py.detach(|| rows.iter().enumerate().map(|(k, j)| spm.forward(j).map_err(|e| (k, message(&e)))).collect());
+            py.detach(|| {
+                rows.iter()
+                    .enumerate()
+                    .map(|(k, j)| match degrees(j) {
+                        Some(reason) => Err((k, reason)),
+                        None => spm.forward(j).map_err(|e| (k, message(&e))),
+                    })
+                    .collect()
+            });
         let rs = solved.map_err(|(k, e)| KinematicsError::new_err(format!("joints row {k}: {e}")))?;
         Ok(if matrices {
             let ms: Vec<_> = rs.iter().map(|r| *r.matrix()).collect();
@@ -841,6 +850,14 @@ fn export(params: &Bound<'_, PyAny>, urdf: PathBuf, model: Option<&Bound<'_, PyA
     let exported = spmcal::model::export(&robot, &given.params, &provenance).map_err(raise!(ModelError))?;
     exported.write(&urdf).map_err(raise!(FileError))?;
     Ok(Exported { urdf, companion, warnings: exported.warnings })
+}
+
+/// Why joint readings are refused as degrees: one is beyond a full turn (as `joints.csv` refuses
+/// it; the FDA would otherwise only say "near a singularity").
+fn degrees(joints: &Vector3<f64>) -> Option<String> {
+    joints.iter().find(|j| j.abs() > std::f64::consts::TAU).map(|j| {
+        format!("{j} rad is more than a full turn: the readings look like degrees; spmcal reads joints in radians")
+    })
 }
 
 /// A Python `UserWarning` (what the command line prints as `warning: …`).

@@ -156,6 +156,18 @@ def test_strings_and_other_non_numbers_are_one_array_error() -> None:
 # --- A Model wherever a model is expected --------------------------------------------------------
 
 
+def test_a_unit_mistake_is_named_as_one() -> None:
+    """Joints in degrees and markers in millimetres are said to be so (issue 37), not left to the
+    FDA's "near a singularity" or the fit's iterations."""
+    loaded = spmcal.Session.load(SESSION)
+    with pytest.raises(spmcal.KinematicsError, match="look like degrees; spmcal reads joints in radians"):
+        spmcal.Model.load("agile_wrist").forward(np.degrees(loaded.joints[:5]) + 20.0)
+    with pytest.raises(spmcal.FileError, match="looks like degrees; spmcal reads joints in radians"):
+        spmcal.Session.from_arrays(np.degrees(loaded.joints) + 20.0, loaded.markers, loaded.marker_names, model=MODEL)
+    with pytest.raises(spmcal.FileError, match="looks like millimetres; spmcal reads metres"):
+        spmcal.Session.from_arrays(loaded.joints, loaded.markers * 1000.0, loaded.marker_names, model=MODEL)
+
+
 def test_a_model_is_accepted_wherever_a_model_path_is(tmp_path: Path) -> None:
     model = spmcal.Model.load(MODEL)
     session = spmcal.Session.load(SESSION, model=model)

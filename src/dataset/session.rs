@@ -352,7 +352,8 @@ impl Session {
 
     /// A static session from poses already in memory (named `name`, read with the URDF `model`),
     /// checked as a session folder is: the marker names, one marker slot per name in every pose,
-    /// distinct pose ids, finite joints; the reference pose the first that sees three markers.
+    /// distinct pose ids, finite joints within a turn (degrees are refused), marker coordinates
+    /// within 10 m (millimetres are refused); the reference pose the first that sees three markers.
     ///
     /// # Errors
     /// A [`FileError`] on `name`, at the pose's row (from 1), saying what is wrong.
@@ -375,10 +376,17 @@ impl Session {
             if !p.joints.iter().all(|j| j.is_finite()) {
                 return Err(at(row, format!("pose {}: joint readings {:?} are not finite", p.id, p.joints.as_slice())));
             }
+            if let Some(reason) = p.joints.iter().find_map(|j| super::joints::degrees_reason(*j)) {
+                return Err(at(row, format!("pose {}: {reason}", p.id)));
+            }
             if p.markers.len() != markers.len() {
                 let reason =
                     format!("pose {}: {} marker slots for {} marker names", p.id, p.markers.len(), markers.len());
                 return Err(at(row, reason));
+            }
+            let far = p.markers.iter().flatten().flat_map(|m| m.iter()).find_map(|v| super::markers::millimetres_reason(*v));
+            if let Some(reason) = far {
+                return Err(at(row, format!("pose {}: a marker coordinate: {reason}", p.id)));
             }
         }
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
