@@ -128,16 +128,15 @@ impl Model {
     fn forward<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>, matrices: bool) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = rows3(joints, JOINTS)?;
         let spm = &self.spm;
-        let solved: Result<Vec<Rotation3<f64>>, (usize, String)> =
-            py.detach(|| {
-                rows.iter()
-                    .enumerate()
-                    .map(|(k, j)| match degrees(j) {
-                        Some(reason) => Err((k, reason)),
-                        None => spm.forward(j).map_err(|e| (k, message(&e))),
-                    })
-                    .collect()
-            });
+        let solved: Result<Vec<Rotation3<f64>>, (usize, String)> = py.detach(|| {
+            rows.iter()
+                .enumerate()
+                .map(|(k, j)| match degrees(j) {
+                    Some(reason) => Err((k, reason)),
+                    None => spm.forward(j).map_err(|e| (k, message(&e))),
+                })
+                .collect()
+        });
         let rs = solved.map_err(|(k, e)| KinematicsError::new_err(format!("joints row {k}: {e}")))?;
         Ok(if matrices {
             let ms: Vec<_> = rs.iter().map(|r| *r.matrix()).collect();

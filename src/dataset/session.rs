@@ -384,7 +384,8 @@ impl Session {
                     format!("pose {}: {} marker slots for {} marker names", p.id, p.markers.len(), markers.len());
                 return Err(at(row, reason));
             }
-            let far = p.markers.iter().flatten().flat_map(|m| m.iter()).find_map(|v| super::markers::millimetres_reason(*v));
+            let far =
+                p.markers.iter().flatten().flat_map(|m| m.iter()).find_map(|v| super::markers::millimetres_reason(*v));
             if let Some(reason) = far {
                 return Err(at(row, format!("pose {}: a marker coordinate: {reason}", p.id)));
             }
@@ -562,7 +563,7 @@ impl Session {
         }
         let file = SessionFile {
             name: self.name.clone(),
-            model: Some(crate::model::shipped::reference_from(dir, &self.model)),
+            model: Some(crate::model::reference_from(dir, &self.model)),
             markers: self.markers.clone(),
             reference_pose: self.streams.is_none().then_some(self.reference_pose),
             description: self.description.clone(),

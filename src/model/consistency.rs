@@ -211,6 +211,24 @@ impl Parameters {
 }
 
 impl Parameters {
+    /// Write the file atomically, its model named as [`Parameters::to_yaml_at`] names it.
+    ///
+    /// # Errors
+    /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
+    pub fn write(&self, path: &Path) -> Result<(), FileError> {
+        crate::io::files::write_atomic(path, self.to_yaml_at(path).as_bytes())
+    }
+
+    /// The file text as written at `path`: [`Parameters::to_yaml`] with the model named as a file
+    /// there names it — a shipped model by its name (also when loaded from a copy of its files), a
+    /// URDF by its path relative to `path`'s folder (absolute when they share no folder but the
+    /// root, or when it was given absolute).
+    pub fn to_yaml_at(&self, path: &Path) -> String {
+        let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let model = self.model.as_ref().map(|m| super::urdf::reference_from(folder, Path::new(m)));
+        Parameters { model: model.map(|m| m.display().to_string()), ..self.clone() }.to_yaml()
+    }
+
     /// The model these parameters (read from `file`) are used with, and the warnings: `given`
     /// (`--model`) when there is one, else the model the file names (`model:`, a shipped model's
     /// name or a path relative to the file), else the default model (`agile_wrist`); then

@@ -53,4 +53,6 @@ pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
 pub use survey::ModelSurvey;
 #[cfg(feature = "full")]
+pub(crate) use urdf::reference_from;
+#[cfg(feature = "full")]
 pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape};

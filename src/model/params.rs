@@ -36,8 +36,6 @@ use super::geometry::{GeometryError, HomeBranch, LegGeometry};
 use super::limits::{MAX_CAMERA_TERM, MAX_LATENCY_S, MAX_POSITION_M, Ranges};
 use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
-#[cfg(feature = "full")]
-use crate::io::files::write_atomic;
 use crate::math::so3;
 
 /// The format tag written at the top of every parameters file.
@@ -545,25 +543,5 @@ impl Parameters {
              # (u x w).v at home, which the working mode keeps). Camera: x_C = R_CB x_B + t_CB.\n\
              # Markers (when fitted): positions in P, metres.\n{body}"
         )
-    }
-
-    /// Write the file atomically.
-    ///
-    /// # Errors
-    /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
-    #[cfg(feature = "full")]
-    pub fn write(&self, path: &Path) -> Result<(), FileError> {
-        write_atomic(path, self.to_yaml_at(path).as_bytes())
-    }
-
-    /// The file text as written at `path`: [`Parameters::to_yaml`] with the model named as a file
-    /// there names it — a shipped model by its name (also when loaded from a copy of its files), a
-    /// URDF by its path relative to `path`'s folder (absolute when they share no folder but the
-    /// root, or when it was given absolute).
-    #[cfg(feature = "full")]
-    pub fn to_yaml_at(&self, path: &Path) -> String {
-        let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let model = self.model.as_ref().map(|m| super::shipped::reference_from(folder, Path::new(m)));
-        Parameters { model: model.map(|m| m.display().to_string()), ..self.clone() }.to_yaml()
     }
 }

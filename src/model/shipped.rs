@@ -10,7 +10,7 @@
 //! (`cat agile_wrist.urdf agile_wrist.yaml | sha256sum`): a parameters file records it
 //! (`model_sha256`) so that it finds its model on another machine and notices a changed one.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A model compiled into the program.
 #[derive(Debug, Clone, Copy)]
@@ -58,35 +58,6 @@ pub(crate) fn with_sha256(sha256: &str) -> Option<&'static Shipped> {
 /// The shipped models' names as a message lists them: `agile_wrist, orbita3d`.
 pub(crate) fn listed() -> String {
     NAMES.join(", ")
-}
-
-/// How a file in `folder` records the model `model` (a name, or a path from the working folder):
-/// a shipped model's name when that is what it names or its content is a shipped model's; an
-/// absolute path as it is; a relative one relative to `folder` (`../models/m.urdf`), or absolute
-/// when the two share no folder but the root (no `../../../../` climbing to `/`); as given when it
-/// cannot be resolved.
-pub(crate) fn reference_from(folder: &Path, model: &Path) -> PathBuf {
-    if crate::io::files::is_name(model) {
-        return model.to_path_buf();
-    }
-    if let Ok(texts) = super::urdf::ModelTexts::of(model)
-        && let Some(shipped) = with_sha256(&texts.sha256())
-    {
-        return PathBuf::from(shipped.name);
-    }
-    if model.is_absolute() {
-        return model.to_path_buf();
-    }
-    let (Ok(from), Ok(target)) = (folder.canonicalize(), model.canonicalize()) else {
-        return model.to_path_buf();
-    };
-    let common = from.components().zip(target.components()).take_while(|(a, b)| a == b).count();
-    if common <= 1 {
-        return target;
-    }
-    let mut out: PathBuf = from.components().skip(common).map(|_| "..").collect();
-    out.extend(target.components().skip(common));
-    out
 }
 
 impl Shipped {

@@ -298,6 +298,35 @@ impl RobotModel {
     }
 }
 
+/// How a file in `folder` records the model `model` (a name, or a path from the working folder):
+/// a shipped model's name when that is what it names or its content is a shipped model's; an
+/// absolute path as it is; a relative one relative to `folder` (`../models/m.urdf`), or absolute
+/// when the two share no folder but the root (no `../../../../` climbing to `/`); as given when it
+/// cannot be resolved.
+pub(crate) fn reference_from(folder: &Path, model: &Path) -> PathBuf {
+    if crate::io::files::is_name(model) {
+        return model.to_path_buf();
+    }
+    if let Ok(texts) = ModelTexts::of(model)
+        && let Some(shipped) = super::shipped::with_sha256(&texts.sha256())
+    {
+        return PathBuf::from(shipped.name);
+    }
+    if model.is_absolute() {
+        return model.to_path_buf();
+    }
+    let (Ok(from), Ok(target)) = (folder.canonicalize(), model.canonicalize()) else {
+        return model.to_path_buf();
+    };
+    let common = from.components().zip(target.components()).take_while(|(a, b)| a == b).count();
+    if common <= 1 {
+        return target;
+    }
+    let mut out: PathBuf = from.components().skip(common).map(|_| "..").collect();
+    out.extend(target.components().skip(common));
+    out
+}
+
 /// The two texts of a model: its files', or a shipped model's.
 pub(crate) struct ModelTexts {
     pub(crate) urdf: String,
