@@ -82,7 +82,10 @@ fn the_readme_tour_runs_from_an_empty_folder_with_models_by_name() {
 
     // Calibrate a copied session (its session.yaml names `agile_wrist`).
     copy_session("agile_wrist_sim_20", &w.join("session"));
-    run(w, &["calibrate", "--dataset", "session", "--out", "params.yaml"]);
+    run(w, &["calibrate", "--dataset", "session", "--out", "params.yaml", "--report", "report.html", "--rrd", "c.rrd"]);
+    assert!(w.join("report.html").is_file() && w.join("c.rrd").is_file());
+    let text = run(w, &["compare", "--dataset", "session", "--params", "params.yaml"]);
+    assert!(text.contains("params.yaml"), "{text}");
     let params = std::fs::read_to_string(w.join("params.yaml")).unwrap();
     assert_eq!(yaml_value(&params, "model").as_deref(), Some("agile_wrist"), "{params}");
     let sha = yaml_value(&params, "model_sha256").unwrap();
@@ -187,7 +190,13 @@ fn bags_and_simulations_outside_the_checkout() {
     let w = tmp.path();
     copy_session("agile_wrist_free_motion_120s", &w.join("rec"));
     run(w, &["convert", "--dataset", "rec", "--to-bag", "rec.mcap"]);
-    run(w, &["calibrate", "--dataset", "rec.mcap", "--out", "bag.yaml"]);
+    let out = spmcal(w, &["calibrate", "--dataset", "rec.mcap", "--out", "bag.yaml"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    // The recording's last frame falls outside the encoders at latency 0: the warning cites the
+    // bag's message on its topic, not a line of a text file.
+    assert!(stderr.contains("warning: rec.mcap: marker topic `/markers`, message "), "{stderr}");
+    assert!(!stderr.contains("rec.mcap:1") && stderr.contains("falls outside the encoder stream"), "{stderr}");
     let params = std::fs::read_to_string(w.join("bag.yaml")).unwrap();
     assert_eq!(yaml_value(&params, "model").as_deref(), Some("agile_wrist"), "{params}");
     std::fs::create_dir_all(w.join("a/b")).unwrap();
