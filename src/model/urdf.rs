@@ -729,3 +729,48 @@ impl<'a> Loader<'a> {
         Ok(shapes)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// How a file records its model: a name stays a name; a copy of a shipped model's files is
+    /// that model's name; another model's path is relative to the file's folder; an absolute path
+    /// stays absolute; a path that resolves nowhere stays as given.
+    #[test]
+    fn a_file_records_its_model_by_name_or_by_a_path_from_its_folder() {
+        let tmp = tempfile::tempdir().unwrap();
+        let root = tmp.path();
+        std::fs::create_dir_all(root.join("lab/models")).unwrap();
+        std::fs::create_dir_all(root.join("out/params")).unwrap();
+        let shipped = super::super::shipped::SHIPPED[0];
+        std::fs::write(root.join("lab/models/copy.urdf"), shipped.urdf).unwrap();
+        std::fs::write(root.join("lab/models/copy.yaml"), shipped.companion).unwrap();
+        std::fs::write(root.join("lab/models/own.urdf"), format!("<!-- ours -->\n{}", shipped.urdf)).unwrap();
+        std::fs::write(root.join("lab/models/own.yaml"), shipped.companion).unwrap();
+        let folder = root.join("out/params");
+        assert_eq!(reference_from(&folder, Path::new("orbita3d")), Path::new("orbita3d"));
+        assert_eq!(reference_from(&folder, &root.join("lab/models/copy.urdf")), Path::new("agile_wrist"));
+        let own = root.join("lab/models/own.urdf");
+        assert_eq!(reference_from(&folder, &own), own, "absolute as given");
+        // Relative (to the working folder) → relative to the file's folder.
+        let cwd = std::env::current_dir().unwrap();
+        let common = cwd.components().zip(own.components()).take_while(|(a, b)| a == b).count();
+        let from_cwd: PathBuf = cwd
+            .components()
+            .skip(common)
+            .map(|_| "..")
+            .collect::<PathBuf>()
+            .join(own.components().skip(common).collect::<PathBuf>());
+        assert_eq!(reference_from(&folder, &from_cwd), Path::new("../../lab/models/own.urdf"));
+        // Sharing no folder but the root (the checkout against the temporary folder): absolute,
+        // not a climb of `../` to `/`.
+        let checkout_model = Path::new("tests/data/models/agile_wrist_axes_reversed.urdf");
+        let shares =
+            folder.canonicalize().unwrap().components().nth(1) == cwd.canonicalize().unwrap().components().nth(1);
+        if !shares {
+            assert_eq!(reference_from(&folder, checkout_model), checkout_model.canonicalize().unwrap());
+        }
+        assert_eq!(reference_from(&folder, Path::new("no/such/m.urdf")), Path::new("no/such/m.urdf"));
+    }
+}
