@@ -66,8 +66,8 @@ pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
-    CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,
-    MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
+    CalibrationReport, CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, FlaggedObservation,
+    Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;

@@ -139,6 +139,7 @@ impl Level for OrientationLevel {
         let parameters = Parameters {
             markers: Vec::new(),
             latency_s: None,
+            clock_rate_ppm: None,
             source: ParameterSource::Calibrated,
             model: Some(r.robot.reference().display().to_string()),
             model_sha256: Some(r.robot.sha256.clone()),
