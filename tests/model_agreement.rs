@@ -231,8 +231,8 @@ fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
         checked += 1;
     }
     // 3 legs × 12, the camera's 7 and its projective model's 8 terms with their standard errors,
-    // 5 markers' positions and 4 standard errors, the latency.
-    assert_eq!(checked, 36 + 7 + 16 + 15 + 12 + 1);
+    // 5 markers' positions and 4 standard errors, the latency and the clock rate.
+    assert_eq!(checked, 36 + 7 + 16 + 15 + 12 + 1 + 1);
 }
 
 #[test]
