@@ -334,7 +334,7 @@ fn a_plan_row_must_agree_with_the_model_and_lie_inside_the_workspace() {
     let err = simulate_plan(&joint(3, 1f64.to_radians()), &config).unwrap_err();
     eprintln!("{err}");
     assert!(err.contains("plan.csv:4: step 3: its joints") && err.contains("from its quaternion"), "{err}");
-    assert!(err.contains("agile_wrist.urdf"), "{err}");
+    assert!(err.contains("under the model agile_wrist"), "{err}");
     let err = simulate_plan(&joint(5, 1e-5), &config).unwrap_err();
     assert!(err.contains("plan.csv:6: step 5: its joints"), "{err}");
     // Rounding (a few ulps) is not a contradiction.

@@ -377,7 +377,7 @@ fn the_estimators_refusals_name_the_marker_row() {
     assert!(e.to_string().starts_with(&start), "{e}");
 }
 
-/// A marker coordinate beyond 100 m is refused where it is read, in each kind of input that holds
+/// A marker coordinate beyond 10 m is refused where it is read, in each kind of input that holds
 /// marker positions: `markers.csv` (the corpus), and a bag's `/markers` point, named by topic and
 /// message — never left to overflow the distances between markers (`1e200` made "NaN mm apart").
 #[test]
@@ -389,5 +389,5 @@ fn an_absurd_marker_coordinate_is_refused_where_it_is_read() {
     session.write_bag(&bag).unwrap();
     let e = spmcal::dataset::Session::load(&bag, None).unwrap_err().to_string();
     assert!(e.contains("rec.mcap") && e.contains("topic `/markers`, message"), "{e}");
-    assert!(e.contains("1e200 m is beyond the 100 m a camera measures markers within"), "{e}");
+    assert!(e.contains("1e200 m is no marker position: a camera measures this mechanism's markers within 10 m"), "{e}");
 }

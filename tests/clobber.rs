@@ -72,11 +72,21 @@ fn workspace() -> tempfile::TempDir {
     std::fs::write(w.join(FREE).join("captures.csv"), text).unwrap();
     copy("datasets/joystick_circle/joints.csv", &w.join(JOINTS));
     copy("datasets/joystick_circle/orientations.csv", &w.join(ORIENTATIONS));
-    // The parameters name `models/agile_wrist.urdf`: the copy, from the working directory.
     copy("datasets/agile_wrist_sim_20/truth.yaml", &w.join(PARAMS));
-    // The config names `../models/agile_wrist.urdf`, relative to itself: the copy.
     copy("configs/simulate_agile_wrist.yaml", &w.join(SIM_CONFIG));
     copy("configs/calibrate.yaml", &w.join(CALIB_CONFIG));
+    // The shipped files name the compiled-in model (`model: agile_wrist`); here they name the
+    // copy by its path (relative to each file), so that every command reads a model file.
+    for (file, path) in [
+        (format!("{SIM}/session.yaml"), "../../models/agile_wrist.urdf"),
+        (format!("{FREE}/session.yaml"), "../../models/agile_wrist.urdf"),
+        (PARAMS.to_string(), "models/agile_wrist.urdf"),
+        (SIM_CONFIG.to_string(), "../models/agile_wrist.urdf"),
+    ] {
+        let text = std::fs::read_to_string(w.join(&file)).unwrap();
+        assert!(text.contains("\nmodel: agile_wrist"), "{file}");
+        std::fs::write(w.join(&file), text.replacen("\nmodel: agile_wrist", &format!("\nmodel: {path}"), 1)).unwrap();
+    }
     std::fs::create_dir(w.join("out")).unwrap();
     let plan = spmcal(w, &args("plan --poses 8 --candidates 100 --out plan.csv"));
     assert!(plan.status.success(), "{}", String::from_utf8_lossy(&plan.stderr));
@@ -135,7 +145,7 @@ fn all(parts: &[&[&'static str]]) -> Vec<&'static str> {
 fn scenarios() -> Vec<Scenario> {
     vec![
         Scenario {
-            args: "ik --orientations joystick/orientations.csv --out out/ik.csv",
+            args: "ik --model models/agile_wrist.urdf --orientations joystick/orientations.csv --out out/ik.csv",
             outputs: &[Out::File("--out")],
             inputs: all(&[&[ORIENTATIONS], &THE_MODEL]),
             fails_with: None,

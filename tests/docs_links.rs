@@ -345,6 +345,39 @@ fn readme_links_every_docs_page() {
     assert!(missing.is_empty(), "README.md does not link to: {}", missing.join(", "));
 }
 
+/// The repository cites nothing outside itself: no file (docs, code, Python, models, test data)
+/// names the design notes the project was built from, or a folder beside the checkout. Users'
+/// conventions and formats are `docs/conventions.md` and `docs/formats.md`.
+#[test]
+fn nothing_cites_files_outside_the_repository() {
+    // Spelled in pieces, so that this file does not cite them itself.
+    let needles = [["DESIGN", ".md"].concat(), ["../", "shared/"].concat(), ["shared/", "DESIGN"].concat()];
+    let mut found = Vec::new();
+    let mut stack = vec![root().to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            if path.is_dir() {
+                // Build output, git's own files and Python's caches are not the repository's text.
+                if !matches!(name.as_str(), ".git" | "target" | "__pycache__" | ".mypy_cache" | ".pytest_cache") {
+                    stack.push(path);
+                }
+                continue;
+            }
+            let Ok(text) = fs::read_to_string(&path) else { continue };
+            for (k, line) in text.lines().enumerate() {
+                if needles.iter().any(|n| line.contains(n.as_str())) {
+                    found.push(format!("{}:{}: {}", relative(&path), k + 1, line.trim()));
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "files cite what is not in the repository:\n{}", found.join("\n"));
+    // The check can fail: a line that cites it is found.
+    assert!(needles.iter().any(|n| format!("see {}", needles[0]).contains(n.as_str())));
+}
+
 /// The checker itself, on small pieces of Markdown: it must be able to fail.
 #[test]
 fn the_link_finder_and_slugs_behave() {

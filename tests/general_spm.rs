@@ -304,7 +304,7 @@ proptest! {
         }
         let (r, joints) = path.last().unwrap();
         // The working mode is the one reached along the straight joint-space path from home
-        // (DESIGN.md): follow it in 400 tracking steps. Where tracking gets through, `forward` must
+        // (docs/conventions.md): follow it in 400 tracking steps. Where tracking gets through, `forward` must
         // arrive at the same orientation; where the path meets a singularity it may refuse.
         if let Some((end, closest)) = along_straight_path(&spm, joints, 400) {
             match spm.forward(joints) {

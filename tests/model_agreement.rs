@@ -89,7 +89,7 @@ fn legs_in_another_order_are_refused_naming_both_files_and_the_legs() {
     assert!(text.contains("m.yaml:13: column `legs[1]`") && text.contains("(joints `theta3`"), "{text}");
     assert!(text.contains(&format!("{FITTED} (line {}, `legs[1]`)", fitted_line("- u:", 1))), "{text}");
     // The header names the shipped model, and the geometry disagrees: both said.
-    assert!(text.contains("also, the header of") && text.contains("`model: models/agile_wrist.urdf`"), "{text}");
+    assert!(text.contains("also, the header of") && text.contains("`model: agile_wrist`"), "{text}");
     assert!(export(&other, &fitted(), &[]).is_err());
 }
 
@@ -128,7 +128,8 @@ fn markers_must_be_the_models_by_name() {
 #[test]
 fn another_models_header_with_the_same_geometry_is_a_warning() {
     let dir = tempfile::tempdir().unwrap();
-    let copy = RobotModel::load(&model_copy(dir.path(), "legs:", "legs:")).unwrap();
+    // Another model's content (one comment more: another identity), the same geometry.
+    let copy = RobotModel::load(&model_copy(dir.path(), "legs:", "legs: # our copy")).unwrap();
     let warnings = fitted().check_model(Path::new(FITTED), &copy).unwrap();
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     assert!(warnings[0].contains(&format!("{FITTED} (line {}, `model`)", fitted_line("model:", 0))), "{warnings:?}");
@@ -230,8 +231,8 @@ fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
         checked += 1;
     }
     // 3 legs × 12, the camera's 7 and its projective model's 8 terms with their standard errors,
-    // 5 markers' positions and 4 standard errors, the latency.
-    assert_eq!(checked, 36 + 7 + 16 + 15 + 12 + 1);
+    // 5 markers' positions and 4 standard errors, the latency and the clock rate.
+    assert_eq!(checked, 36 + 7 + 16 + 15 + 12 + 1 + 1);
 }
 
 #[test]

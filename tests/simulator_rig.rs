@@ -44,7 +44,7 @@ fn true_points(session: &Session) -> Vec<Vec<Vector3<f64>>> {
 }
 
 /// Camera `c`'s pixel of `y` (cam0's frame), written once more from the config's words and
-/// DESIGN.md's projection, sharing nothing with the library's rig: each camera's centre
+/// docs/conventions.md's projection, sharing nothing with the library's rig: each camera's centre
 /// `baseline_m` along the previous one's x axis, turned by `toe_in_deg` about its y axis towards
 /// it and then by `rotation_deg`; `x = X/Z`, radtan distortion, `u = fu x_d + pu`.
 fn expected_pixel(settings: &RigSettings, c: usize, y: &Vector3<f64>) -> Vector2<f64> {

@@ -17,7 +17,13 @@ fn write_recording(session: &Session, dir: &Path, latency_s: f64) {
     std::fs::create_dir_all(dir).unwrap();
     let yaml = format!(
         "name: rec\nmodel: {}\nmarkers: [{}]\n",
-        std::fs::canonicalize(&session.model).unwrap().display(),
+        // A shipped model by its name, a file by its absolute path (the recording is elsewhere).
+        if RobotModel::is_shipped(&session.model) {
+            session.model.clone()
+        } else {
+            std::fs::canonicalize(&session.model).unwrap()
+        }
+        .display(),
         session.markers.join(", ")
     );
     std::fs::write(dir.join("session.yaml"), yaml).unwrap();

@@ -4,7 +4,7 @@
 //!
 //! Conventions: joint readings in radians (`theta1..3`), orientations as unit quaternions
 //! `[qw, qx, qy, qz]` (scalar first, MP frame → base frame), the frames and working mode of
-//! `shared/DESIGN.md`. Every function returns an [`SpmcalStatus`]; on failure
+//! `docs/conventions.md`. Every function returns an [`SpmcalStatus`]; on failure
 //! [`spmcal_last_error`] gives the reason in words (valid until the next failing call on the same
 //! thread). `spmcal_track`, `spmcal_forward` and `spmcal_ik` do not allocate unless they fail:
 //! they are safe in a 1 kHz loop.

@@ -13,8 +13,9 @@ Arrays are numpy: joints ``(n, 3)`` in rad, quaternions ``(n, 4)`` scalar first,
 ``(n, 3, 3)``, markers ``(n, m, 3)`` in m (NaN where unseen). An array argument may be any
 array-like (a list, a tuple, float32, ints, a view), read as ``np.asarray(x, dtype=float64)``; a
 wrong shape raises ``ShapeError``, values numpy cannot read ``ArrayError`` (both ``ValueError``s).
-Wherever a model is expected, a ``Model`` or a URDF's path; wherever parameters are, a ``Model`` or
-a parameters file's path. ``str(calibration)`` is the text report, ``calibration.verdict`` its
+Wherever a model is expected, a ``Model``, a shipped model's name (``"agile_wrist"``, the default,
+``"orbita3d"``: compiled in, no checkout needed) or a URDF's path; wherever parameters are, a
+``Model`` or a parameters file's path. ``str(calibration)`` is the text report, ``calibration.verdict`` its
 word (``PASS``/``WARN``), ``calibration.parameters_table()`` its parameters in its units.
 
 Every error is a ``SpmcalError`` (``FileError`` with ``ArrayError`` and ``ShapeError``,

@@ -16,7 +16,8 @@ from ._types import ParametersTable, Pixels, PoseErrors, RigTerms
 _Path = Union[str, "os.PathLike[str]"]
 _Array = npt.NDArray[np.float64]
 _ArrayLike = npt.ArrayLike
-# Wherever a model is expected: a Model, or the path of a URDF.
+# Wherever a model is expected: a Model, a shipped model's name ("agile_wrist", "orbita3d"), or the
+# path of a URDF.
 _ModelLike = Union[_Path, "Model"]
 # Wherever parameters are expected: a Model (its parameters), or the path of a parameters file.
 _ParamsLike = Union[_Path, "Model"]

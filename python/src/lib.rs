@@ -76,44 +76,67 @@ struct Model {
 
 #[pymethods]
 impl Model {
-    /// The nominal model of the URDF at `urdf` (its companion `.yaml` beside it).
+    /// The nominal model `urdf`: a shipped model's name (`"agile_wrist"`, `"orbita3d"`: compiled
+    /// in, found anywhere) or a URDF's path (its companion `.yaml` beside it).
     #[staticmethod]
     fn load(urdf: PathBuf) -> PyResult<Model> {
         let robot = RobotModel::load(&urdf).map_err(raise!(ModelError))?;
-        let params = Parameters::nominal(&robot.spm, Some(urdf.display().to_string()));
+        let params = Parameters {
+            model_sha256: Some(robot.sha256.clone()),
+            ..Parameters::nominal(&robot.spm, Some(urdf.display().to_string()))
+        };
         Ok(Model { spm: robot.spm.clone(), robot: Some(Arc::new(robot)), params, source: urdf.display().to_string() })
     }
 
-    /// The model of the parameters file at `params` (e.g. a calibration's); `urdf` (a path or a
-    /// `Model`) gives the model it belongs to when the file's `model:` does not lead to it.
+    /// The model of the parameters file at `params` (e.g. a calibration's), with the model it was
+    /// made with: `urdf` (a shipped model's name, a URDF's path or a `Model`) when given, else the
+    /// file's `model:` (relative to the file; the shipped model of the file's `model_sha256` when
+    /// that path is not found; an error naming the file's line when neither is found). A file that
+    /// names no model gives a geometry alone (it computes; it is no model where one is expected).
     #[staticmethod]
     #[pyo3(signature = (params, urdf=None))]
-    fn from_params(params: PathBuf, urdf: Option<&Bound<'_, PyAny>>) -> PyResult<Model> {
+    fn from_params(py: Python<'_>, params: PathBuf, urdf: Option<&Bound<'_, PyAny>>) -> PyResult<Model> {
         let p = Parameters::read(&params).map_err(raise!(FileError))?;
         let spm = p.spm().map_err(|e| ModelError::new_err(format!("{}: {}", params.display(), message(&e))))?;
         let robot = match urdf {
-            Some(u) => Some(model_arg(u, "urdf")?.robot("urdf")?),
-            // The file's own `model:`, when it leads to a URDF (a model without one still computes).
-            None => p
-                .model
-                .as_ref()
-                .map(PathBuf::from)
-                .filter(|u| u.exists())
-                .map(|u| RobotModel::load(&u).map(Arc::new).map_err(raise!(ModelError)))
-                .transpose()?,
+            Some(u) => {
+                let robot = model_arg(u, "urdf")?.robot("urdf")?;
+                for w in p.check_model(&params, &robot).map_err(raise!(ModelError))? {
+                    warn(py, &w)?;
+                }
+                Some(robot)
+            }
+            // A file that names no model is a geometry alone: it computes, and is no model where
+            // one is needed.
+            None if p.model.is_none() => None,
+            None => {
+                let (robot, warnings) = p.load_model(&params, None).map_err(raise!(ModelError))?;
+                for w in warnings {
+                    warn(py, &w)?;
+                }
+                Some(Arc::new(robot))
+            }
         };
         Ok(Model { spm, robot, params: p, source: params.display().to_string() })
     }
 
     /// The MP orientation for joint readings `joints` (`(n, 3)` or `(3,)`, rad) by the working-mode
     /// FDA: `(n, 4)` quaternions `qw, qx, qy, qz`, or `(n, 3, 3)` matrices with `matrices=True`.
-    /// Raises `KinematicsError` naming the first row without a solution.
+    /// Raises `KinematicsError` naming the first row without a solution, or with a reading beyond a
+    /// full turn (degrees, not radians).
     #[pyo3(signature = (joints, matrices=false))]
     fn forward<'py>(&self, py: Python<'py>, joints: &Bound<'py, PyAny>, matrices: bool) -> PyResult<Bound<'py, PyAny>> {
         let (rows, single) = rows3(joints, JOINTS)?;
         let spm = &self.spm;
-        let solved: Result<Vec<Rotation3<f64>>, (usize, String)> =
-            py.detach(|| rows.iter().enumerate().map(|(k, j)| spm.forward(j).map_err(|e| (k, message(&e)))).collect());
+        let solved: Result<Vec<Rotation3<f64>>, (usize, String)> = py.detach(|| {
+            rows.iter()
+                .enumerate()
+                .map(|(k, j)| match degrees(j) {
+                    Some(reason) => Err((k, reason)),
+                    None => spm.forward(j).map_err(|e| (k, message(&e))),
+                })
+                .collect()
+        });
         let rs = solved.map_err(|(k, e)| KinematicsError::new_err(format!("joints row {k}: {e}")))?;
         Ok(if matrices {
             let ms: Vec<_> = rs.iter().map(|r| *r.matrix()).collect();
@@ -241,9 +264,8 @@ impl Model {
     /// (a parameters file's model without a URDF found cannot be one).
     fn robot(&self, name: &str) -> PyResult<Arc<RobotModel>> {
         self.robot.clone().ok_or_else(|| {
-            let named = self.params.model.as_deref().unwrap_or("no URDF");
             ModelError::new_err(format!(
-                "{name}: the Model of {} has no URDF (its `model:` is {named}, not found): load it with Model.from_params(params, urdf=...)",
+                "{name}: the Model of {} names no model (no `model:`): load it with Model.from_params(params, urdf=...)",
                 self.source
             ))
         })
@@ -876,10 +898,8 @@ fn export(params: &Bound<'_, PyAny>, urdf: PathBuf, model: Option<&Bound<'_, PyA
     let robot = match (robot_opt(model, "model")?, given.robot.clone()) {
         (Some(r), _) | (None, Some(r)) => r,
         (None, None) => {
-            let path = given.params.model.as_ref().map(PathBuf::from).ok_or_else(|| {
-                ModelError::new_err(format!("{}: names no model: pass model= (a URDF's path or a Model)", given.label))
-            })?;
-            Arc::new(RobotModel::load(&path).map_err(raise!(ModelError))?)
+            let (robot, _) = given.params.load_model(Path::new(&given.label), None).map_err(raise!(ModelError))?;
+            Arc::new(robot)
         }
     };
     let companion = RobotModel::companion_path(&urdf);
@@ -896,6 +916,20 @@ fn export(params: &Bound<'_, PyAny>, urdf: PathBuf, model: Option<&Bound<'_, PyA
     Ok(Exported { urdf, companion, warnings: exported.warnings })
 }
 
+/// Why joint readings are refused as degrees: one is beyond a full turn (as `joints.csv` refuses
+/// it; the FDA would otherwise only say "near a singularity").
+fn degrees(joints: &Vector3<f64>) -> Option<String> {
+    joints.iter().find(|j| j.abs() > std::f64::consts::TAU).map(|j| {
+        format!("{j} rad is more than a full turn: the readings look like degrees; spmcal reads joints in radians")
+    })
+}
+
+/// A Python `UserWarning` (what the command line prints as `warning: …`).
+fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
+    py.import("warnings")?.call_method1("warn", (message,))?;
+    Ok(())
+}
+
 fn same_file(a: &Path, b: &Path) -> bool {
     match (a.canonicalize(), b.canonicalize()) {
         (Ok(x), Ok(y)) => x == y,
@@ -903,8 +937,8 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// The model `plan` plans for when given none: the shipped Agile Wrist.
-const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
+/// The model `plan` plans for when given none: the shipped Agile Wrist (compiled in).
+const DEFAULT_MODEL: &str = "agile_wrist";
 
 /// Plan `poses` poses for `model` (a URDF's path or a `Model`; default the `params` `Model`'s
 /// URDF, else the shipped Agile Wrist), or the parameters `params` (a file or a `Model`), with the simulation settings `config` (workspace, camera, noise),

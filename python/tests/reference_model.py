@@ -1,10 +1,10 @@
 """An independent reference of the marker-level observation model, in numpy (issue 32).
 
-Written from ``shared/DESIGN.md``'s conventions and ``docs/calibration.md``'s camera model alone,
+Written from ``docs/conventions.md``'s conventions and ``docs/calibration.md``'s camera model alone,
 not from the library's code; the library is asked only what its parameter vector is (the names,
 their order, and the gauge's tilt directions: ``spmcal._spmcal._marker_model``).
 
-Conventions (DESIGN.md, "Kinematic conventions"):
+Conventions (docs/conventions.md, "Kinematic conventions"):
 
 - leg i: actuated axis ``u``, zero direction ``z`` (orthogonal to ``u``), link angles ``α1``,
   ``α2``, platform axis ``v0`` (in P), encoder offset ``δ``; ``φ = θ + δ`` (joint scale 1);
@@ -122,7 +122,7 @@ def unit(v: Array) -> Array:
 
 @dataclass(frozen=True)
 class Leg:
-    """One leg in DESIGN.md's terms; ``branch`` the sign (±1) of ``(u × w) · v`` at home."""
+    """One leg in docs/conventions.md's terms; ``branch`` the sign (±1) of ``(u × w) · v`` at home."""
 
     u: Array
     z: Array
@@ -418,7 +418,7 @@ def finite_difference_jacobian(start: Start, x: Array, joints: Array, markers: A
     return out
 
 
-# --- The nominal Agile Wrist (DESIGN.md) and perturbations -------------------------------------
+# --- The nominal Agile Wrist (docs/conventions.md) and perturbations -------------------------------------
 
 
 def legs_from_file(legs: Sequence[dict[str, Any]]) -> list[Leg]:
@@ -432,7 +432,7 @@ def legs_from_file(legs: Sequence[dict[str, Any]]) -> list[Leg]:
 
 
 def agile_wrist() -> list[Leg]:
-    """DESIGN.md's nominal Agile Wrist: α1 = α2 = 90°, b = p = arctan √2, legs 120° apart; its
+    """docs/conventions.md's nominal Agile Wrist: α1 = α2 = 90°, b = p = arctan √2, legs 120° apart; its
     legs are on the negative branch at home."""
     b = p = math.atan(math.sqrt(2))
     legs = []
@@ -446,7 +446,7 @@ def agile_wrist() -> list[Leg]:
 
 
 def agile_wrist_markers() -> Array:
-    """DESIGN.md's nominal markers: m1–m3 on the MP (radius 0.075 m, 0.06 m above O, azimuths
+    """docs/conventions.md's nominal markers: m1–m3 on the MP (radius 0.075 m, 0.06 m above O, azimuths
     90°, 210°, 330°), m4 atop the column (0, 0, 0.22) m."""
     ring = [[0.075 * math.cos(math.radians(a)), 0.075 * math.sin(math.radians(a)), 0.06] for a in (90, 210, 330)]
     return np.array(ring + [[0.0, 0.0, 0.22]])

@@ -1,6 +1,6 @@
 """A calibration study whose data comes from the numpy reference, not the crate's simulator.
 
-Per session: a true Agile Wrist near DESIGN.md's nominal one (axes tilted by σ 0.5° per axis, link
+Per session: a true Agile Wrist near docs/conventions.md's nominal one (axes tilted by σ 0.5° per axis, link
 angles by 0.3°, offsets by 1°), a camera 0.8 m above O looking down (misplaced by σ 1 cm and 1°, a
 perfect K), markers glued 3 mm (σ per axis) off the nominal positions, ``--poses`` orientations
 within a 25° tilt disc and ±25° yaw (home first; poses kept where the conditioning and every

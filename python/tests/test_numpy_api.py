@@ -156,6 +156,18 @@ def test_strings_and_other_non_numbers_are_one_array_error() -> None:
 # --- A Model wherever a model is expected --------------------------------------------------------
 
 
+def test_a_unit_mistake_is_named_as_one() -> None:
+    """Joints in degrees and markers in millimetres are said to be so (issue 37), not left to the
+    FDA's "near a singularity" or the fit's iterations."""
+    loaded = spmcal.Session.load(SESSION)
+    with pytest.raises(spmcal.KinematicsError, match="look like degrees; spmcal reads joints in radians"):
+        spmcal.Model.load("agile_wrist").forward(np.degrees(loaded.joints[:5]) + 20.0)
+    with pytest.raises(spmcal.FileError, match="looks like degrees; spmcal reads joints in radians"):
+        spmcal.Session.from_arrays(np.degrees(loaded.joints) + 20.0, loaded.markers, loaded.marker_names, model=MODEL)
+    with pytest.raises(spmcal.FileError, match="looks like millimetres; spmcal reads metres"):
+        spmcal.Session.from_arrays(loaded.joints, loaded.markers * 1000.0, loaded.marker_names, model=MODEL)
+
+
 def test_a_model_is_accepted_wherever_a_model_path_is(tmp_path: Path) -> None:
     model = spmcal.Model.load(MODEL)
     session = spmcal.Session.load(SESSION, model=model)
@@ -194,14 +206,24 @@ def test_a_model_argument_of_another_type_or_without_urdf_says_so(tmp_path: Path
         spmcal.compare(session, params=7)  # type: ignore[arg-type]
     calibration = spmcal.calibrate(session)
     calibration.save(tmp_path / "params.yaml")
-    text = (tmp_path / "params.yaml").read_text().replace(f"model: {MODEL}", "model: elsewhere/agile_wrist.urdf")
+    # Moved where its `model:` leads nowhere: found by its `model_sha256` (the shipped model's) ...
+    text = (tmp_path / "params.yaml").read_text().replace("model: agile_wrist", "model: elsewhere/agile_wrist.urdf")
     (tmp_path / "moved.yaml").write_text(text)
-    orphan = spmcal.Model.from_params(tmp_path / "moved.yaml")
+    moved = spmcal.Model.from_params(tmp_path / "moved.yaml")
+    assert np.abs(moved.forward([0.1, -0.2, 0.15]) - calibration.model.forward([0.1, -0.2, 0.15])).max() < 1e-12
+    # ... and without it, a one-line error naming the file's `model:` line and what gives the model.
+    orphan_text = "".join(l for l in text.splitlines(keepends=True) if not l.startswith("model_sha256:"))
+    (tmp_path / "orphan.yaml").write_text(orphan_text)
+    line = orphan_text.splitlines().index("model: elsewhere/agile_wrist.urdf") + 1
     with pytest.raises(spmcal.ModelError) as no_urdf:
-        spmcal.calibrate(session, model=orphan)
-    assert str(no_urdf.value) == (
-        f"model: the Model of {tmp_path / 'moved.yaml'} has no URDF (its `model:` is elsewhere/agile_wrist.urdf, "
-        "not found): load it with Model.from_params(params, urdf=...)")
+        spmcal.Model.from_params(tmp_path / "orphan.yaml")
+    message = str(no_urdf.value)
+    assert "\n" not in message
+    assert message.startswith(
+        f"{tmp_path / 'orphan.yaml'}:{line}: the model `{tmp_path / 'elsewhere/agile_wrist.urdf'}` named by this "
+        "parameters file (its `model:`) cannot be loaded"), message
+    assert "give the model with --model (Python: urdf=)" in message, message
+    assert spmcal.Model.from_params(tmp_path / "orphan.yaml", urdf="agile_wrist").forward([0.0, 0.0, 0.0])[0] > 0.99
 
 
 # --- Results in the report's units, with names ---------------------------------------------------

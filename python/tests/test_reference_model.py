@@ -1,6 +1,6 @@
 """The library's marker-level model against the independent numpy reference (issue 32).
 
-`reference_model.py` is written from shared/DESIGN.md's conventions; the library's side is
+`reference_model.py` is written from docs/conventions.md's conventions; the library's side is
 `spmcal._spmcal._marker_model`: its FDA and parameterisation at a parameter vector, and the
 analytic Jacobian its fit uses. Over random geometries — the nominal Agile Wrist, perturbations of
 it, and general SPMs (uneven legs, link angles 60°–130°, a common actuated axis in a quarter of
@@ -174,7 +174,7 @@ def disagreement(case: Case, lib: dict[str, Any]) -> dict[str, float]:
 
 
 def test_the_nominal_model_is_designs(tmp_path: Path) -> None:
-    """The URDF the library loads is DESIGN.md's nominal Agile Wrist (an outside fact the
+    """The URDF the library loads is docs/conventions.md's nominal Agile Wrist (an outside fact the
     reference starts from)."""
     legs = spmcal.Model.load(MODEL).to_dict()["legs"]
     assert len(legs) == 3

@@ -34,7 +34,7 @@ def test_forward_is_the_command_lines_fda_to_1e12(cli: str, tmp_path: Path) -> N
     # And the IK then FDA round trip returns the orientations (sign of q fixed, qw >= 0).
     assert np.abs(model.forward(joints) - q).max() < 1e-12
     # An independent fact (the command line and the module run the same Rust): the numpy
-    # reference's FDA of DESIGN.md's nominal wrist gives the same rotations.
+    # reference's FDA of docs/conventions.md's nominal wrist gives the same rotations.
     assert np.abs(ref.fda(ref.agile_wrist(), joints) - model.forward(joints, matrices=True)).max() < 1e-12
     assert np.abs(ref.fda(ref.agile_wrist(), joints) - ref.expm(rotvec)).max() < 1e-12
 

@@ -10,12 +10,16 @@ use spmcal::vision::Method;
 
 use super::files::{Files, session_model};
 
+/// The model used where none is named: the shipped Agile Wrist.
+pub(crate) const DEFAULT_MODEL: &str = "agile_wrist";
+
 /// Which manipulator geometry to use.
 #[derive(Args)]
 pub(crate) struct GeometryArgs {
-    /// The URDF model (its companion `.yaml` must sit beside it).
-    #[arg(long, default_value = "models/agile_wrist.urdf")]
-    pub(crate) model: PathBuf,
+    /// The model: a shipped model's name (agile_wrist, orbita3d) or a URDF's path, its companion
+    /// `.yaml` beside it [default: the parameters file's model, else agile_wrist].
+    #[arg(long)]
+    pub(crate) model: Option<PathBuf>,
     /// A parameters file (nominal or calibrated) to use instead of the model's nominal geometry.
     #[arg(long)]
     pub(crate) params: Option<PathBuf>,
@@ -26,21 +30,28 @@ impl GeometryArgs {
     /// model is checked against the outputs in `files` before it is read.
     pub(crate) fn model_and_params(&self, files: &mut Files) -> Result<(RobotModel, Option<Parameters>)> {
         let params = self.params.as_deref().map(Parameters::read).transpose()?;
-        let path = self.model_path(params.as_ref());
-        files.check_model(&path)?;
-        let model = RobotModel::load(&path)?;
-        // The parameters must belong to the model (legs in order, the same markers).
-        if let (Some(file), Some(p)) = (&self.params, &params) {
-            for w in p.check_model(file, &model)? {
-                eprintln!("warning: {w}");
+        match (&self.params, &params) {
+            (Some(file), Some(p)) => {
+                files.check_model(&p.model_reference(self.model.as_deref()))?;
+                // The model the parameters name (found by identity when moved), which they must
+                // fit (legs in order, the same markers).
+                let (model, warnings) = p.load_model(file, self.model.as_deref())?;
+                for w in warnings {
+                    eprintln!("warning: {w}");
+                }
+                Ok((model, params))
+            }
+            _ => {
+                let path = self.model_path();
+                files.check_model(&path)?;
+                Ok((RobotModel::load(&path)?, params))
             }
         }
-        Ok((model, params))
     }
 
-    /// The model [`GeometryArgs::model_and_params`] reads: the parameters' `model`, else `--model`.
-    fn model_path(&self, params: Option<&Parameters>) -> PathBuf {
-        params.and_then(|p| p.model.clone()).map_or_else(|| self.model.clone(), PathBuf::from)
+    /// `--model`, else the default model.
+    pub(crate) fn model_path(&self) -> PathBuf {
+        self.model.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_MODEL))
     }
 
     /// Register what [`GeometryArgs::model_and_params`] reads: the parameters file, and the model
@@ -50,12 +61,9 @@ impl GeometryArgs {
             Some(path) => {
                 files.input("--params", path);
                 let (path, model) = (path.clone(), self.model.clone());
-                files.model_named_by(move || {
-                    let named = Parameters::read(&path).ok()?.model;
-                    Some(named.map_or(model, PathBuf::from))
-                });
+                files.model_named_by(move || Some(Parameters::read(&path).ok()?.model_reference(model.as_deref())));
             }
-            None => files.model(&self.model),
+            None => files.model(&self.model_path()),
         }
     }
 
@@ -64,7 +72,7 @@ impl GeometryArgs {
     pub(crate) fn register_spm(&self, files: &mut Files) {
         match &self.params {
             Some(path) => files.input("--params", path),
-            None => files.model(&self.model),
+            None => files.model(&self.model_path()),
         }
     }
 
@@ -74,7 +82,7 @@ impl GeometryArgs {
                 let params = Parameters::read(path)?;
                 params.spm().with_context(|| format!("{}", path.display()))
             }
-            None => Ok(RobotModel::load(&self.model)?.spm),
+            None => Ok(RobotModel::load(&self.model_path())?.spm),
         }
     }
 }
@@ -85,7 +93,8 @@ pub(crate) struct SessionArgs {
     /// The session folder, or a ROS 2 bag (an `.mcap` file or a bag folder).
     #[arg(long)]
     pub(crate) dataset: PathBuf,
-    /// The URDF model (overrides the session's).
+    /// The model (overrides the session's): a shipped model's name (agile_wrist, orbita3d) or a
+    /// URDF's path.
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,
 }
@@ -120,12 +129,14 @@ impl SessionArgs {
         let (moved, dropped) = session.at_clock(latency_s, rate_ppm);
         if let Some(first) = dropped.first() {
             let warning = format!(
-                "{}: at its latency_s = {latency_s} s and clock_rate_ppm = {rate_ppm}, {} of {} camera frames fall outside the encoder stream and were left out (first: {}:{})",
+                "{}: at its latency_s = {latency_s} s and clock_rate_ppm = {rate_ppm}, {} of {} camera frames fall outside the encoder stream and were left out (first: {})",
                 params.display(),
                 dropped.len(),
                 moved.poses.len() + dropped.len(),
-                first.path.display(),
-                first.line
+                match &first.topic {
+                    Some(topic) => format!("{}, {topic}, message {}", first.path.display(), first.line),
+                    None => format!("{}:{}", first.path.display(), first.line),
+                }
             );
             eprintln!("warning: {warning}");
             warnings.push(warning);

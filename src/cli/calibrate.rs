@@ -101,7 +101,7 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
             eprintln!("{:<30} {:10} {:10.4}", stage.name, stage.iterations, stage.seconds);
         }
     }
-    outputs.write(params_slot, calibration.parameters.to_yaml().as_bytes())?;
+    outputs.write(params_slot, calibration.parameters.to_yaml_at(&args.out).as_bytes())?;
     if let Some(slot) = rrd {
         record(&outputs, slot, &spmcal::record::Scene::calibration(&session, &model, &calibration)?)?;
     }

@@ -38,7 +38,7 @@ pub(crate) fn run(args: CheckArgs) -> Result<()> {
     files.check()?;
     let spm = args.geometry.spm()?;
     let survey = ModelSurvey::of(&spm, args.max_tilt_deg, args.max_yaw_deg);
-    let source = args.geometry.params.as_ref().unwrap_or(&args.geometry.model).display().to_string();
+    let source = args.geometry.params.clone().unwrap_or_else(|| args.geometry.model_path()).display().to_string();
     if args.json {
         return out(&(Envelope::new("check", &survey).input("model", &source).to_json() + "\n"));
     }

@@ -32,7 +32,8 @@ pub(crate) struct ConvertArgs {
     /// triangulates instead, as a tracker that gives points would (a bag carries points only).
     #[arg(long)]
     pub(crate) points: bool,
-    /// The URDF model (overrides the session's, or the bag mapping's).
+    /// The model (overrides the session's, or the bag mapping's): a shipped model's name
+    /// (agile_wrist, orbita3d) or a URDF's path [default for a bag: agile_wrist].
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,
     /// Print a machine-readable summary (JSON).

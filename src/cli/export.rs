@@ -18,7 +18,8 @@ pub(crate) struct ExportArgs {
     /// The URDF to write; its companion `.yaml` is written beside it.
     #[arg(long)]
     pub(crate) urdf: PathBuf,
-    /// The model whose URDF is copied (default: the parameters file's `model`, else the nominal one).
+    /// The model whose URDF is copied: a shipped model's name or a URDF's path (default: the
+    /// parameters file's `model`, found by its `model_sha256` when moved, else agile_wrist).
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,
     /// Print a machine-readable summary (JSON).
@@ -34,7 +35,7 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
         Some(model) => files.model(model),
         None => {
             let params = args.params.clone();
-            files.model_named_by(move || Some(default_model(Parameters::read(&params).ok().as_ref())));
+            files.model_named_by(move || Some(Parameters::read(&params).ok()?.model_reference(None)));
         }
     }
     files.check()?;
@@ -42,9 +43,12 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
     let companion = RobotModel::companion_path(&args.urdf);
     let (urdf_slot, companion_slot) = (outputs.reserve(&args.urdf)?, outputs.reserve(&companion)?);
     let params = Parameters::read(&args.params)?;
-    let model_path = args.model.clone().unwrap_or_else(|| default_model(Some(&params)));
-    files.check_model(&model_path)?;
-    let model = RobotModel::load(&model_path)?;
+    files.check_model(&params.model_reference(args.model.as_deref()))?;
+    // The model the parameters name (found by identity when moved) or `--model`; the parameters
+    // must belong to it (legs in the same order, the same markers): refused naming both files, or
+    // a warning when only the file's `model:` header differs.
+    let (model, warnings) = params.load_model(&args.params, args.model.as_deref())?;
+    let model_path = model.urdf_path.clone();
     let mut provenance = vec![
         format!("Calibrated model exported by spmcal {} from {}", env!("CARGO_PKG_VERSION"), args.params.display()),
         format!("(parameters: {:?}; copied from the model {})", params.source, model_path.display()),
@@ -55,9 +59,6 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
             provenance.push(format!("fit {}: {value}", key.as_str().unwrap_or("?")));
         }
     }
-    // The parameters file must belong to this model (legs in the same order, the same markers):
-    // refused naming both files, or a warning when only the file's `model:` header differs.
-    let warnings = params.check_model(&args.params, &model)?;
     let exported = export(&model, &params, &provenance)?;
     outputs.write(urdf_slot, exported.urdf.as_bytes())?;
     outputs.write(companion_slot, exported.companion.as_bytes())?;
@@ -74,10 +75,4 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     out(&format!("wrote {urdf} and {companion} (load it with --model {urdf})\n"))
-}
-
-/// The model whose URDF is copied when no `--model` is given: the parameters' `model`, else the
-/// nominal one.
-fn default_model(params: Option<&Parameters>) -> PathBuf {
-    params.and_then(|p| p.model.clone()).map_or_else(|| PathBuf::from("models/agile_wrist.urdf"), PathBuf::from)
 }

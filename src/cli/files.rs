@@ -214,7 +214,7 @@ pub(crate) fn session_model(dir: &Path) -> Option<PathBuf> {
             }
             Event::Scalar(value, ..) if depth == 1 => {
                 if model_next {
-                    return Some(dir.join(value.as_ref()));
+                    return Some(RobotModel::reference_in(dir, Path::new(value.as_ref())));
                 }
                 model_next = key && value == "model";
                 key = !key;
@@ -245,8 +245,12 @@ impl Files {
         }
     }
 
-    /// A model the command reads: the URDF and its companion.
+    /// A model the command reads: the URDF and its companion (none for a shipped model's name:
+    /// it is compiled in).
     pub(crate) fn model(&mut self, urdf: &Path) {
+        if RobotModel::is_shipped(urdf) {
+            return;
+        }
         let companion = RobotModel::companion_path(urdf);
         self.push_input(format!("the model {}", urdf.display()), "the model".into(), urdf);
         self.push_input(

@@ -29,13 +29,15 @@ pub(crate) struct SimulateArgs {
     /// Number of poses (overrides the config's).
     #[arg(long)]
     pub(crate) poses: Option<usize>,
-    /// Session name (overrides the config's).
+    /// Session name [default: the --out folder's name, so that two sessions of one config are told
+    /// apart].
     #[arg(long)]
     pub(crate) name: Option<String>,
     /// Capture exactly the poses of this plan (`spmcal plan`), in its order.
     #[arg(long, conflicts_with = "poses")]
     pub(crate) plan: Option<PathBuf>,
-    /// The URDF model (overrides the config's).
+    /// The model (overrides the config's): a shipped model's name (agile_wrist, orbita3d) or a
+    /// URDF's path.
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,
     /// Print a machine-readable summary (JSON).
@@ -60,7 +62,10 @@ pub(crate) fn run(args: SimulateArgs) -> Result<()> {
     let mut config = SimConfig::read(&args.config)?;
     config.seed = args.seed.unwrap_or(config.seed);
     config.poses = args.poses.unwrap_or(config.poses);
-    config.name = args.name.unwrap_or(config.name);
+    // Named after its folder unless told: one config simulated twice (other seeds, other counts)
+    // makes two sessions, which must not share the config's name.
+    let folder_name = args.out.file_name().and_then(|n| n.to_str()).filter(|n| !n.is_empty()).map(str::to_string);
+    config.name = args.name.or(folder_name).unwrap_or(config.name);
     if let Some(path) = &args.plan {
         spmcal::plan::PlannedPose::read_into(path, &mut config)?;
     }

@@ -60,7 +60,7 @@ pub(crate) fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
     let mut stations = StationSpans::default();
     let out = table.read_all(|row, _| {
         let pose = row.index(0)?;
-        let joints = Vector3::new(row.number(1)?, row.number(2)?, row.number(3)?);
+        let joints = joint_values(row, 1)?;
         let time_s = row.optional_number(4)?;
         let station = if row.has_column(STATION) { Some(station_number(row)?) } else { None };
         if let Some(far) = station.and_then(|s| stations.add(s, &joints, row.line)) {
@@ -74,6 +74,36 @@ pub(crate) fn read_joints(path: &Path) -> Result<Vec<JointReading>, FileError> {
         return Err(table.error_at(line, 0, format!("pose {pose} appears twice")));
     }
     Ok(out)
+}
+
+/// The largest joint reading accepted (rad): a full turn. An SPM's actuated joints turn less than
+/// that either way from home; a bigger number is an angle in degrees (45° written as `45`).
+pub(crate) const MAX_JOINT_RAD: f64 = std::f64::consts::TAU;
+
+/// The reason a joint reading `value` (rad) is refused, when it is beyond a turn: it looks like
+/// degrees.
+pub(crate) fn degrees_reason(value: f64) -> Option<String> {
+    (value.abs() > MAX_JOINT_RAD).then(|| {
+        format!(
+            "{} rad is more than a full turn: it looks like degrees; spmcal reads joints in radians ({}° is {:.6} rad)",
+            crate::io::files::number(value),
+            crate::io::files::number(value),
+            value.to_radians()
+        )
+    })
+}
+
+/// The three joint readings (rad) in the columns from `first`: numbers within a turn, else an
+/// error at the row and column (degrees are the usual mistake).
+pub(crate) fn joint_values(row: &Row<'_>, first: usize) -> Result<Vector3<f64>, FileError> {
+    let mut joints = Vector3::zeros();
+    for (i, value) in joints.iter_mut().enumerate() {
+        *value = row.number(first + i)?;
+        if let Some(reason) = degrees_reason(*value) {
+            return Err(row.error(first + i, reason));
+        }
+    }
+    Ok(joints)
 }
 
 /// The `station` field of a row: a non-negative integer, never empty when the file has the column.

@@ -46,20 +46,39 @@ pub(crate) fn read_markers(path: &Path, names: &[String]) -> Result<Vec<MarkerRo
 /// beyond it (1e200) the distances between markers overflow to infinity.
 pub(crate) const MAX_COORDINATE_M: f64 = 100.0;
 
+/// The largest marker coordinate a reader accepts (m): the mechanism is a desk joystick, its
+/// camera a metre or so away; a stereo camera of this kind measures within a few metres. In
+/// millimetres, every marker more than 17 mm from the camera has a coordinate beyond it.
+pub(crate) const MAX_MEASURED_M: f64 = 10.0;
+
+/// The reason a marker coordinate `value` (m) is refused, when it is beyond [`MAX_MEASURED_M`]:
+/// it looks like millimetres.
+pub(crate) fn millimetres_reason(value: f64) -> Option<String> {
+    let shown = crate::io::files::number(value);
+    if value.abs() <= MAX_MEASURED_M {
+        None
+    } else if value.abs() <= 1000.0 * MAX_MEASURED_M {
+        Some(format!(
+            "{shown} m is farther than the {MAX_MEASURED_M} m a camera measures this mechanism's markers within: it \
+             looks like millimetres; spmcal reads metres ({shown} mm is {} m)",
+            crate::io::files::number(value / 1000.0)
+        ))
+    } else {
+        Some(format!(
+            "{shown} m is no marker position: a camera measures this mechanism's markers within {MAX_MEASURED_M} m"
+        ))
+    }
+}
+
 /// The marker position in the three columns from `first` (`x_m`, `y_m`, `z_m`): finite numbers
-/// within [`MAX_COORDINATE_M`] of the camera, else an error at the row and column.
+/// within [`MAX_MEASURED_M`] of the camera, else an error at the row and column (millimetres are
+/// the usual mistake).
 pub(crate) fn marker_position(row: &Row<'_>, first: usize) -> Result<Vector3<f64>, FileError> {
     let mut position = Vector3::zeros();
     for (i, value) in position.iter_mut().enumerate() {
         *value = row.number(first + i)?;
-        if value.abs() > MAX_COORDINATE_M {
-            return Err(row.error(
-                first + i,
-                format!(
-                    "{} m is no marker position: a camera measures markers within {MAX_COORDINATE_M} m (millimetres given as metres?)",
-                    crate::io::files::number(*value)
-                ),
-            ));
+        if let Some(reason) = millimetres_reason(*value) {
+            return Err(row.error(first + i, reason));
         }
     }
     Ok(position)

@@ -1,4 +1,4 @@
-//! Session files: loading, validation, writing (formats in DESIGN.md).
+//! Session files: loading, validation, writing (formats in docs/formats.md).
 
 mod bag;
 mod joints;

@@ -40,7 +40,7 @@ use super::pixels::{
     PixelRow, check_rows, pose_pixels_csv, read_pose_pixels, timed_pixels_csv, triangulate, unmet_message,
 };
 use super::streams::{Clock, StreamLimits, Streams, Unmet, captures_csv, encoders_csv};
-use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
+use crate::io::files::{FileError, in_parallel, write_atomic};
 use crate::io::table::first_repeat;
 use crate::math::constellation::{self, MARKER_NOISE_M};
 use crate::model::camchain::{check_writable, read_camchain, write_camchain};
@@ -97,7 +97,8 @@ pub struct Session {
     pub name: String,
     /// Free-text description.
     pub description: Option<String>,
-    /// The model (URDF), resolved against the session folder or taken from `--model`.
+    /// The model: a shipped model's name or the URDF's path, resolved against the session folder
+    /// or taken from `--model`.
     pub model: PathBuf,
     /// Marker names, in the order of `SessionPose::markers`.
     pub markers: Vec<String>,
@@ -129,11 +130,26 @@ pub struct Warning {
     pub pose: u64,
     /// What is wrong with it.
     pub message: String,
+    /// For a pose of a bag, the topic its message came from (`line` is then that message's
+    /// index on its topic, not a line).
+    pub topic: Option<String>,
 }
 
 impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}:{}: pose {}: {}", self.path.display(), self.line, self.pose, self.message)
+        match &self.topic {
+            Some(topic) => {
+                write!(
+                    f,
+                    "{}: {topic}, message {}: pose {}: {}",
+                    self.path.display(),
+                    self.line,
+                    self.pose,
+                    self.message
+                )
+            }
+            None => write!(f, "{}:{}: pose {}: {}", self.path.display(), self.line, self.pose, self.message),
+        }
     }
 }
 
@@ -230,7 +246,7 @@ impl Session {
         let reference_pose = file.reference_pose;
         let model = match (model, &file.model) {
             (Some(m), _) => m.to_path_buf(),
-            (None, Some(m)) => dir.join(m),
+            (None, Some(m)) => crate::io::files::resolve_reference(dir, m),
             (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
         };
         let layout = session_kind(dir)?;
@@ -320,7 +336,6 @@ impl Session {
             }
         };
         check_station_markers(&poses, names, &observations_path, &mut warnings)?;
-        warnings.extend(beyond_a_turn(&poses, &joints_path));
         // The per-pose estimator measures from the reference pose; the marker-level fit needs none.
         // Default: the first pose whose markers fix an orientation, else the first that sees
         // enough markers for the estimator, else the first.
@@ -337,7 +352,8 @@ impl Session {
 
     /// A static session from poses already in memory (named `name`, read with the URDF `model`),
     /// checked as a session folder is: the marker names, one marker slot per name in every pose,
-    /// distinct pose ids, finite joints; the reference pose the first that sees three markers.
+    /// distinct pose ids, finite joints within a turn (degrees are refused), marker coordinates
+    /// within 10 m (millimetres are refused); the reference pose the first that sees three markers.
     ///
     /// # Errors
     /// A [`FileError`] on `name`, at the pose's row (from 1), saying what is wrong.
@@ -360,10 +376,18 @@ impl Session {
             if !p.joints.iter().all(|j| j.is_finite()) {
                 return Err(at(row, format!("pose {}: joint readings {:?} are not finite", p.id, p.joints.as_slice())));
             }
+            if let Some(reason) = p.joints.iter().find_map(|j| super::joints::degrees_reason(*j)) {
+                return Err(at(row, format!("pose {}: {reason}", p.id)));
+            }
             if p.markers.len() != markers.len() {
                 let reason =
                     format!("pose {}: {} marker slots for {} marker names", p.id, p.markers.len(), markers.len());
                 return Err(at(row, reason));
+            }
+            let far =
+                p.markers.iter().flatten().flat_map(|m| m.iter()).find_map(|v| super::markers::millimetres_reason(*v));
+            if let Some(reason) = far {
+                return Err(at(row, format!("pose {}: a marker coordinate: {reason}", p.id)));
             }
         }
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
@@ -464,6 +488,7 @@ impl Session {
                     line: frame.line(),
                     pose: poses.len() as u64,
                     message: format!("the frame at {time} s falls outside the encoder stream {at}: left out"),
+                    topic: streams.bag_topics.clone(),
                 });
                 continue;
             };
@@ -567,7 +592,7 @@ impl Session {
         }
         let file = SessionFile {
             name: self.name.clone(),
-            model: Some(relative_path(dir, &self.model)?),
+            model: Some(crate::model::reference_from(dir, &self.model)),
             markers: self.markers.clone(),
             reference_pose: self.streams.is_none().then_some(self.reference_pose),
             description: self.description.clone(),
@@ -729,24 +754,6 @@ fn names_of(names: &[String], ks: &[usize]) -> String {
     ks.iter().map(|&k| format!("`{}`", names[k])).collect::<Vec<_>>().join(", ")
 }
 
-/// The first reading more than a turn from zero, as a warning: a joint of an SPM seldom turns that
-/// far, and a reading of 18 in a `_rad` column is most often 18 degrees (the fit would then see
-/// poses near singularities, not a unit mistake).
-fn beyond_a_turn(poses: &[SessionPose], joints_path: &Path) -> Option<Warning> {
-    let pose = poses.iter().find(|p| p.joints.amax() > std::f64::consts::TAU)?;
-    let largest = poses.iter().map(|p| p.joints.amax()).fold(0.0, f64::max);
-    Some(Warning {
-        path: joints_path.to_path_buf(),
-        line: pose.line,
-        pose: pose.id,
-        message: format!(
-            "a joint reads {:.3} rad, more than a turn (the largest reading is {largest:.3}): are the readings in \
-             degrees? The `theta*_rad` columns are radians",
-            pose.joints.amax()
-        ),
-    })
-}
-
 /// A station (the captures meant as one pose, one marker at a time) that captures a marker twice
 /// and another never is refused at the second capture's row: a mislabelled capture, most likely
 /// (the per-pose estimator would merge the first sighting and drop the other, and the fit would
@@ -799,6 +806,7 @@ fn check_station_markers(
             line: second.1,
             pose: poses[second.0].id,
             message: format!("{captures}: a retake? The marker-level fit uses both; the per-pose estimator the first"),
+            topic: None,
         });
     }
     Ok(())
@@ -1006,6 +1014,7 @@ pub(crate) fn triangulate_poses(
             line,
             pose: pose.id,
             message: unmet_message(names, rig, k, &cameras),
+            topic: None,
         }));
     }
     warnings
@@ -1022,6 +1031,7 @@ fn unmet_in_recording(unmet: &[Unmet], frames: &[f64], path: &Path, names: &[Str
             line: *line,
             pose: frames.partition_point(|t| t < time) as u64,
             message: unmet_message(names, rig, *k, cameras),
+            topic: None,
         })
         .collect()
 }

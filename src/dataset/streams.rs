@@ -116,6 +116,9 @@ pub struct Streams {
     /// The rows of `pixels.csv`, time non-decreasing, for a recording seen through its pixels
     /// (empty for one of points).
     pub(crate) pixels: Vec<PixelRow<f64>>,
+    /// For a recording read from a bag, its marker topics as a warning names them (`line` of a
+    /// capture is then its message's index on its topic).
+    pub(crate) bag_topics: Option<String>,
 }
 
 /// One camera frame of a recording: the captures and pixels that share its time.
@@ -165,7 +168,7 @@ pub(crate) fn read_encoders(path: &Path, limits: &StreamLimits) -> Result<Vec<En
                 ));
             }
         }
-        let joints = Vector3::new(row.number(1)?, row.number(2)?, row.number(3)?);
+        let joints = super::joints::joint_values(row, 1)?;
         Ok(EncoderSample { time_s, joints })
     })?;
     if out.len() < 2 {
@@ -249,7 +252,7 @@ impl Streams {
             .at_line(c.line)
             .in_column("time_s"));
         }
-        Ok(Streams { captures_path, encoders, captures, pixels: Vec::new() })
+        Ok(Streams { captures_path, encoders, captures, pixels: Vec::new(), bag_topics: None })
     }
 
     /// Read the recording seen through its pixels in `dir` — `encoders.csv`, `pixels.csv` with the
@@ -310,7 +313,7 @@ impl Streams {
             }));
             unmet.extend(t.unmet.into_iter().map(|(marker, line, cameras)| (time_s, marker, line, cameras)));
         }
-        (Streams { captures_path, encoders, captures, pixels }, unmet)
+        (Streams { captures_path, encoders, captures, pixels, bag_topics: None }, unmet)
     }
 
     /// The camera frames, in time order: the captures and pixels of each distinct time.

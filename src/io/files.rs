@@ -250,18 +250,22 @@ pub(crate) fn push_numbers(line: &mut String, values: &[f64]) {
     }
 }
 
-/// The path of `target` relative to the folder `from` (both must exist), e.g. `../../models/a.urdf`.
-///
-/// # Errors
-/// A [`FileError`] when either path cannot be resolved.
-#[cfg(feature = "full")]
-pub(crate) fn relative_path(from: &Path, target: &Path) -> Result<PathBuf, FileError> {
-    let canon = |p: &Path| p.canonicalize().map_err(|e| FileError::new(p, format!("cannot resolve: {e}")));
-    let (from, target) = (canon(from)?, canon(target)?);
-    let common = from.components().zip(target.components()).take_while(|(a, b)| a == b).count();
-    let mut out: PathBuf = from.components().skip(common).map(|_| "..").collect();
-    out.extend(target.components().skip(common));
-    Ok(out)
+/// Whether a model reference is written as a name (one component, no extension: a shipped
+/// model's `agile_wrist`), not a path.
+pub(crate) fn is_name(reference: &Path) -> bool {
+    reference.components().count() == 1
+        && reference.extension().is_none()
+        && matches!(reference.components().next(), Some(std::path::Component::Normal(_)))
+}
+
+/// A model reference written in a file in `folder`, as the working folder sees it: a name or an
+/// absolute path as written, a relative path joined to `folder`.
+pub(crate) fn resolve_reference(folder: &Path, reference: &Path) -> PathBuf {
+    if is_name(reference) || reference.is_absolute() || folder.as_os_str().is_empty() {
+        reference.to_path_buf()
+    } else {
+        folder.join(reference)
+    }
 }
 
 /// `a/b/../c` → `a/c`, without touching the file system (for paths recorded in files).

@@ -32,8 +32,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 
 use super::params::Parameters;
-use super::urdf::{ModelError, RobotModel, companion_path, read_companion};
-use crate::io::files::{read_text, tidy_path};
+use super::urdf::{ModelError, RobotModel, read_companion};
+use crate::io::files::{FileError, read_text, tidy_path};
 use crate::io::yaml::{KeyLines, scan};
 
 /// Largest angle (deg) between a parameters leg's axis (or link angle) and the model's leg of the
@@ -72,14 +72,17 @@ fn angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 /// header naming another URDF, while the geometry agrees).
 pub(crate) fn check(model: &RobotModel, params: &Parameters, file: Option<&Path>) -> Result<Vec<String>, ModelError> {
     let params_file = Located::read(file);
-    let companion_file = companion_path(&model.urdf_path);
-    let companion = read_companion(&companion_file).ok();
-    let companion_keys = companion.as_ref().map(|(_, k)| k.clone()).unwrap_or_default();
+    let companion = read_companion(&model.urdf_path).ok();
+    let companion_keys = companion.as_ref().map(|(_, k, _)| k.clone()).unwrap_or_default();
+    let companion_file =
+        companion.as_ref().map_or_else(|| super::urdf::companion_path(&model.urdf_path), |(_, _, p)| p.clone());
     let urdf = model.urdf_path.display();
+    // The same content is the same model, whatever its path or name.
+    let same_content = params.model_sha256.as_deref().is_some_and(|h| h == model.sha256);
     let header = params
         .model
         .as_deref()
-        .filter(|h| !names_model(h, file, &model.urdf_path))
+        .filter(|h| !same_content && !names_model(h, file, &model.urdf_path))
         .map(|h| format!("the header of {} says `model: {h}`, not {urdf}", params_file.at("model")));
     let refuse = |key: &str, reason: String| {
         let reason = match &header {
@@ -121,7 +124,7 @@ pub(crate) fn check(model: &RobotModel, params: &Parameters, file: Option<&Path>
         angle_deg(&p.u, &m.u).max(angle_deg(&p.v0, &m.v0))
     };
     let joints = |i: usize| {
-        companion.as_ref().map_or(String::new(), |(c, _)| {
+        companion.as_ref().map_or(String::new(), |(c, _, _)| {
             let l = &c.legs[i];
             format!(" (joints `{}`, `{}`, `{}`)", l.actuated, l.intermediate, l.platform)
         })
@@ -207,6 +210,112 @@ impl Parameters {
     }
 }
 
+impl Parameters {
+    /// Write the file atomically, its model named as [`Parameters::to_yaml_at`] names it.
+    ///
+    /// # Errors
+    /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
+    pub fn write(&self, path: &Path) -> Result<(), FileError> {
+        crate::io::files::write_atomic(path, self.to_yaml_at(path).as_bytes())
+    }
+
+    /// The file text as written at `path`: [`Parameters::to_yaml`] with the model named as a file
+    /// there names it — a shipped model by its name (also when loaded from a copy of its files), a
+    /// URDF by its path relative to `path`'s folder (absolute when they share no folder but the
+    /// root, or when it was given absolute).
+    pub fn to_yaml_at(&self, path: &Path) -> String {
+        let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let model = self.model.as_ref().map(|m| super::urdf::reference_from(folder, Path::new(m)));
+        Parameters { model: model.map(|m| m.display().to_string()), ..self.clone() }.to_yaml()
+    }
+
+    /// The model these parameters (read from `file`) are used with, and the warnings: `given`
+    /// (`--model`) when there is one, else the model the file names (`model:`, a shipped model's
+    /// name or a path relative to the file), else the default model (`agile_wrist`); then
+    /// [`Parameters::check_model`].
+    ///
+    /// The file's `model_sha256` is the identity of the model it was made with. When the model it
+    /// names cannot be found (a file copied to another machine), the shipped model of that
+    /// identity is used; else the error says that the path came from the file and that `--model`
+    /// gives the model. A model found under the file's name whose content is not that identity is
+    /// refused (the file was made with another version of it), unless given explicitly; a `given`
+    /// model of another identity is used with a warning, since the user chose it.
+    ///
+    /// # Errors
+    /// A [`ModelError`] when the model cannot be loaded, has changed, or does not fit the
+    /// parameters.
+    pub fn load_model(&self, file: &Path, given: Option<&Path>) -> Result<(RobotModel, Vec<String>), ModelError> {
+        let located = Located::read(Some(file));
+        let at = |key: &str| {
+            let err = FileError::new(file, String::new());
+            match located.keys.nearest_line(key) {
+                Some(line) => err.at_line(line),
+                None => err,
+            }
+        };
+        let short = |h: &str| h.chars().take(12).collect::<String>();
+        let mut warnings = Vec::new();
+        let model = match (given, self.model.as_deref()) {
+            (Some(path), _) => {
+                let model = RobotModel::load(path)?;
+                if let Some(h) = self.model_sha256.as_deref().filter(|h| *h != model.sha256) {
+                    warnings.push(format!(
+                        "{}: these parameters were made with a model of identity {}… (`model_sha256`), not the \
+                                 --model {} given (identity {}…): used as asked",
+                        file.display(),
+                        short(h),
+                        path.display(),
+                        short(&model.sha256)
+                    ));
+                }
+                model
+            }
+            (None, None) => RobotModel::load(Path::new(super::shipped::DEFAULT_MODEL))?,
+            (None, Some(named)) => match RobotModel::load(Path::new(named)) {
+                Ok(model) => {
+                    if let Some(h) = self.model_sha256.as_deref().filter(|h| *h != model.sha256) {
+                        return Err(ModelError::File(FileError {
+                            reason: format!(
+                                "the model `{named}` this file names has changed since these parameters were made: \
+                                 its identity is {}… where `model_sha256` says {}…; give the model they were made \
+                                 with, or pass --model {named} to use this one anyway",
+                                short(&model.sha256),
+                                short(h)
+                            ),
+                            ..at("model_sha256")
+                        }));
+                    }
+                    model
+                }
+                Err(e) => match self.model_sha256.as_deref().and_then(super::shipped::with_sha256) {
+                    Some(shipped) => RobotModel::load(Path::new(shipped.name))?,
+                    None => {
+                        return Err(ModelError::File(FileError {
+                            reason: format!(
+                                "the model `{named}` named by this parameters file (its `model:`) cannot be loaded \
+                                 ({e}); give the model with --model (Python: urdf=), a URDF's path or a shipped model's name ({})",
+                                super::shipped::listed()
+                            ),
+                            ..at("model")
+                        }));
+                    }
+                },
+            },
+        };
+        warnings.extend(self.check_model(file, &model)?);
+        Ok((model, warnings))
+    }
+
+    /// The model [`Parameters::load_model`] tries first: `given`, else the file's `model:`, else
+    /// the default model's name.
+    pub fn model_reference(&self, given: Option<&Path>) -> PathBuf {
+        given
+            .map(Path::to_path_buf)
+            .or_else(|| self.model.as_ref().map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from(super::shipped::DEFAULT_MODEL))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -242,6 +351,7 @@ mod tests {
             markers: Vec::new(),
             shapes: Vec::new(),
             camera_model: crate::model::CameraModel::rigid(),
+            sha256: String::new(),
         };
         let params = Parameters::nominal(&spm, None);
         assert!(check(&model, &params, None).unwrap().is_empty());

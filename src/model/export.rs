@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use nalgebra::Vector3;
 
 use super::params::{CameraRecord, Parameters};
-use super::urdf::{Companion, Loader, ModelError, RobotModel, companion_path, read_companion};
+use super::urdf::{Companion, Loader, ModelError, ModelTexts, RobotModel, companion_path, parse_companion};
 
 /// The two files of a calibrated model.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,8 +62,9 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
     let provenance = provenance.as_slice();
     let path = &model.urdf_path;
     let unreadable = |reason: String| ModelError::Unreadable { path: path.clone(), reason };
-    let mut robot = urdf_rs::read_file(path).map_err(|e| unreadable(e.to_string()))?;
-    let (mut companion, _) = read_companion(&companion_path(path))?;
+    let texts = ModelTexts::of(path)?;
+    let mut robot = urdf_rs::read_from_string(&texts.urdf).map_err(|e| unreadable(e.to_string()))?;
+    let (mut companion, _) = parse_companion(&texts.companion_path, &texts.companion)?;
     let export = |reason: String| ModelError::Export { path: path.clone(), reason };
     let spm = params.spm().map_err(|e| export(format!("the parameters make no valid manipulator: {e}")))?;
     // A valid manipulator reaches home (`Spm::new` solves it): its readings and axes there.
@@ -123,7 +124,7 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
 /// The companion as YAML, numbers with every digit.
 fn companion_text(c: &Companion, provenance: &[String]) -> String {
     let mut text: String = provenance.iter().map(|l| format!("# {l}\n")).collect();
-    text += "# The closures and markers of the URDF beside this file (see shared/DESIGN.md); the URDF's\n";
+    text += "# The closures and markers of the URDF beside this file (see docs/formats.md); the URDF's\n";
     text += "# joint value of theta_i is encoder_scales[i] (1 when absent) times the encoder reading plus\n";
     text += "# encoder_offsets_deg[i].\n";
     text += &format!("platform_link: {}\nlegs:\n", c.platform_link);

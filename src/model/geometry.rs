@@ -1,7 +1,7 @@
-//! SPM geometry: the per-leg parameters of DESIGN.md and the validated, cached form
+//! SPM geometry: the per-leg parameters of docs/conventions.md and the validated, cached form
 //! that the kinematics evaluate.
 //!
-//! Leg i (conventions of DESIGN.md): actuated axis `u`, joint zero direction `z ⟂ u`,
+//! Leg i (conventions of docs/conventions.md): actuated axis `u`, joint zero direction `z ⟂ u`,
 //! intermediate axis `w(θ) = cos α1 u + sin α1 (cos φ z + sin φ (u × z))` with `φ = sθ + δ`
 //! (`s` the joint's scale, nominal 1),
 //! platform axis `v = R v0`, and the loop closure `w(θ) · R v0 = cos α2`. Each leg closes the
@@ -144,7 +144,7 @@ impl GeometryError {
 }
 
 impl LegGeometry {
-    /// The nominal leg `i` (0-based) of DESIGN.md for cone angles `b`, `p` and link angles `α1`, `α2`.
+    /// The nominal leg `i` (0-based) of docs/conventions.md for cone angles `b`, `p` and link angles `α1`, `α2`.
     pub fn nominal(i: usize, base_cone: f64, platform_cone: f64, alpha1: f64, alpha2: f64) -> Self {
         let eta = 2.0 * std::f64::consts::PI * i as f64 / 3.0;
         let (se, ce) = eta.sin_cos();

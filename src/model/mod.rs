@@ -20,6 +20,8 @@ mod perturb;
 // Without `internals`, the projection's derivatives and the fit's terms are the crate's own.
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod rig;
+#[cfg(feature = "full")]
+pub(crate) mod shipped;
 mod spm;
 #[cfg(feature = "full")]
 mod survey;
@@ -50,5 +52,7 @@ pub(crate) use rig::{RigProjection, RigTerm};
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
 pub use survey::ModelSurvey;
+#[cfg(feature = "full")]
+pub(crate) use urdf::reference_from;
 #[cfg(feature = "full")]
 pub use urdf::{Body, BodyShape, Marker, ModelError, RobotModel, Shape};

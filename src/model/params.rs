@@ -6,7 +6,8 @@
 //! ```yaml
 //! format: spmcal-parameters/1
 //! source: nominal            # nominal | calibrated | truth
-//! model: models/agile_wrist.urdf
+//! model: agile_wrist        # a shipped model's name, or the URDF's path relative to this file
+//! model_sha256: 9f2c…         # the model's identity (SHA-256 of its URDF and companion)
 //! legs:                      # three, in leg order
 //!   - u: [0.0, 0.816496580927726, -0.577350269189626]
 //!     z: [1.0, 0.0, 0.0]
@@ -36,8 +37,6 @@ use super::geometry::{GeometryError, HomeBranch, LegGeometry};
 use super::limits::{MAX_CAMERA_TERM, MAX_CLOCK_RATE_PPM, MAX_LATENCY_S, MAX_POSITION_M, Ranges};
 use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
-#[cfg(feature = "full")]
-use crate::io::files::write_atomic;
 use crate::math::so3;
 
 /// The format tag written at the top of every parameters file.
@@ -91,8 +90,13 @@ impl CameraRegistration {
 pub struct Parameters {
     /// Where the parameters came from.
     pub source: ParameterSource,
-    /// The model the parameters were derived from, as written in the file.
+    /// The model the parameters were derived from: a shipped model's name (`agile_wrist`) or the
+    /// URDF's path. [`Parameters::read`] resolves a relative path against the file's folder and
+    /// [`Parameters::write`] writes it relative to the file's folder again.
     pub model: Option<String>,
+    /// The model's identity when the parameters were made (SHA-256 of its URDF's bytes followed
+    /// by its companion's): how a copied file finds its model and notices a changed one.
+    pub model_sha256: Option<String>,
     /// The geometry of the three legs.
     pub legs: [LegGeometry; 3],
     /// The camera registration, when known.
@@ -350,6 +354,8 @@ struct ParametersRecord {
     source: ParameterSource,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     model: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    model_sha256: Option<String>,
     legs: Vec<LegRecord>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     camera: Option<CameraRecord>,
@@ -369,6 +375,7 @@ impl Parameters {
         Parameters {
             source: ParameterSource::Nominal,
             model,
+            model_sha256: None,
             legs: *spm.geometry(),
             camera: None,
             camera_model: CameraModel::rigid(),
@@ -487,6 +494,12 @@ impl Parameters {
             };
             return Err(check.error("latency_s", reason));
         }
+        if let Some(hash) = &record.model_sha256
+            && !(hash.len() == 64 && hash.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)))
+        {
+            let reason = format!("`model_sha256` is `{hash}`; a model's identity is 64 lowercase hexadecimal digits");
+            return Err(check.error("model_sha256", reason));
+        }
         if let Some(rate) = record.clock_rate_ppm
             && !(rate.is_finite() && rate.abs() <= MAX_CLOCK_RATE_PPM)
         {
@@ -497,7 +510,11 @@ impl Parameters {
         }
         Ok(Parameters {
             source: record.source,
-            model: record.model,
+            model: record.model.map(|m| {
+                let folder = path.parent().unwrap_or(Path::new(""));
+                crate::io::files::resolve_reference(folder, Path::new(&m)).display().to_string()
+            }),
+            model_sha256: record.model_sha256,
             legs,
             camera,
             camera_model,
@@ -517,6 +534,7 @@ impl Parameters {
             format: PARAMETERS_FORMAT.to_string(),
             source: self.source,
             model: self.model.clone(),
+            model_sha256: self.model_sha256.clone(),
             legs: self
                 .legs
                 .iter()
@@ -547,21 +565,12 @@ impl Parameters {
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");
         format!(
-            "# spmcal parameters of a spherical parallel manipulator (conventions: shared/DESIGN.md).\n\
+            "# spmcal parameters of a spherical parallel manipulator (conventions: docs/conventions.md).\n\
              # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
              # axis v0 in P, encoder offset delta and scale (phi = scale * theta + delta; scale 1 when\n\
              # absent), home_branch (the sign of (u x w).v at home, which the working mode keeps).\n\
              # Camera: x_C = R_CB x_B + t_CB.\n\
              # Markers (when fitted): positions in P, metres.\n{body}"
         )
-    }
-
-    /// Write the file atomically.
-    ///
-    /// # Errors
-    /// A [`FileError`] when the file cannot be written; an existing file is then left unchanged.
-    #[cfg(feature = "full")]
-    pub fn write(&self, path: &Path) -> Result<(), FileError> {
-        write_atomic(path, self.to_yaml().as_bytes())
     }
 }

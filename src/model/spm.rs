@@ -255,7 +255,7 @@ impl Spm {
         Ok(())
     }
 
-    /// The nominal Agile Wrist of DESIGN.md: α1 = α2 = 90°, b = p = arctan √2.
+    /// The nominal Agile Wrist of docs/conventions.md: α1 = α2 = 90°, b = p = arctan √2.
     ///
     /// # Panics
     /// Never: the nominal geometry is valid (a test checks it).

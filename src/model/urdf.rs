@@ -2,7 +2,7 @@
 //!
 //! URDF holds trees only, so `NAME.urdf` comes with `NAME.yaml` beside it, which names the
 //! three joints of each leg, says which link of legs 2 and 3 is rigidly the MP once the loop
-//! is closed, and gives the marker positions in P. The geometry of DESIGN.md is read off the
+//! is closed, and gives the marker positions in P. The geometry of docs/conventions.md is read off the
 //! tree at the zero configuration (all joint values 0 = the home pose `R = I`):
 //! `u` = actuated axis, `w(0)` = intermediate axis, `v0` = platform axis, all in B;
 //! `α1 = ∠(u, w(0))`, `α2 = ∠(w(0), v0)`, `z = (w(0) − cos α1 u) / sin α1`, and `δ` the
@@ -98,8 +98,11 @@ pub struct BodyShape {
 pub struct RobotModel {
     /// Robot name (URDF).
     pub name: String,
-    /// The URDF file.
+    /// The URDF file, or a shipped model's name (`agile_wrist`): how the model was named.
     pub urdf_path: PathBuf,
+    /// The model's identity: the SHA-256 (hex) of its URDF's bytes followed by its companion's
+    /// (`cat m.urdf m.yaml | sha256sum`), which a parameters file records as `model_sha256`.
+    pub sha256: String,
     /// The nominal mechanism.
     pub spm: Spm,
     /// Markers on the MP (companion).
@@ -252,8 +255,12 @@ impl RobotModel {
     ///
     /// # Errors
     /// A [`ModelError`] naming the file and the joint or link for anything `check_urdf` rejects, a missing or invalid companion, axes that miss the centre, or legs that do not close.
+    ///
+    /// `urdf` may also be a shipped model's name as written — `agile_wrist`, `orbita3d` (no
+    /// folder, no extension) — which loads the model compiled into the program.
     pub fn load(urdf: &Path) -> Result<Self, ModelError> {
-        let robot = urdf_rs::read_file(urdf)
+        let texts = ModelTexts::of(urdf)?;
+        let robot = urdf_rs::read_from_string(&texts.urdf)
             .map_err(|e| ModelError::Unreadable { path: urdf.to_path_buf(), reason: e.to_string() })?;
         super::urdf_check::check(&robot).map_err(|fault| {
             let path = urdf.to_path_buf();
@@ -263,11 +270,111 @@ impl RobotModel {
                 Fault::Robot(reason) => ModelError::Unreadable { path, reason: format!("the robot {reason}") },
             }
         })?;
-        let companion_file = companion_path(urdf);
-        let (companion, keys) = read_companion(&companion_file)?;
-        check_names(urdf, &robot, &companion, &Ranges { path: &companion_file, keys: &keys })
+        let (companion, keys) = parse_companion(&texts.companion_path, &texts.companion)?;
+        check_names(urdf, &robot, &companion, &Ranges { path: &texts.companion_path, keys: &keys })
             .map_err(companion_error)?;
-        Loader { path: urdf, robot: &robot }.build(companion)
+        let mut model = Loader { path: urdf, robot: &robot }.build(companion)?;
+        model.sha256 = texts.sha256();
+        Ok(model)
+    }
+
+    /// The names of the models that ship with spmcal (compiled in): `agile_wrist`, `orbita3d`.
+    pub fn shipped() -> [&'static str; 2] {
+        super::shipped::NAMES
+    }
+
+    /// Whether `reference` names a shipped model (its name as written: no folder, no extension)
+    /// rather than a URDF file.
+    pub fn is_shipped(reference: &Path) -> bool {
+        super::shipped::named(reference).is_some()
+    }
+
+    /// A model reference written in a file in `folder` (a session's, a config's `model:`), as
+    /// seen from the working folder: a name or an absolute path as written, a relative path
+    /// joined to `folder`.
+    pub fn reference_in(folder: &Path, reference: &Path) -> PathBuf {
+        crate::io::files::resolve_reference(folder, reference)
+    }
+
+    /// How a file that names this model records it: the shipped model's name when its content is
+    /// a shipped model's (whichever path it was loaded from), else its path.
+    pub(crate) fn reference(&self) -> PathBuf {
+        super::shipped::with_sha256(&self.sha256).map_or_else(|| self.urdf_path.clone(), |s| PathBuf::from(s.name))
+    }
+}
+
+/// How a file in `folder` records the model `model` (a name, or a path from the working folder):
+/// a shipped model's name when that is what it names or its content is a shipped model's; an
+/// absolute path as it is; a relative one relative to `folder` (`../models/m.urdf`), or absolute
+/// when the two share no folder but the root (no `../../../../` climbing to `/`); as given when it
+/// cannot be resolved.
+pub(crate) fn reference_from(folder: &Path, model: &Path) -> PathBuf {
+    if crate::io::files::is_name(model) {
+        return model.to_path_buf();
+    }
+    if let Ok(texts) = ModelTexts::of(model)
+        && let Some(shipped) = super::shipped::with_sha256(&texts.sha256())
+    {
+        return PathBuf::from(shipped.name);
+    }
+    if model.is_absolute() {
+        return model.to_path_buf();
+    }
+    let (Ok(from), Ok(target)) = (folder.canonicalize(), model.canonicalize()) else {
+        return model.to_path_buf();
+    };
+    let common = from.components().zip(target.components()).take_while(|(a, b)| a == b).count();
+    if common <= 1 {
+        return target;
+    }
+    let mut out: PathBuf = from.components().skip(common).map(|_| "..").collect();
+    out.extend(target.components().skip(common));
+    out
+}
+
+/// The two texts of a model: its files', or a shipped model's.
+pub(crate) struct ModelTexts {
+    pub(crate) urdf: String,
+    pub(crate) companion: String,
+    /// The companion as messages name it: the file, or `agile_wrist.yaml (shipped)`.
+    pub(crate) companion_path: PathBuf,
+}
+
+impl ModelTexts {
+    /// The texts of the model `urdf` names (a path, or a shipped model's name).
+    pub(crate) fn of(urdf: &Path) -> Result<Self, ModelError> {
+        if let Some(shipped) = super::shipped::named(urdf) {
+            return Ok(ModelTexts {
+                urdf: shipped.urdf.to_string(),
+                companion: shipped.companion.to_string(),
+                companion_path: PathBuf::from(format!("{}.yaml (shipped)", shipped.name)),
+            });
+        }
+        let text = std::fs::read_to_string(urdf).map_err(|e| {
+            let shipped = super::shipped::listed();
+            let reason = match e.kind() {
+                std::io::ErrorKind::NotFound if crate::io::files::is_name(urdf) => format!(
+                    "no model ships with spmcal under this name (the shipped models are {shipped}), nor is there a \
+                     file of this name"
+                ),
+                std::io::ErrorKind::NotFound => {
+                    format!("cannot read: {e} (the models that ship with spmcal are named {shipped})")
+                }
+                _ => format!("cannot read: {e}"),
+            };
+            ModelError::Unreadable { path: urdf.to_path_buf(), reason }
+        })?;
+        let companion_path = companion_path(urdf);
+        let companion = crate::io::yaml::read_bounded(&companion_path).map_err(|e| ModelError::Unreadable {
+            path: companion_path.clone(),
+            reason: format!("cannot read the URDF companion: {}", e.reason),
+        })?;
+        Ok(ModelTexts { urdf: text, companion, companion_path })
+    }
+
+    /// The model's identity.
+    pub(crate) fn sha256(&self) -> String {
+        super::shipped::identity(self.urdf.as_bytes(), self.companion.as_bytes())
     }
 }
 
@@ -314,14 +421,16 @@ fn companion_error(e: FileError) -> ModelError {
     ModelError::File(e)
 }
 
-pub(super) fn read_companion(path: &Path) -> Result<(Companion, KeyLines), ModelError> {
-    let (mut companion, keys) = crate::io::yaml::read::<Companion>(path).map_err(|e| match e.line {
-        None if e.reason.starts_with("cannot read") => ModelError::Unreadable {
-            path: path.to_path_buf(),
-            reason: format!("cannot read the URDF companion: {}", e.reason),
-        },
-        _ => companion_error(e),
-    })?;
+/// The companion of the model `urdf` names (a path or a shipped model's name), with its keys'
+/// lines and its path as messages name it.
+pub(super) fn read_companion(urdf: &Path) -> Result<(Companion, KeyLines, PathBuf), ModelError> {
+    let texts = ModelTexts::of(urdf)?;
+    let (companion, keys) = parse_companion(&texts.companion_path, &texts.companion)?;
+    Ok((companion, keys, texts.companion_path))
+}
+
+pub(super) fn parse_companion(path: &Path, text: &str) -> Result<(Companion, KeyLines), ModelError> {
+    let (mut companion, keys) = crate::io::yaml::parse::<Companion>(path, text).map_err(companion_error)?;
     let check = Ranges { path, keys: &keys };
     if companion.legs.len() != 3 {
         let reason = format!("`legs` lists {} legs; an SPM of this kind has 3", companion.legs.len());
@@ -522,6 +631,7 @@ impl<'a> Loader<'a> {
             markers,
             shapes,
             camera_model: companion.camera_model,
+            sha256: String::new(),
         })
     }
 
@@ -630,5 +740,50 @@ impl<'a> Loader<'a> {
             }
         }
         Ok(shapes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// How a file records its model: a name stays a name; a copy of a shipped model's files is
+    /// that model's name; another model's path is relative to the file's folder; an absolute path
+    /// stays absolute; a path that resolves nowhere stays as given.
+    #[test]
+    fn a_file_records_its_model_by_name_or_by_a_path_from_its_folder() {
+        let tmp = tempfile::tempdir().unwrap();
+        let root = tmp.path();
+        std::fs::create_dir_all(root.join("lab/models")).unwrap();
+        std::fs::create_dir_all(root.join("out/params")).unwrap();
+        let shipped = super::super::shipped::SHIPPED[0];
+        std::fs::write(root.join("lab/models/copy.urdf"), shipped.urdf).unwrap();
+        std::fs::write(root.join("lab/models/copy.yaml"), shipped.companion).unwrap();
+        std::fs::write(root.join("lab/models/own.urdf"), format!("<!-- ours -->\n{}", shipped.urdf)).unwrap();
+        std::fs::write(root.join("lab/models/own.yaml"), shipped.companion).unwrap();
+        let folder = root.join("out/params");
+        assert_eq!(reference_from(&folder, Path::new("orbita3d")), Path::new("orbita3d"));
+        assert_eq!(reference_from(&folder, &root.join("lab/models/copy.urdf")), Path::new("agile_wrist"));
+        let own = root.join("lab/models/own.urdf");
+        assert_eq!(reference_from(&folder, &own), own, "absolute as given");
+        // Relative (to the working folder) → relative to the file's folder.
+        let cwd = std::env::current_dir().unwrap();
+        let common = cwd.components().zip(own.components()).take_while(|(a, b)| a == b).count();
+        let from_cwd: PathBuf = cwd
+            .components()
+            .skip(common)
+            .map(|_| "..")
+            .collect::<PathBuf>()
+            .join(own.components().skip(common).collect::<PathBuf>());
+        assert_eq!(reference_from(&folder, &from_cwd), Path::new("../../lab/models/own.urdf"));
+        // Sharing no folder but the root (the checkout against the temporary folder): absolute,
+        // not a climb of `../` to `/`.
+        let checkout_model = Path::new("tests/data/models/agile_wrist_axes_reversed.urdf");
+        let shares =
+            folder.canonicalize().unwrap().components().nth(1) == cwd.canonicalize().unwrap().components().nth(1);
+        if !shares {
+            assert_eq!(reference_from(&folder, checkout_model), checkout_model.canonicalize().unwrap());
+        }
+        assert_eq!(reference_from(&folder, Path::new("no/such/m.urdf")), Path::new("no/such/m.urdf"));
     }
 }

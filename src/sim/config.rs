@@ -65,8 +65,8 @@ pub struct SimConfig {
     pub(crate) source: Source,
     /// Session name.
     pub name: String,
-    /// The URDF model, relative to the config file (default: `models/agile_wrist.urdf` relative to
-    /// the working directory, as on the command line).
+    /// The model: a shipped model's name (`agile_wrist`, the default) or a URDF's path relative to
+    /// the config file.
     pub model: PathBuf,
     /// Poses to simulate.
     pub poses: usize,
@@ -353,7 +353,7 @@ impl Default for CaptureSettings {
 }
 
 /// The model used when a config names none.
-pub(crate) const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
+pub(crate) const DEFAULT_MODEL: &str = crate::model::shipped::DEFAULT_MODEL;
 
 impl SimConfig {
     /// Read and check a config; `model` is resolved against the config's folder.
@@ -367,7 +367,7 @@ impl SimConfig {
         config.model = if config.model.as_os_str().is_empty() {
             PathBuf::from(DEFAULT_MODEL)
         } else {
-            path.parent().unwrap_or(Path::new(".")).join(&config.model)
+            crate::io::files::resolve_reference(path.parent().unwrap_or(Path::new("")), &config.model)
         };
         Ok(config)
     }

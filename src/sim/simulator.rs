@@ -574,7 +574,8 @@ impl Simulator<'_> {
     fn truth_parameters(&self, latency_s: Option<f64>, clock_rate_ppm: Option<f64>) -> Parameters {
         Parameters {
             source: ParameterSource::Truth,
-            model: Some(crate::io::files::tidy_path(&self.model.urdf_path).display().to_string()),
+            model: Some(self.model.reference().display().to_string()),
+            model_sha256: Some(self.model.sha256.clone()),
             legs: *self.spm.geometry(),
             camera: Some(self.camera),
             camera_model: self.config.camera.model(),
@@ -696,7 +697,13 @@ impl Simulator<'_> {
             Some(cameras) => {
                 Streams::of_pixels(std::path::PathBuf::from("pixels.csv"), encoders, pixels, &cameras.file).0
             }
-            None => Streams { captures_path: std::path::PathBuf::from("captures.csv"), encoders, captures, pixels },
+            None => Streams {
+                captures_path: std::path::PathBuf::from("captures.csv"),
+                encoders,
+                captures,
+                pixels,
+                bag_topics: None,
+            },
         };
         let session = Session {
             rig: self.file_rig(),

@@ -228,7 +228,8 @@ impl Level for MarkerLevel<'_> {
             });
         let parameters = Parameters {
             source: ParameterSource::Calibrated,
-            model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
+            model: Some(r.robot.reference().display().to_string()),
+            model_sha256: Some(r.robot.sha256.clone()),
             legs: p.legs(x),
             camera: Some(camera),
             camera_model,

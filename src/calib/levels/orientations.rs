@@ -142,7 +142,8 @@ impl Level for OrientationLevel {
             latency_s: None,
             clock_rate_ppm: None,
             source: ParameterSource::Calibrated,
-            model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
+            model: Some(r.robot.reference().display().to_string()),
+            model_sha256: Some(r.robot.sha256.clone()),
             legs: p.legs(x),
             camera: centre
                 .map(|c| CameraRegistration { rotation: p.camera(x), translation: Vector3::from(c.position_m) }),

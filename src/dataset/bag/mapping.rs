@@ -2,7 +2,8 @@
 //! Every key is optional; a bag recorded with the default names needs no file at all.
 //!
 //! ```yaml
-//! model: ../models/agile_wrist.urdf   # relative to this file (or --model)
+//! model: agile_wrist                 # a shipped model's name, or a URDF's path relative to this
+//!                                     # file (--model wins; default: agile_wrist)
 //! joints:
 //!   topic: /joint_states              # sensor_msgs/msg/JointState
 //!   names: [theta1, theta2, theta3]   # the actuated joints, in `name`
@@ -144,7 +145,7 @@ impl Mapping {
         if names[0] == names[1] || names[1] == names[2] || names[0] == names[2] {
             return Err(keys.error(&path, "joints", format!("`names` lists a joint twice: {names:?}")));
         }
-        mapping.model = mapping.model.map(|m| folder.join(m));
+        mapping.model = mapping.model.map(|m| crate::io::files::resolve_reference(folder, &m));
         mapping.path = Some(path);
         Ok(mapping)
     }
@@ -183,6 +184,16 @@ impl Mapping {
     /// The topic carries the points of markers (on the one marker topic, or a topic of their own).
     pub(crate) fn carries_markers(&self, topic: &str, names: &[String]) -> bool {
         topic == self.markers.topic || self.marker_topic(topic, names).is_some()
+    }
+
+    /// The marker topics as a warning names them: `marker topic `/markers``, or `its marker's
+    /// topic` when markers are mapped to topics of their own.
+    pub(crate) fn marker_topics(&self) -> String {
+        if self.markers.topics.is_empty() {
+            format!("marker topic `{}`", self.markers.topic)
+        } else {
+            "its marker's topic".to_string()
+        }
     }
 
     /// The marker whose own topic `topic` is: as `markers: topics` maps it, or by default

@@ -1,5 +1,5 @@
 //! ROS 2 bags (rosbag2, MCAP storage) as sessions: joint encoders as `sensor_msgs/msg/JointState`,
-//! markers as `geometry_msgs/msg/PointStamped` in the camera frame (format in DESIGN.md; mapping
+//! markers as `geometry_msgs/msg/PointStamped` in the camera frame (format in docs/conventions.md; mapping
 //! in [`mapping`]). A bag is a free-motion recording, or a static session when the joints rest
 //! around every capture; [`write`] makes a bag of a session (the streams exact to the nanosecond;
 //! static poses at their own times when 0.2 s apart or more, else 0, 1, 2 … s).
@@ -9,11 +9,10 @@ mod messages;
 mod read;
 mod write;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-pub(crate) use mapping::MAPPING_FILE;
 pub(crate) use write::write;
 
 use super::session::{Session, SessionPose, Warning};
@@ -37,10 +36,9 @@ pub(crate) fn is_bag(path: &Path) -> bool {
 
 /// The model a bag is read with when neither `--model` nor the mapping names one: the command
 /// line's default, relative to the working directory.
-const DEFAULT_MODEL: &str = "models/agile_wrist.urdf";
-
-/// Load the bag at `bag` as a session of the model at `model`, else the mapping's, else
-/// [`DEFAULT_MODEL`] where it exists; `progress` gets the bytes read so far and the bag's total.
+/// Load the bag at `bag` as a session of the model at `model`, else the mapping's, else the
+/// default model (the shipped Agile Wrist); `progress` gets the bytes read so far and the bag's
+/// total.
 ///
 /// # Errors
 /// A [`FileError`] naming the file, and the topic and message or the mapping key, of the first
@@ -54,14 +52,8 @@ pub(crate) fn load(
     let model = match (model, &mapping.model) {
         (Some(m), _) => m.to_path_buf(),
         (None, Some(m)) => m.clone(),
-        // The command line's default model, where it is (the repository's own).
-        (None, None) if Path::new(DEFAULT_MODEL).exists() => Path::new(DEFAULT_MODEL).to_path_buf(),
-        (None, None) => {
-            return Err(FileError::new(
-                bag,
-                format!("a bag names no model: pass --model, or give `model` in {MAPPING_FILE} beside it"),
-            ));
-        }
+        // The command line's default model.
+        (None, None) => PathBuf::from(crate::model::shipped::DEFAULT_MODEL),
     };
     let markers: Vec<String> = crate::model::RobotModel::load(&model)
         .map_err(|e| FileError::new(&model, e.to_string()))?
@@ -102,7 +94,8 @@ pub(crate) fn load(
     match still_poses(&data.encoders, &captures, mapping.still_rad, mapping.min_rest_s) {
         Some(poses) => Ok((static_session(session, poses)?, Vec::new())),
         None => {
-            let streams = streams(bag, data.encoders, captures)?;
+            let mut streams = streams(bag, data.encoders, captures)?;
+            streams.bag_topics = Some(mapping.marker_topics());
             Ok(Session { streams: Some(std::sync::Arc::new(streams)), ..session }.at_latency(0.0))
         }
     }
@@ -164,7 +157,7 @@ fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> 
         );
         return Err(FileError::new(bag, reason));
     }
-    Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures, pixels: Vec::new() })
+    Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures, pixels: Vec::new(), bag_topics: None })
 }
 
 /// A static pose read from a bag: its first capture's time, the joints' median over the rest,

@@ -387,6 +387,10 @@ impl Decoder<'_> {
                 return Err(self.at(channel, &format!("joint `{wanted}` is at {value}: not a number")));
             }
             joints[k] = self.mapping.radians(value);
+            if let Some(reason) = crate::dataset::joints::degrees_reason(joints[k]) {
+                let reason = format!("joint `{wanted}`: {reason} (a bag in degrees maps `joints: units: deg`)");
+                return Err(self.at(channel, &reason));
+            }
         }
         let time_s = self.time(channel, m.header.stamp, log_ns, true).map_err(|r| self.at(channel, &r))?;
         self.data.encoders.push(EncoderSample { time_s, joints });
@@ -405,14 +409,9 @@ impl Decoder<'_> {
         if !position.iter().all(|v| v.is_finite()) {
             return Err(self.at(channel, &format!("the point {position:?} is not finite")));
         }
-        // As markers.csv and captures.csv bound a coordinate: beyond it, no measurement.
-        let limit = crate::dataset::markers::MAX_COORDINATE_M;
-        if let Some(v) = position.iter().find(|v| v.abs() > limit) {
-            let reason = format!(
-                "the point {position:?} is no marker position: {} m is beyond the {limit} m a camera measures markers within (millimetres given as metres?)",
-                crate::io::files::number(*v)
-            );
-            return Err(self.at(channel, &reason));
+        // As markers.csv and captures.csv bound a coordinate: beyond it, millimetres.
+        if let Some(reason) = position.iter().find_map(|v| crate::dataset::markers::millimetres_reason(*v)) {
+            return Err(self.at(channel, &format!("the point {position:?}: {reason}")));
         }
         // One topic carries the markers of a frame at one stamp: time may repeat there.
         let time_s = self.time(channel, m.header.stamp, log_ns, false).map_err(|r| self.at(channel, &r))?;

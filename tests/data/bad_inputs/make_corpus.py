@@ -14,6 +14,7 @@ with fewer than three words beyond the arguments and the words that only locate.
 computed from the shipped file each case breaks (line_of), so a change to that file moves them.
 """
 import json
+import math
 import os
 import shutil
 
@@ -100,12 +101,13 @@ case("sim_probability_over_one", {"s.yaml": replace_once(SIM, "outlier_probabili
 case("sim_zero_poses", {"s.yaml": replace_once(SIM, "poses: 400", "poses: 0")}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/sim"], f"s.yaml:{line_of(SIM, 'poses: 400')}: column `poses`: `poses` (or `--poses`) must be from 1 to 1000000 (got 0)")
 case("sim_gives_up", {"s.yaml": replace_once(SIM, "min_conditioning: 0.2", "min_conditioning: 0.999")}, SIMC, f"s.yaml:{line_of(SIM, 'min_conditioning:')}: column `workspace.min_conditioning`: only 0 of 30 poses survived 1600 attempts: 1600 candidates were rejected as near a singularity; loosen `workspace.min_conditioning` in the config")
 case("sim_unknown_camera_key", {"s.yaml": replace_once(SIM, "  baseline_m:", "  base_line_m:")}, SIMC, f"s.yaml:{line_of(SIM, '  baseline_m:')}: camera: unknown field `base_line_m`, expected one of `height_m`")
-case("sim_missing_model", {"s.yaml": replace_once(SIM, "../../../../models/agile_wrist.urdf", "nowhere.urdf")}, SIMC, "{case}/nowhere.urdf: No such file or directory")
+case("sim_missing_model", {"s.yaml": replace_once(SIM, "model: agile_wrist", "model: nowhere.urdf")}, SIMC, "{case}/nowhere.urdf: cannot read: No such file or directory (os error 2) (the models that ship with spmcal are named agile_wrist, orbita3d)")
+case("sim_unknown_shipped_name", {"s.yaml": replace_once(SIM, "model: agile_wrist", "model: agile_wrists")}, SIMC, "agile_wrists: no model ships with spmcal under this name (the shipped models are agile_wrist, orbita3d), nor is there a file of this name")
 case("sim_duplicate_key", {"s.yaml": SIM + "seed: 5\n"}, SIMC, f"s.yaml:{SIM.count(chr(10)) + 1}: duplicate key `seed` (first at line {line_of(SIM, chr(10) + 'seed:') + 1})")
 case("sim_out_is_a_file", {"s.yaml": SIM}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/existing.csv", "--poses", "5"], "{tmp}/existing.csv: is a file; a session is a folder")
 case("sim_out_not_a_session", {"s.yaml": SIM, "notsession/readme.txt": "keep me\n"}, ["simulate", "--config", "{case}/s.yaml", "--out", "{case}/notsession", "--poses", "5"], "{case}/notsession: the folder is not empty and holds no session: refusing to write into it")
 case("sim_bad_rrd_keeps_nothing", {"s.yaml": SIM}, SIMC + ["--rrd", "{tmp}/no/such/folder/r.rrd"], "{tmp}/no/such/folder/r.rrd: cannot write here: No such file or directory")
-case("sim_coincident_companion_markers", {"s.yaml": replace_once(SIM, "../../../../models/agile_wrist.urdf", "m.urdf"), **model(companion=replace_once(COMPANION, "m3: [0.0649519053, -0.0375, 0.06]", "m3: [-0.0649, -0.0375, 0.06]"))}, SIMC, f"m.yaml:{line_of(COMPANION, '  m3:')}: column `markers_m.m3`: markers `m2` and `m3`: markers #2 and #3 are 0.052 mm apart, within 3.0 mm (3 × the 1 mm marker noise): they coincide")
+case("sim_coincident_companion_markers", {"s.yaml": replace_once(SIM, "model: agile_wrist", "model: m.urdf"), **model(companion=replace_once(COMPANION, "m3: [0.0649519053, -0.0375, 0.06]", "m3: [-0.0649, -0.0375, 0.06]"))}, SIMC, f"m.yaml:{line_of(COMPANION, '  m3:')}: column `markers_m.m3`: markers `m2` and `m3`: markers #2 and #3 are 0.052 mm apart, within 3.0 mm (3 × the 1 mm marker noise): they coincide")
 
 # --- URDF: what check_urdf rejects, named by joint or link -------------------------------------------
 case("urdf_missing_child_link", model(replace_once(URDF, '<child link="proximal1"/>', '<child link="proximal9"/>')), FDA_MODEL, "{case}/m.urdf: joint `theta1` names child link `proximal9`, which does not exist")
@@ -142,6 +144,13 @@ case("params_bad_quaternion", {"p.yaml": PARAMS[:quat_at] + "7.0" + PARAMS[quat_
 case("params_short_quaternion", {"p.yaml": PARAMS[:quat_at] + PARAMS[quat_end + 5:]}, FDA_PARAMS, f"p.yaml:{PARAMS[:quat_at].count(chr(10)) + 1}: camera.r_cb_wxyz: invalid length 3, expected an array of length 4")
 case("params_wrong_format", {"p.yaml": replace_once(PARAMS, "format: spmcal-parameters/1", "format: spmcal-parameters/9")}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, 'format:')}: column `format`: format is `spmcal-parameters/9`, expected `spmcal-parameters/1`")
 case("params_duplicate_key", {"p.yaml": PARAMS + "source: nominal\n"}, FDA_PARAMS, f"p.yaml:{PARAMS.count(chr(10)) + 1}: duplicate key `source` (first at line {line_of(PARAMS, 'source:')})")
+# Issue 37: a parameters file finds its model by `model:` (relative to the file) and knows it by
+# `model_sha256`: a model it cannot find, or one that changed, is said so, with what fixes it.
+EXPORT = ["export", "--params", "{case}/p.yaml", "--urdf", "{tmp}/out.urdf"]
+case("params_model_not_found", {"p.yaml": replace_once(replace_once(PARAMS, "model: agile_wrist", "model: nowhere.urdf"), "model_sha256: ", "model_sha256_was: ").replace("model_sha256_was: ", "# was: ")}, EXPORT, f"p.yaml:{line_of(PARAMS, 'model:')}: the model `{{case}}/nowhere.urdf` named by this parameters file (its `model:`) cannot be loaded")
+SHA = PARAMS.split("model_sha256: ")[1][:64]
+case("params_model_changed", {"p.yaml": replace_once(PARAMS, "model_sha256: " + SHA[:4], "model_sha256: 0000")}, EXPORT, f"p.yaml:{line_of(PARAMS, 'model_sha256:')}: the model `agile_wrist` this file names has changed since these parameters were made: its identity is {SHA[:12]}… where `model_sha256` says 0000")
+case("params_model_sha_malformed", {"p.yaml": replace_once(PARAMS, "model_sha256: " + SHA[:4], "model_sha256: xyz4")}, EXPORT, f"p.yaml:{line_of(PARAMS, 'model_sha256:')}: column `model_sha256`: `model_sha256` is `xyz4")
 case("params_nan_offset", {"p.yaml": replace_once(PARAMS, "delta_deg: 0.15425991586269458", "delta_deg: .nan")}, FDA_PARAMS, f"p.yaml:{line_of(PARAMS, 'delta_deg:')}: column `legs[0].delta_deg`: leg 1: delta is not finite")
 
 # --- Kinematics CSV and IK -------------------------------------------------------------------------
@@ -198,10 +207,22 @@ two_seen = [l for l in ref if not (l.startswith("0,m3,") or l.startswith("0,m4,"
 case("session_reference_two_markers", session(**{"markers.csv": "\n".join(two_seen) + "\n"}), ["compare", "--dataset", "{case}", "--params", "datasets/agile_wrist_sim_20/truth.yaml"], "markers.csv:2: pose 0: 2 markers seen in both this pose and the reference; at least 3 are needed; pose 0 is the reference pose")
 huge = ref[:]
 huge[3] = replace_once(huge[3], huge[3].split(",")[3], "1e200")
-case("session_marker_coordinate_overflows", session(**{"markers.csv": "\n".join(huge) + "\n"}), ["estimate", "--dataset", "{case}"], "markers.csv:4: column `y_m`: 1e200 m is no marker position: a camera measures markers within 100 m")
+case("session_marker_coordinate_overflows", session(**{"markers.csv": "\n".join(huge) + "\n"}), ["estimate", "--dataset", "{case}"], "markers.csv:4: column `y_m`: 1e200 m is no marker position: a camera measures this mechanism's markers within 10 m")
 mm = ref[:]
 mm[5] = ",".join(mm[5].split(",")[:4] + ["755.9"])
-case("session_marker_in_millimetres", session(**{"markers.csv": "\n".join(mm) + "\n"}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "markers.csv:6: column `z_m`: 755.9 m is no marker position: a camera measures markers within 100 m (millimetres given as metres?)")
+case("session_marker_in_millimetres", session(**{"markers.csv": "\n".join(mm) + "\n"}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "markers.csv:6: column `z_m`: 755.9 m is farther than the 10 m a camera measures this mechanism's markers within: it looks like millimetres; spmcal reads metres (755.9 mm is 0.7559 m)")
+# Issue 37: a whole file in millimetres (every coordinate × 1000) is refused at its first row, not
+# fitted for 200 iterations; joints in degrees at their first cell, not "near a singularity".
+mm_all = [ref[0]] + [",".join(l.split(",")[:2] + [repr(round(float(v) * 1000, 6)) for v in l.split(",")[2:]]) for l in ref[1:]]
+mm_col = next(j for j, v in enumerate(mm_all[1].split(",")[2:5]) if abs(float(v)) > 10)
+case("session_markers_all_in_millimetres", session(**{"markers.csv": "\n".join(mm_all) + "\n"}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], f"markers.csv:2: column `{'xyz'[mm_col]}_m`: {mm_all[1].split(',')[2 + mm_col]} m is farther than the 10 m a camera measures this mechanism's markers within: it looks like millimetres; spmcal reads metres")
+ENC_OK = "time_s,theta1_rad,theta2_rad,theta3_rad\n" + "".join(f"{t / 100},0,0,0\n" for t in range(101))
+case("stream_encoders_in_degrees", {"session.yaml": SESSION, "encoders.csv": "time_s,theta1_rad,theta2_rad,theta3_rad\n0.0,0,0,0\n0.01,30,-12.5,4\n", "captures.csv": "time_s,marker,x_m,y_m,z_m\n0.005,m1,0.01,0.02,0.8\n"}, ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "encoders.csv:3: column `theta1_rad`: 30.0 rad is more than a full turn: it looks like degrees; spmcal reads joints in radians (30.0° is 0.523599 rad)")
+case("stream_captures_in_millimetres", {"session.yaml": SESSION, "encoders.csv": ENC_OK, "captures.csv": "time_s,marker,x_m,y_m,z_m\n0.5,m1,3.2,75.1,800.2\n0.5,m2,-64.9,-37.5,790.0\n"}, ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], "captures.csv:2: column `y_m`: 75.1 m is farther than the 10 m a camera measures this mechanism's markers within: it looks like millimetres; spmcal reads metres (75.1 mm is 0.0751 m)")
+joint_rows = JOINTS.splitlines()
+deg = [joint_rows[0]] + [",".join([l.split(",")[0]] + [repr(round(math.degrees(float(v)), 6)) for v in l.split(",")[1:4]] + l.split(",")[4:]) for l in joint_rows[1:]]
+first_big = next((k, j) for k, l in enumerate(deg[1:], start=2) for j, v in enumerate(l.split(",")[1:4]) if abs(float(v)) > 2 * math.pi)
+case("session_joints_in_degrees", session(**{"joints.csv": "\n".join(deg) + "\n"}), ["calibrate", "--dataset", "{case}", "--out", "{tmp}/existing.yaml"], f"joints.csv:{first_big[0]}: column `theta{first_big[1] + 1}_rad`: {deg[first_big[0] - 1].split(',')[first_big[1] + 1]} rad is more than a full turn: it looks like degrees; spmcal reads joints in radians")
 
 # A station (sequential capture) that captures one marker twice and another never: refused at the
 # second capture's row. (A retake, where every marker was captured too, loads with a warning:
