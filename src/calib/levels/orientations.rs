@@ -149,7 +149,17 @@ impl Level for OrientationLevel {
         let predicted_error_deg = eval
             .orientation_jacobians
             .as_ref()
-            .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov));
+            .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, r.predicted_covariance));
+        // Without the misfit's widening, when the model check widened it.
+        let predicted_error_unwidened_deg =
+            match std::ptr::eq(r.predicted_covariance, cov) || r.predicted_covariance == cov {
+                true => None,
+                false => eval
+                    .orientation_jacobians
+                    .as_ref()
+                    .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov))
+                    .map(|e| e.rms),
+            };
         let residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
@@ -175,6 +185,7 @@ impl Level for OrientationLevel {
             held_out_poses: self.held_out.len(),
             parameters_report: parameter_reports(p, x, cov, &r.free),
             predicted_error_deg,
+            predicted_error_unwidened_deg,
             predicted_error_mm: None,
             residual_sigma_deg,
             camera_translation_m: centre.map(|c| c.position_m),
