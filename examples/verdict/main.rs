@@ -3,7 +3,7 @@
 //! new true geometry per seed), calibrated with the defaults (`camera_model: auto`, 5-fold
 //! cross-validation):
 //! - clean sessions of every kind: how often the model check fails (a false alarm; it holds to
-//!   1 %) and how often the verdict is not PASS;
+//!   2 %) and how often the verdict is not PASS;
 //! - sessions with an effect the model does not have (a camera beyond the fitted camera model, a
 //!   stereo rig's ordinary miscalibration, a joint whose encoder reads 1 % long, markers swapped at
 //!   some captures, a camera clock running fast): what the effect costs (the calibrated
@@ -234,7 +234,7 @@ fn main() {
         ),
         (
             kind(
-                "camera clock 0.01 % fast, 10 min",
+                "camera clock 0.03 % fast, 10 min",
                 free_motion(600.0),
                 recordings,
                 36_400,
@@ -293,6 +293,10 @@ fn rms(values: impl Iterator<Item = f64>) -> f64 {
 /// Every session of `k`, simulated, altered and calibrated.
 fn run_kind(k: &Kind, model: &RobotModel) -> Vec<Outcome> {
     let mut out = Vec::new();
+    // A trial of some rows only: `VERDICT_ROWS=20` runs the rows whose label contains "20".
+    if std::env::var("VERDICT_ROWS").is_ok_and(|only| !k.label.contains(only.as_str())) {
+        return out;
+    }
     for s in 0..k.sessions {
         let mut c = k.config.clone();
         c.seed = k.seed0 + s;
@@ -300,7 +304,12 @@ fn run_kind(k: &Kind, model: &RobotModel) -> Vec<Outcome> {
         let session = alter(session, k.alter);
         let settings = CalibConfig { camera_model: k.camera_model, ..CalibConfig::default() };
         match run(&session, model, c.seed, &settings) {
-            Ok(o) => out.push(o),
+            Ok((o, check)) => {
+                if o.flagged && k.cause.is_empty() {
+                    eprintln!("  false alarm: {} seed {}: {check}", k.label, c.seed);
+                }
+                out.push(o)
+            }
             Err(e) => eprintln!("  {} seed {}: {e}", k.label, c.seed),
         }
     }
@@ -336,19 +345,21 @@ fn alter(mut session: Session, alter: Alter) -> Session {
 }
 
 /// Calibrate `session` with `settings` and score it against the truth.
-fn run(session: &Session, model: &RobotModel, seed: u64, settings: &CalibConfig) -> Result<Outcome, String> {
+fn run(session: &Session, model: &RobotModel, seed: u64, settings: &CalibConfig) -> Result<(Outcome, String), String> {
     let truth = session.truth.as_ref().expect("simulated");
     let tests = study::test_orientations(&truth.parameters.spm().expect("valid"), 60, seed ^ 0x5eed);
     let fitted = spmcal::calib::calibrate(session, model, settings, &mut |_| {}).map_err(|e| e.to_string())?;
     let report = &fitted.report;
     let predicted = report.predicted_error_deg.as_ref().map_or(f64::NAN, |p| p.rms);
     let check = report.model_check.as_ref();
-    Ok(Outcome {
+    let summary = check.map_or_else(String::new, |c| c.summary());
+    let outcome = Outcome {
         flagged: check.is_some_and(|c| !c.passed),
         cause: check.and_then(|c| c.cause.map(str::to_string)),
         verdict: report.verdict.label(),
         achieved: study::calibration_error_up_to_common_rotations(session, &fitted, &tests),
         predicted,
         unwidened: report.predicted_error_unwidened_deg.unwrap_or(predicted),
-    })
+    };
+    Ok((outcome, summary))
 }

@@ -13,10 +13,11 @@
 //!   radial terms); the joints (each encoder's offset column times its angle: a joint scale); time
 //!   (each axis against time, and the latency column times time: a clock rate).
 //! - **A marker**: each marker's whitened mean square against the others' (an F test per marker,
-//!   Bonferroni over the markers): a marker mislabelled at some captures, loose or half hidden.
+//!   each side's degrees of freedom its rows less their leverage; Bonferroni over the markers): a
+//!   marker mislabelled at some captures, loose or half hidden.
 //! - **Overall**: the cross-validated whitened residuals' mean square against what the noise and
 //!   the parameters' uncertainty make expected (`rows σ̂² + k/(k−1) tr(S J C Jᵀ Sᵀ)` per
-//!   observation), one-sided, its standard error from the poses' sums.
+//!   observation), one-sided, its standard error from the poses' sums (Student's t on their number).
 //!
 //! The cause of a failed check is the most significant failed test (on a normal-deviate scale,
 //! so that tests of different degrees of freedom compare), said with the option that models it.
@@ -29,10 +30,10 @@ use serde::Serialize;
 use super::fit::{FitOutcome, weighted_normal};
 use super::parameterisation::Kind;
 use super::residuals::{Observed, Residuals};
-use crate::math::stats::{f_as_normal, f_survival, normal_survival};
+use crate::math::stats::{f_as_normal, f_survival};
 
 /// The check's false-alarm rate on data the model explains: the family's, shared by its tests.
-pub(crate) const FALSE_ALARM_RATE: f64 = 0.01;
+pub(crate) const FALSE_ALARM_RATE: f64 = 0.02;
 
 /// Clusters per regression column from which the cluster-robust test is used.
 const CLUSTERS_PER_COLUMN: usize = 10;
@@ -72,7 +73,8 @@ pub struct StructureTest {
     pub structure: &'static str,
     /// Its statistic: an F (structure, marker) or a ratio of mean squares (overall).
     pub statistic: f64,
-    /// Its degrees of freedom (an F's two; `[0, 0]` for the overall ratio, tested as a normal).
+    /// Its degrees of freedom (an F's two; for the overall ratio, the square of its t statistic's:
+    /// `[1, clusters − 1]`).
     pub dof: [f64; 2],
     /// Its p-value on its own (the worst marker's, times the markers, for `marker`).
     pub p_value: f64,
@@ -332,6 +334,7 @@ pub(crate) fn check<M: Residuals>(
     let (mut rss, mut rows) = (0.0, 0usize);
     let markers = observed.iter().filter_map(|o| o.marker.map(|k| k + 1)).max().unwrap_or(0);
     let (mut marker_ss, mut marker_rows) = (vec![0.0; markers], vec![0usize; markers]);
+    let mut marker_dof = vec![0.0; markers];
     let mut jw = DMatrix::<f64>::zeros(3, nf);
     let whitened_jacobian = |j: usize, s: &Matrix3<f64>, jw: &mut DMatrix<f64>| {
         let rows_j = jac.rows(3 * j, 3);
@@ -355,11 +358,15 @@ pub(crate) fn check<M: Residuals>(
         let r = rows_of(&w.whitening[j]);
         rss += e.norm_squared();
         rows += r;
+        whitened_jacobian(j, &s, &mut jw);
         if let Some(k) = observed[j].marker {
+            // Its residuals' degrees of freedom: its rows less its leverage `tr(J̃_j H⁻¹ J̃_jᵀ)`
+            // (a marker's own position takes three of its rows, not a share of everyone's).
+            let leverage = (&jw * &h_inv).component_mul(&jw).sum();
             marker_ss[k] += e.norm_squared();
+            marker_dof[k] += r as f64 - leverage;
             marker_rows[k] += r;
         }
-        whitened_jacobian(j, &s, &mut jw);
         for (n, &structure) in structures.iter().enumerate() {
             let xw = group_columns(j, structure, &s);
             if xw.ncols() == widths[n] {
@@ -423,11 +430,11 @@ pub(crate) fn check<M: Residuals>(
     }
     // A marker's mean square against the others'.
     if markers >= 2 {
-        let share = 1.0 - nf as f64 / rows.max(1) as f64;
+        let total_dof: f64 = marker_dof.iter().sum();
         let worst = (0..markers)
-            .filter(|&k| marker_rows[k] > 0 && marker_rows[k] < rows)
+            .filter(|&k| marker_rows[k] > 0 && marker_dof[k] > 0.5 && marker_dof[k] < total_dof - 0.5)
             .map(|k| {
-                let (d1, d2) = (marker_rows[k] as f64 * share, (rows - marker_rows[k]) as f64 * share);
+                let (d1, d2) = (marker_dof[k], total_dof - marker_dof[k]);
                 let f = (marker_ss[k] / d1) / ((rss - marker_ss[k]).max(f64::MIN_POSITIVE) / d2);
                 (k, f, d1, d2)
             })
@@ -475,14 +482,19 @@ pub(crate) fn check<M: Residuals>(
                 a_g.iter().zip(&b_g).map(|(a, b)| (a - excess * b).powi(2)).sum::<f64>() * used / (used - 1.0).max(1.0);
             let se = var.sqrt() / b;
             let z = if se > 0.0 { (excess - 1.0) / se } else { 0.0 };
+            // Student's t on the clusters' degrees of freedom (twenty poses are not many).
+            let p_value = match z > 0.0 {
+                true => 0.5 * f_survival(z * z, 1.0, (used - 1.0).max(1.0)),
+                false => 1.0 - 0.5 * f_survival(z * z, 1.0, (used - 1.0).max(1.0)),
+            };
             structure_of.insert(0, Structure::Overall);
             tests.insert(
                 0,
                 StructureTest {
                     structure: Structure::Overall.name(),
                     statistic: excess,
-                    dof: [0.0, 0.0],
-                    p_value: normal_survival(z),
+                    dof: [1.0, (used - 1.0).max(1.0)],
+                    p_value,
                     z,
                     marker: None,
                     robust: true,
