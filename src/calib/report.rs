@@ -138,7 +138,8 @@ impl Verdict {
                     } else {
                         "the calibrated model does not predict unseen poses clearly better than the nominal one".into()
                     },
-                    action: "capture more poses, spread over the workspace (`spmcal plan` says where), and check                              the camera model"
+                    action: "capture more poses, spread over the workspace (`spmcal plan` says where), and \
+                             check the camera model"
                         .into(),
                 });
             }
