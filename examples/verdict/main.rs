@@ -5,11 +5,12 @@
 //! - clean sessions of every kind: how often the model check fails (a false alarm; it holds to
 //!   2 %) and how often the verdict is not PASS;
 //! - sessions with an effect the model does not have (a camera beyond the fitted camera model, a
-//!   stereo rig's ordinary miscalibration, a joint whose encoder reads 1 % long, markers swapped at
-//!   some captures, a camera clock running fast): what the effect costs (the calibrated
+//!   stereo rig's ordinary miscalibration, a joint whose encoder reads 1 % or 2 % long, markers
+//!   swapped at some captures): what the effect costs (the calibrated
 //!   mechanism's error against the truth over the same seeds' clean sessions), how often the check
 //!   fails (its power), how often it names the right cause, and the predicted error over the
-//!   achieved one without and with the widening.
+//!   achieved one without and with the widening. (A recording's clock rate is not made here: its
+//!   captures' times are the simulator's own; the time test's false alarms are measured.)
 //!
 //! Run: `cargo run --release --example verdict [sessions] [recordings] [hours]` (default 40 static
 //! sessions per row, 10 recordings per ten-minute row, 2 hour-long recordings).
@@ -67,12 +68,10 @@ enum Alter {
     PerfectRig,
     /// A pixel session's points as its (miscalibrated) rig file triangulates them.
     Triangulated,
-    /// Joint 1's readings 1 % long (its encoder's scale).
-    JointScale,
+    /// Joint 1's readings this much long (its encoder's scale, a fraction).
+    JointScale(f64),
     /// Markers 1 and 2 swapped at every tenth capture.
     Swapped,
-    /// The camera's clock running this fast (a fraction: the captures' times stretched).
-    ClockRate(f64),
 }
 
 fn main() {
@@ -219,7 +218,30 @@ fn main() {
             ),
             6,
         ),
-        (kind("joint 1 reads 1 % long", static_n(200), sessions, 36_100, Alter::JointScale, auto, "joint angles"), 1),
+        (
+            kind(
+                "joint 1 reads 1 % long",
+                static_n(200),
+                sessions,
+                36_100,
+                Alter::JointScale(0.01),
+                auto,
+                "joint angles",
+            ),
+            1,
+        ),
+        (
+            kind(
+                "joint 1 reads 2 % long",
+                static_n(200),
+                sessions,
+                36_100,
+                Alter::JointScale(0.02),
+                auto,
+                "joint angles",
+            ),
+            1,
+        ),
         (
             kind(
                 "markers m1, m2 swapped at 10 % of poses",
@@ -231,18 +253,6 @@ fn main() {
                 "a marker",
             ),
             1,
-        ),
-        (
-            kind(
-                "camera clock 0.03 % fast, 10 min",
-                free_motion(600.0),
-                recordings,
-                36_400,
-                Alter::ClockRate(2e-5),
-                auto,
-                "time",
-            ),
-            4,
         ),
     ];
     out!(
@@ -329,15 +339,10 @@ fn alter(mut session: Session, alter: Alter) -> Session {
             session.poses.iter_mut().for_each(|p| p.pixels.clear());
             session.poses.retain(|p| p.seen() > 0);
         }
-        Alter::JointScale => session.poses.iter_mut().for_each(|p| p.joints[0] *= 1.01),
+        Alter::JointScale(scale) => session.poses.iter_mut().for_each(|p| p.joints[0] *= 1.0 + scale),
         Alter::Swapped => {
             for p in session.poses.iter_mut().filter(|p| p.id % 10 == 3) {
                 p.markers.swap(0, 1);
-            }
-        }
-        Alter::ClockRate(rate) => {
-            for p in &mut session.poses {
-                p.time_s = p.time_s.map(|t| t * (1.0 + rate));
             }
         }
     }

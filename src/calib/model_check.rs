@@ -398,10 +398,10 @@ pub(crate) fn check<M: Residuals>(
             cluster_xte: vec![DVector::zeros(q); clusters],
         })
         .collect();
-    for j in 0..m {
+    for (j, residual) in residuals.iter().enumerate() {
         let s = w.whitening[j] * w.weights[j].sqrt();
         whitened_jacobian(j, &s, &mut jw);
-        let e = DMatrix::from_column_slice(3, 1, (s * residuals[j]).as_slice()) - &jw * &step;
+        let e = DMatrix::from_column_slice(3, 1, (s * residual).as_slice()) - &jw * &step;
         let g = model.pose_of(j);
         for (n, group) in groups.iter_mut().enumerate() {
             let xw = group_columns(j, group.structure, &s);

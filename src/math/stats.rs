@@ -48,6 +48,7 @@ pub(crate) fn rms(values: impl IntoIterator<Item = f64>) -> f64 {
     (sum / n.max(1) as f64).sqrt()
 }
 
+#[cfg(feature = "full")]
 /// `ln Γ(x)` for `x > 0` (Lanczos, g = 7, nine terms: relative error below 1e-13).
 pub(crate) fn ln_gamma(x: f64) -> f64 {
     const G: [f64; 9] = [
@@ -71,6 +72,7 @@ pub(crate) fn ln_gamma(x: f64) -> f64 {
     0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + sum.ln()
 }
 
+#[cfg(feature = "full")]
 /// The regularised incomplete beta function `I_x(a, b)` (Lentz's continued fraction).
 pub(crate) fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
     if x <= 0.0 {
@@ -107,6 +109,7 @@ pub(crate) fn incomplete_beta(x: f64, a: f64, b: f64) -> f64 {
     front * h / a
 }
 
+#[cfg(feature = "full")]
 /// `P(F > f)` for an F distribution of `d1`, `d2` degrees of freedom.
 pub(crate) fn f_survival(f: f64, d1: f64, d2: f64) -> f64 {
     if f.is_nan() {
@@ -118,6 +121,7 @@ pub(crate) fn f_survival(f: f64, d1: f64, d2: f64) -> f64 {
     incomplete_beta(d2 / (d2 + d1 * f), d2 / 2.0, d1 / 2.0)
 }
 
+#[cfg(feature = "full")]
 /// The standard normal deviate with the same upper tail as an F of `d1`, `d2` degrees of freedom
 /// at `f` (Paulson's approximation): a scale on which tests of different degrees of freedom
 /// compare without their p-values underflowing.
@@ -127,7 +131,7 @@ pub(crate) fn f_as_normal(f: f64, d1: f64, d2: f64) -> f64 {
     ((1.0 - b) * cube - (1.0 - a)) / (b * cube * cube + a).sqrt()
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "full"))]
 mod distribution_tests {
     use super::*;
 
