@@ -70,6 +70,8 @@ enum Alter {
     Triangulated,
     /// Joint 1's readings this much long (its encoder's scale, a fraction).
     JointScale(f64),
+    /// Written as a ROS 2 bag and read back (the truth, which a bag does not carry, kept).
+    Bag,
     /// Markers 1 and 2 swapped at every tenth capture.
     Swapped,
 }
@@ -119,6 +121,7 @@ fn main() {
             "",
         ),
         kind("free motion, 2 min", free_motion(120.0), recordings, 36_300, Alter::None, auto, ""),
+        kind("free motion, 2 min, as a ROS 2 bag", free_motion(120.0), recordings, 36_700, Alter::Bag, auto, ""),
         kind("free motion, 10 min", free_motion(600.0), recordings, 36_400, Alter::None, auto, ""),
         kind("free motion, 60 min", free_motion(3600.0), hours, 36_500, Alter::None, auto, ""),
         kind("pixels, 200 poses, perfect rig", stereo.clone(), sessions, 36_600, Alter::PerfectRig, auto, ""),
@@ -180,7 +183,7 @@ fn main() {
                 CameraModelSetting::Rigid,
                 "camera volume",
             ),
-            4,
+            5,
         ),
         (
             kind(
@@ -204,7 +207,7 @@ fn main() {
                 auto,
                 "camera volume",
             ),
-            6,
+            7,
         ),
         (
             kind(
@@ -216,7 +219,7 @@ fn main() {
                 auto,
                 "camera volume",
             ),
-            6,
+            7,
         ),
         (
             kind(
@@ -338,6 +341,15 @@ fn alter(mut session: Session, alter: Alter) -> Session {
             session.rig = None;
             session.poses.iter_mut().for_each(|p| p.pixels.clear());
             session.poses.retain(|p| p.seen() > 0);
+        }
+        Alter::Bag => {
+            let path = std::env::temp_dir().join(format!("spmcal-verdict-{}.mcap", std::process::id()));
+            session.write_bag(&path).expect("the bag is written");
+            let (mut read, _) =
+                Session::load(&path, Some(Path::new("models/agile_wrist.urdf"))).expect("the bag reads back");
+            let _ = std::fs::remove_file(&path);
+            read.truth = session.truth.take();
+            session = read;
         }
         Alter::JointScale(scale) => session.poses.iter_mut().for_each(|p| p.joints[0] *= 1.0 + scale),
         Alter::Swapped => {
