@@ -315,7 +315,8 @@ def test_str_is_the_text_report_and_the_verdict_is_its_word(cli: str, tmp_path: 
     assert str(calibration) + f"wrote {tmp_path / 'p.yaml'}\n" == out.stdout
     assert f"verdict: {calibration.verdict}: {calibration.verdict_reason}\n" in out.stdout
     assert calibration.verdict == "PASS" and calibration.passed and calibration.verdict_reasons == []
-    assert calibration.model_check["passed"] and 0.0 <= calibration.model_check["p_value"] <= 1.0
+    check = calibration.model_check
+    assert check is not None and check["passed"] and 0.0 <= check["p_value"] <= 1.0
     # An accuracy no calibration of 20 poses reaches: the report says FAIL with the reason, and so
     # does Python; the camera's noise (the old `pass_held_out_mm`) decides nothing any more.
     strict = spmcal.calibrate(spmcal.Session.load(SESSION), required_accuracy_deg=1e-4)
