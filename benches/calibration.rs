@@ -2,7 +2,8 @@
 //! gross-error exclusion, covariance, 5-fold cross-validation, per-pose comparison) on 20, 400,
 //! 4,000 and 27,000 poses (100,000 observations) — the cost should grow linearly — and
 //! orientation-level on 400; then the command end to end as a user runs it (files in, parameters
-//! file out), on static sessions and on a ten-minute free-motion recording.
+//! file out), on static sessions, on free-motion recordings of ten minutes and an hour, and on a
+//! ten-minute recording seen through a stereo rig's pixels beside the same recording as points.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -88,6 +89,29 @@ fn command(c: &mut Criterion) {
             })
         });
         std::fs::remove_dir_all(&recording).unwrap();
+    }
+    group.finish();
+    // A ten-minute recording seen through a stereo rig (issue 34): its pixels and the rig's file
+    // (the rig refined with the mechanism), beside the same recording as the points that file
+    // triangulates (`auto` chooses the camera model): the pixels within 2× the points' time.
+    let mut group = c.benchmark_group("calibrate_command_pixels");
+    group.sample_size(10).measurement_time(std::time::Duration::from_secs(60));
+    let sim = SimConfig::read(Path::new("configs/simulate_agile_wrist_stereo_free_motion.yaml")).unwrap();
+    let model = RobotModel::load(&sim.model).unwrap();
+    let (seen, _) = sim.simulate(&model, &mut |_| {}).unwrap();
+    let (pixels, points) = (dir.path().join("pixels_600s"), dir.path().join("points_600s"));
+    seen.write(&pixels).unwrap();
+    seen.as_points().write(&points).unwrap();
+    for (name, recording) in [("pixels_600s", &pixels), ("points_600s", &points)] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let run = Command::new(env!("CARGO_BIN_EXE_spmcal"))
+                    .args(["calibrate", "--dataset", recording.to_str().unwrap(), "--out", out.to_str().unwrap()])
+                    .output()
+                    .unwrap();
+                assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+            })
+        });
     }
     group.finish();
 }

@@ -6,6 +6,9 @@ Run from the repository root after `cargo bench` (criterion keeps its estimates 
 
     cargo bench && python3 benches/results.py
 
+After benchmarking some groups only (`cargo bench --bench calibration -- GROUP`),
+`python3 benches/results.py --update` replaces their rows and keeps the others as they were.
+
 Times are criterion's mean estimates. The other figures of the table are measured here with the
 release binary: the fit's iterations (`--json` stages) on the shipped 400-pose session and on
 simulated ten-minute and hour-long free-motion recordings, the hour-long calibration's peak
@@ -44,6 +47,8 @@ ROWS = [
     ("reading the hour-long recording: ROS 2 bag", "read_hour_long_recording/bag", "≤ 2× CSV"),
     ("`plan`: 40 poses from 2,000 candidates, end to end", "plan/command_40_of_2000", "≤ 2 s"),
     ("Rerun recording of the 400-pose calibration", "record/calibration_400_poses", "< 1 s"),
+    ("`spmcal calibrate` end to end, a ten-minute recording seen as a stereo rig's pixels (the rig refined)", "calibrate_command_pixels/pixels_600s", "≤ 2× as points"),
+    ("the same recording as the points its rig triangulates (`auto`)", "calibrate_command_pixels/points_600s", "—"),
 ]
 
 
@@ -102,7 +107,41 @@ def size_mb(path: Path) -> float:
     return sum(p.stat().st_size for p in files) / 1e6
 
 
+def update() -> None:
+    """`--update`: after `cargo bench` of some groups only, replace the rows criterion has
+    estimates for and keep the others (and the figures) as the last full run wrote them, saying
+    which rows were measured when."""
+    out = Path("docs/results/benchmarks.md")
+    old = out.read_text().splitlines()
+    rows = {line.split(" | `")[1].split("`")[0]: line for line in old if line.startswith("| ") and " | `" in line}
+    measured, lines = [], []
+    for line in old:
+        if line.startswith("| operation |"):
+            break
+        lines.append(line)
+    lines += ["| operation | criterion id | mean | target |", "|---|---|---|---|"]
+    for label, bench, target in ROWS:
+        if (CRITERION / bench / "new" / "estimates.json").exists():
+            measured.append(f"`{bench}`")
+            lines.append(f"| {label} | `{bench}` | {shown(mean_ns(bench))} | {target} |")
+        elif bench in rows:
+            lines.append(rows[bench])
+        else:
+            sys.exit(f"{bench}: neither measured nor in {out}; run `cargo bench` for it")
+    figures = old[old.index("| figure | value |") - 1:] if "| figure | value |" in old else []
+    stamp = datetime.now(timezone.utc)
+    lines.insert(lines.index("| operation | criterion id | mean | target |") - 1,
+                 f"\nUpdated {stamp:%Y-%m-%d %H:%M UTC} on {machine()}, commit {commit()}: {', '.join(measured)} measured then; the other rows and the figures are the run above's.")
+    temporary = out.with_suffix(".md.tmp")
+    temporary.write_text("\n".join(lines + figures) + "\n")
+    temporary.replace(out)
+    print("\n".join(lines + figures))
+
+
 def main() -> None:
+    if "--update" in sys.argv[1:]:
+        update()
+        return
     if not BINARY.exists():
         sys.exit(f"{BINARY}: missing; `cargo build --release` first")
     lines = [

@@ -30,7 +30,8 @@ pub struct SetComparison {
     pub label: String,
     /// What was compared: orientations (per pose, from the per-pose estimator) or markers.
     pub level: FitLevel,
-    /// Unit of the errors: `deg` (orientations) or `mm` (markers, RMS over a pose's markers).
+    /// Unit of the errors: `deg` (orientations), `mm` (markers, RMS over a pose's markers) or `px`
+    /// (a pixel session's markers: the reprojection error, RMS over a pose's pixels).
     pub unit: &'static str,
     /// How the camera registration was obtained.
     pub registration: &'static str,
@@ -62,7 +63,9 @@ pub enum CompareError {
 
 /// Compare each `(label, parameters)` set with the camera on `session`, at `level`; `None`:
 /// orientations where the per-pose estimator can work, markers where no pose sees three. Each set
-/// sees the markers corrected by its own camera model (`camera_model`).
+/// sees the markers corrected by its own camera model (`camera_model`). A session seen through
+/// its cameras' pixels is also compared at its marker level, in pixels through its rig (after the
+/// orientations, for each set).
 ///
 /// # Errors
 /// A [`CompareError`] when the vision estimate fails or a parameter set cannot be registered or predicts no pose.
@@ -82,32 +85,42 @@ pub fn compare(
             Err(e) => return Err(e.into()),
         },
     };
-    sets.iter()
-        .map(|(label, params)| {
-            let set_error = |reason| CompareError::Set { label: label.clone(), reason };
-            // Each set sees the markers as its own camera model corrects them.
-            let corrected = corrected_for(session, vision.as_ref(), method, params).map_err(set_error)?;
-            let (session, vision) = match &corrected {
-                Some((s, v)) => (s, v.as_ref()),
-                None => (session, vision.as_ref()),
-            };
-            let (level, errors) = match vision {
-                Some(v) => (FitLevel::Orientations, pose_errors(session, v, params).map_err(set_error)?),
-                None => (FitLevel::Markers, marker_pose_errors(session, model, params).map_err(set_error)?.0),
-            };
-            Ok(SetComparison::new(label, level, errors))
-        })
-        .collect()
+    // A session seen through its cameras' pixels is compared in pixels too (its marker level):
+    // the reprojection error through its rig, beside the orientations of the points it triangulates.
+    let pixels = session.rig.is_some();
+    let mut out = Vec::new();
+    for (label, params) in sets {
+        let set_error = |reason| CompareError::Set { label: label.clone(), reason };
+        // Each set sees the markers as its own camera model corrects them.
+        let corrected = corrected_for(session, vision.as_ref(), method, params).map_err(set_error)?;
+        let (seen, vision) = match &corrected {
+            Some((s, v)) => (s, v.as_ref()),
+            None => (session, vision.as_ref()),
+        };
+        if let Some(v) = vision {
+            out.push(SetComparison::new(
+                label,
+                FitLevel::Orientations,
+                pose_errors(seen, v, params).map_err(set_error)?,
+                false,
+            ));
+        }
+        if vision.is_none() || pixels {
+            let errors = marker_pose_errors(seen, model, params).map_err(set_error)?.0;
+            out.push(SetComparison::new(label, FitLevel::Markers, errors, pixels));
+        }
+    }
+    Ok(out)
 }
 
 impl SetComparison {
-    fn new(label: &str, level: FitLevel, errors: crate::calib::PoseErrors) -> Self {
+    fn new(label: &str, level: FitLevel, errors: crate::calib::PoseErrors, pixels: bool) -> Self {
         let crate::calib::PoseErrors { registration, per_pose, excluded, .. } = errors;
         let values: Vec<f64> = per_pose.iter().map(|(_, e)| *e).collect();
         SetComparison {
             label: label.to_string(),
             level,
-            unit: unit(level),
+            unit: if pixels { "px" } else { unit(level) },
             registration,
             per_pose,
             errors: Stats::of_or_zero(&values),
@@ -118,7 +131,11 @@ impl SetComparison {
 
 impl std::fmt::Display for SetComparison {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let unit = if self.unit == "deg" { "°" } else { " mm" };
+        let unit = match self.unit {
+            "deg" => "°",
+            "px" => " px",
+            _ => " mm",
+        };
         writeln!(
             f,
             "{:<11} RMS {:.4}{unit}, median {:.4}{unit}, max {:.4}{unit} over {} poses (registration: {})",

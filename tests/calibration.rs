@@ -232,6 +232,15 @@ fn config_errors_name_the_line() {
     assert!(err.contains(&format!("calibrate.yaml:{line}")) && err.contains("huber_threshold"), "{err}");
     std::fs::write(&path, good.replace("freeze: []", "freeze: [offsets]")).unwrap();
     assert!(CalibConfig::read(&path).unwrap_err().to_string().contains("unknown variant `offsets`"));
+    // A workspace: read as written; a tilt of 90° or more (no workspace of an SPM) refused at its key.
+    let named = good.replace("workspace: null", "workspace: {max_tilt_deg: 25, max_yaw_deg: 40}");
+    std::fs::write(&path, &named).unwrap();
+    let w = CalibConfig::read(&path).unwrap().workspace.unwrap();
+    assert_eq!((w.max_tilt_deg, w.max_yaw_deg), (25.0, 40.0));
+    std::fs::write(&path, good.replace("workspace: null", "workspace: {max_tilt_deg: 95, max_yaw_deg: 40}")).unwrap();
+    let err = CalibConfig::read(&path).unwrap_err().to_string();
+    let line = good.lines().position(|l| l.starts_with("workspace:")).unwrap() + 1;
+    assert!(err.contains(&format!("calibrate.yaml:{line}")) && err.contains("max_tilt_deg"), "{err}");
 }
 
 #[test]

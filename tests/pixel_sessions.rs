@@ -615,3 +615,115 @@ for name in sorted(chain, key=lambda n: int(n[3:])):
         assert_eq!(lines.next(), Some(resolution.as_str()));
     }
 }
+
+/// `convert --points` writes a pixel session's triangulated points — as a session folder, or as a
+/// bag, which carries points only (without `--points` the bag is refused, saying so): the points
+/// read back are the ones the rig triangulates.
+#[test]
+fn convert_writes_a_pixel_sessions_triangulated_points_as_a_folder_or_a_bag() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = "datasets/agile_wrist_stereo_200";
+    let convert = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"))
+            .args(["convert", "--dataset", dataset])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let bag = dir.path().join("points.mcap");
+    let refused = convert(&["--to-bag", bag.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && stderr.contains("--points") && !bag.exists(), "{stderr}");
+    let folder = dir.path().join("points");
+    for extra in [["--out", folder.to_str().unwrap()], ["--to-bag", bag.to_str().unwrap()]] {
+        let run = convert(&[extra[0], extra[1], "--points"]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    }
+    let (pixels, _) = Session::load(Path::new(dataset), None).unwrap();
+    let expected = pixels.as_points();
+    assert!(expected.rig.is_none() && expected.poses.iter().all(|p| p.pixels.is_empty()));
+    for path in [&folder, &bag] {
+        let (points, _) = Session::load(path, None).unwrap();
+        assert!(points.rig.is_none(), "{}", path.display());
+        assert_eq!(points.poses.len(), expected.poses.len(), "{}", path.display());
+        for (a, b) in points.poses.iter().zip(&expected.poses) {
+            assert_eq!(a.joints, b.joints);
+            for (m, n) in a.markers.iter().zip(&b.markers) {
+                match (m, n) {
+                    // Written with 9 significant digits: within a nanometre.
+                    (Some(m), Some(n)) => assert!((m - n).norm() < 1e-9, "{m} {n}"),
+                    _ => assert_eq!(m.is_some(), n.is_some()),
+                }
+            }
+        }
+    }
+}
+
+/// `compare` on a pixel session gives each set in degrees and in pixels; through the rig the
+/// calibration refined (`--cameras`, from `--cameras-out`) the calibrated parameters reproject at
+/// the pixel noise, through the session's miscalibrated file well above it.
+#[test]
+fn compare_measures_a_pixel_session_in_pixels_through_the_rig_it_is_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let dataset = "datasets/agile_wrist_stereo_200";
+    let (params, cameras) = (dir.path().join("p.yaml"), dir.path().join("cameras.yaml"));
+    let spmcal = || std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"));
+    let run = spmcal()
+        .args(["calibrate", "--dataset", dataset, "--json", "--out"])
+        .arg(&params)
+        .arg("--cameras-out")
+        .arg(&cameras)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    // σ per coordinate of each camera: a pixel's expected error norm is √2 σ.
+    let noise: Vec<f64> = report["results"]["markers"]["rig"]["pixel_noise_px"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n[1].as_f64().unwrap())
+        .collect();
+    let per_pixel = (2.0 * noise.iter().map(|s| s * s).sum::<f64>() / noise.len() as f64).sqrt();
+    let compare = |extra: &[&std::ffi::OsStr]| -> Vec<(String, String, f64)> {
+        let run = spmcal()
+            .args(["compare", "--dataset", dataset, "--json", "--params"])
+            .arg(&params)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+        json["results"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| {
+                (c["label"].as_str().unwrap().into(), c["unit"].as_str().unwrap().into(), c["rms"].as_f64().unwrap())
+            })
+            .collect()
+    };
+    let px = |rows: &[(String, String, f64)], label: &str| {
+        rows.iter().find(|(l, u, _)| l == label && u == "px").map(|r| r.2).unwrap()
+    };
+    let file = compare(&[]);
+    let refined = compare(&["--cameras".as_ref(), cameras.as_os_str()]);
+    for rows in [&file, &refined] {
+        let units: Vec<&str> = rows.iter().map(|(_, u, _)| u.as_str()).collect();
+        assert_eq!(units, ["deg", "px", "deg", "px"], "nominal and calibrated, each in degrees and pixels");
+    }
+    // Through the refined rig the residual is the noise (the fit's own figure: 200 poses of ~8
+    // pixels, the RMS within a few percent of √2 σ; 15 % allows the fit's degrees of freedom and
+    // the Huber weights); through the file's, the file's errors show (measured 4.2 px).
+    let calibrated = px(&refined, "calibrated");
+    assert!((calibrated / per_pixel - 1.0).abs() < 0.15, "{calibrated} px against {per_pixel} px of noise");
+    assert!(px(&file, "calibrated") > 5.0 * calibrated, "{file:?}");
+    assert!(px(&refined, "nominal") > 10.0 * calibrated, "{refined:?}");
+    let points = spmcal()
+        .args(["compare", "--dataset", "datasets/agile_wrist_sim_20", "--cameras"])
+        .arg(&cameras)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&points.stderr);
+    assert!(!points.status.success() && stderr.contains("session of points"), "{stderr}");
+}

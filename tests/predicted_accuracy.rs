@@ -120,3 +120,40 @@ fn dof_of_interval(interval: [f64; 2]) -> f64 {
     }
     2.0 / (9.0 * 0.5 * (lo + hi))
 }
+
+/// A session whose poses stay within 15° of home, its predicted error asked for the workspace out
+/// to 30° (`workspace`): the report says the model extrapolates there, predicts more than over the
+/// session's own poses, and what it predicts is what the model does on unseen poses out to 30°.
+#[test]
+fn a_workspace_beyond_the_session_is_predicted_as_extrapolated() {
+    let mut c = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    (c.poses, c.workspace.max_tilt_deg, c.workspace.max_yaw_deg) = (200, 15.0, 15.0);
+    let model = RobotModel::load(&c.model).unwrap();
+    let wide = spmcal::calib::PredictionWorkspace { max_tilt_deg: 30.0, max_yaw_deg: 30.0 };
+    for seed in [20_100, 20_101, 20_102] {
+        c.seed = seed;
+        let (session, _) = c.simulate(&model, &mut |_| {}).unwrap();
+        let own = spmcal::calib::CalibConfig { folds: 0, ..Default::default() };
+        let named = spmcal::calib::CalibConfig { workspace: Some(wide), ..own.clone() };
+        let [own, named] = [own, named].map(|s| spmcal::calib::calibrate(&session, &model, &s, &mut |_| {}).unwrap());
+        let (p_own, p_wide) =
+            (own.report.predicted_error_deg.unwrap(), named.report.predicted_error_deg.clone().unwrap());
+        assert_eq!(p_wide.workspace, Some(wide));
+        assert!(named.report.warnings.iter().any(|w| w.contains("extrapolates")), "{:?}", named.report.warnings);
+        assert!(!own.report.warnings.iter().any(|w| w.contains("extrapolates")));
+        // Twice the tilt: the error grows well beyond the session's (measured 2.5–4×).
+        assert!(p_wide.rms > 1.5 * p_own.rms, "{} against {}", p_wide.rms, p_own.rms);
+        let truth = session.truth.as_ref().unwrap().parameters.spm().unwrap();
+        let tests = study::test_orientations(&truth, 200, seed ^ 0x5eed);
+        let achieved = study::calibration_error_up_to_common_rotations(&session, &named, &tests);
+        // One session's achieved mean square is one draw about the predicted one: within the band
+        // honest predictions keep with probability 99.9% at the report's effective dof.
+        let (lo, hi) = z_scores::mean_square_band(dof_of_interval(p_wide.interval_90));
+        let u = (achieved / p_wide.rms).powi(2);
+        assert!(
+            (lo..=hi).contains(&u),
+            "achieved {achieved:.4}° predicted {:.4}°: {u:.3} outside [{lo:.3}, {hi:.3}]",
+            p_wide.rms
+        );
+    }
+}

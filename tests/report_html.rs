@@ -169,7 +169,10 @@ fn the_report_has_every_section_and_plot_with_the_reports_numbers() {
     assert!(text.contains(&format!("Model check: the residuals are what the noise model says (p = {p_value:.3}")));
     // The predicted error once under one title, a row per unit, with the report's numbers.
     assert_eq!(text.matches("Predicted error of the calibrated model on unseen poses").count(), 1);
-    for (row, key) in [("orientation (FDA), °", "predicted_error_deg"), ("markers, mm", "predicted_error_mm")] {
+    for (row, key) in [
+        ("orientation (FDA) on poses like the session's, °", "predicted_error_deg"),
+        ("markers, mm", "predicted_error_mm"),
+    ] {
         let e = &report[key];
         let [rms, low, high, max] = ["rms", "interval_90", "interval_90", "max"].map(|k| &e[k]);
         let cells = [
@@ -275,4 +278,41 @@ fn a_long_recording_is_summarised() {
     assert!((100..=2 * (24 * 24 + 2)).contains(&cells), "{cells}");
     // Small: the charts no longer grow with the poses.
     assert!(text.len() < 400_000, "{} bytes", text.len());
+}
+
+/// A pixel session's report tabulates the rig as the text report and `--json` give it: every term
+/// with its file value, change and standard error (or held), and each camera's pixel noise.
+#[test]
+fn a_pixel_sessions_report_tabulates_the_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let (text, json) = calibrate(dir.path(), "datasets/agile_wrist_stereo_200", &[]);
+    let parsed = parse(&text);
+    let terms = json["results"]["markers"]["rig"]["terms"].as_array().expect("a rig report");
+    assert!(terms.len() >= 10, "{terms:?}");
+    for term in terms {
+        let name = term["name"].as_str().unwrap();
+        // The rig table's row (the parameter table lists the terms too, as changes).
+        let row = parsed
+            .rows
+            .iter()
+            .find(|r| r.len() == 5 && r[0] == name)
+            .unwrap_or_else(|| panic!("no rig row for {name}"));
+        match term["std_error"].as_f64() {
+            Some(se) => {
+                assert_eq!(row[2], format!("{:+.6}", term["change"].as_f64().unwrap()), "{name}");
+                assert_eq!(row[3], format!("{se:.6}"), "{name}");
+            }
+            None => assert_eq!(row[2], "held", "{name}"),
+        }
+        assert_eq!(row[4], term["unit"].as_str().unwrap(), "{name}");
+    }
+    for noise in json["results"]["markers"]["rig"]["pixel_noise_px"].as_array().unwrap() {
+        let shown = format!(
+            "{} {:.3} ± {:.3} px",
+            noise[0].as_str().unwrap(),
+            noise[1].as_f64().unwrap(),
+            noise[2].as_f64().unwrap()
+        );
+        assert!(text.contains(&shown), "{shown}");
+    }
 }

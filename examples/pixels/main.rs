@@ -10,8 +10,8 @@
 //! - the points that rig triangulates, under `camera_model: auto` (a tracker that gives points),
 //! - one camera's pixels only;
 //!
-//! the report's predicted error against the achieved, and each refined rig term's error against
-//! the truth in its standard errors (within 3σ).
+//! the report's predicted error (for that workspace: `workspace` in the config) against the
+//! achieved, and each refined rig term's error against the truth in its standard errors (within 3σ).
 //! Run: `cargo run --release --example pixels [sessions] [recordings]` (default 20 and 20).
 
 #[macro_use]
@@ -21,7 +21,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
-use spmcal::calib::{CalibConfig, RigReport};
+use spmcal::calib::{CalibConfig, PredictionWorkspace, RigReport};
 use spmcal::dataset::Session;
 use spmcal::model::{Rig, RobotModel};
 use spmcal::sim::SimConfig;
@@ -139,7 +139,10 @@ fn view_of(session: &Session, view: View) -> Session {
 fn run(session: &Session, model: &RobotModel, seed: u64) -> Result<Outcome, String> {
     let truth = session.truth.as_ref().expect("simulated");
     let tests = study::test_orientations(&truth.parameters.spm().expect("valid"), 100, seed ^ 0x5eed);
-    let config = CalibConfig { folds: 0, ..CalibConfig::default() };
+    // The predicted error for the workspace the test poses are drawn from (tilt ≤ 30°, yaw ±30°):
+    // a recording's hand stays within 80 % of it, and the model extrapolates beyond.
+    let workspace = Some(PredictionWorkspace { max_tilt_deg: 30.0, max_yaw_deg: 30.0 });
+    let config = CalibConfig { folds: 0, workspace, ..CalibConfig::default() };
     let fitted = spmcal::calib::calibrate(session, model, &config, &mut |_| {}).map_err(|e| e.to_string())?;
     let achieved = study::calibration_error_up_to_common_rotations(session, &fitted, &tests);
     let predicted = fitted.report.predicted_error_deg.as_ref().map_or(f64::NAN, |p| p.rms);

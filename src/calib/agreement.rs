@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::config::{CalibConfig, Group, Loss};
 use super::fit::{FitError, FitOutcome, FitSettings, fit};
-use super::marker_residuals::{MarkerObservation, MarkerResiduals, per_pose_rms_mm};
+use super::marker_residuals::{MarkerObservation, MarkerResiduals, per_pose_rms};
 use super::orientation_residuals::{Observation, OrientationResiduals, observations};
 use super::parameterisation::Parameterisation;
 use super::registration;
@@ -243,9 +243,11 @@ pub(crate) fn marker_pose_errors(
         Some(c) => (c, "from the parameters file"),
         None => {
             let nominal = pose_orientations(&params.legs, &observations, &markers).map_err(SetError::Eval)?;
-            let start =
-                registration::from_markers(&observations, &nominal, &markers).ok_or(SetError::MarkersInALine)?;
-            (start, "best fit to this session")
+            let start = match session.rig.as_deref() {
+                Some(rig) => registration::from_pixels(&observations, &nominal, &markers, rig),
+                None => registration::from_markers(&observations, &nominal, &markers),
+            };
+            (start.ok_or(SetError::MarkersInALine)?, "best fit to this session")
         }
     };
     let p = Parameterisation::for_markers(
@@ -256,6 +258,11 @@ pub(crate) fn marker_pose_errors(
         CameraModel::rigid(),
         &config.bounds,
     );
+    // A pixel session's observations are seen through its rig, as it is (no term of it refined).
+    let p = match &session.rig {
+        Some(rig) => p.with_rig(rig.clone(), &[]),
+        None => p,
+    };
     let x0 = DVector::zeros(p.len());
     let marker_residuals = MarkerResiduals::new(&p, &observations);
     let (x, evaluation) = if params.camera.is_some() {
@@ -265,7 +272,9 @@ pub(crate) fn marker_pose_errors(
         let fit = best_registration(&marker_residuals, &x0, &mask, &config).map_err(SetError::Fit)?;
         (fit.x, fit.evaluation)
     };
-    let per_pose = per_pose_rms_mm(&observations, &evaluation.residuals);
+    // Metres to millimetres; a pixel's residual is in pixels already.
+    let scale = if session.rig.is_some() { 1.0 } else { 1e3 };
+    let per_pose = per_pose_rms(&observations, &evaluation.residuals, scale);
     let camera = CameraRegistration { rotation: p.camera(&x), translation: p.translation(&x) };
     Ok((PoseErrors { registration: how, per_pose, excluded }, camera))
 }

@@ -149,6 +149,18 @@ pub enum Unidentifiable {
     Regularise,
 }
 
+/// A workspace of orientations: the MP tilted from home up to `max_tilt_deg` in any direction and
+/// turned about its own axis by up to ±`max_yaw_deg` (`R = exp(tilt) · exp(yaw ẑ)`, tilt about an
+/// axis of the base's xy plane), as `plan` and `simulate` draw poses.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictionWorkspace {
+    /// Largest tilt of the MP from home (deg).
+    pub max_tilt_deg: f64,
+    /// Largest yaw of the MP about its own axis, either way (deg).
+    pub max_yaw_deg: f64,
+}
+
 /// The most iterations a fit may be given: a fit converges in tens; more is a typo.
 pub(crate) const MAX_ITERATIONS: u32 = 10_000;
 /// The most folds of the cross-validation (each costs a solve of the normal equations).
@@ -184,6 +196,10 @@ pub struct CalibConfig {
     /// Free-motion recordings: a capture taken while a joint turns faster than this (deg/s) is
     /// flagged and its noise inflated in proportion (blur, interpolation error).
     pub max_joint_speed_deg_s: f64,
+    /// The orientations the predicted error is for (`max_tilt_deg`, `max_yaw_deg`): where the
+    /// model will be used. Absent (the default): the session's own poses. A workspace beyond the
+    /// session's poses is predicted as the model extrapolates there, and the report says so.
+    pub workspace: Option<PredictionWorkspace>,
     /// The camera model the marker-level fit estimates with the mechanism: `auto` (the default:
     /// the simplest of the others that the cross-validation supports), `rigid` (a perfect camera),
     /// `depth_scale` (depths read `s` times their length), `affine` (per-axis scales and shears)
@@ -271,6 +287,7 @@ impl Default for CalibConfig {
             latency_s: 0.0,
             latency_bound_s: 0.2,
             max_joint_speed_deg_s: 90.0,
+            workspace: None,
             camera_model: CameraModelSetting::Auto,
             camera_terms: CameraTerms::default(),
             vision_method: Method::Kabsch,
@@ -394,6 +411,16 @@ impl CalibConfig {
                 self.latency_bound_s, self.latency_s
             );
             return Err(("latency_s".into(), reason));
+        }
+        if let Some(w) = &self.workspace {
+            if !(w.max_tilt_deg.is_finite() && w.max_tilt_deg > 0.0 && w.max_tilt_deg < 90.0) {
+                let reason = format!("`workspace.max_tilt_deg` must be in (0°, 90°) (got {})", w.max_tilt_deg);
+                return Err(("workspace.max_tilt_deg".into(), reason));
+            }
+            if !(w.max_yaw_deg.is_finite() && w.max_yaw_deg >= 0.0 && w.max_yaw_deg <= 180.0) {
+                let reason = format!("`workspace.max_yaw_deg` must be in [0°, 180°] (got {})", w.max_yaw_deg);
+                return Err(("workspace.max_yaw_deg".into(), reason));
+            }
         }
         if self.max_iterations == 0 || self.max_iterations > MAX_ITERATIONS {
             let reason = format!("`max_iterations` must be from 1 to {MAX_ITERATIONS} (got {})", self.max_iterations);

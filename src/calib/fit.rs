@@ -27,9 +27,16 @@ use super::config::{CalibConfig, Loss};
 use super::parameterisation::Parameterisation;
 use super::residuals::{EvalError, Evaluation, Residuals};
 
-/// Median of the norm of a 3-D isotropic Gaussian with unit deviation per axis (Maxwell
-/// distribution): the robust scale of the residual norms is `median / 1.5382`.
-const MAXWELL_MEDIAN: f64 = 1.5382;
+/// Median of the norm of a `d`-D isotropic Gaussian with unit deviation per axis (`d` = 1, 2, 3:
+/// half-normal, Rayleigh, Maxwell): the robust scale of residual norms of `d` rows is their
+/// median over this.
+fn chi_median(rows: u8) -> f64 {
+    match rows {
+        1 => 0.6745,
+        2 => 1.1774,
+        _ => 1.5382,
+    }
+}
 
 /// Numerical settings of one fit.
 #[derive(Debug, Clone)]
@@ -202,17 +209,27 @@ pub(crate) struct Weighting<N> {
     pub sigma: f64,
     /// The model's noise, once estimated.
     pub noise: Option<N>,
+    /// The rows each observation's residual really has (3, or 2 for a pixel): its degrees of
+    /// freedom.
+    pub rows: Vec<u8>,
 }
 
 impl<N> Weighting<N> {
-    /// No whitening, unit weights.
-    pub(crate) fn isotropic(observations: usize) -> Self {
+    /// No whitening, unit weights, for the observations of `model`.
+    pub(crate) fn isotropic<M: Residuals<Noise = N>>(model: &M) -> Self {
+        let observations = model.len();
         Weighting {
             whitening: vec![Matrix3::identity(); observations],
             weights: vec![1.0; observations],
             sigma: 1.0,
             noise: None,
+            rows: (0..observations).map(|j| model.rows(j) as u8).collect(),
         }
+    }
+
+    /// The residual rows the observations have in all (their degrees of freedom before the fit).
+    pub(crate) fn total_rows(&self) -> usize {
+        self.rows.iter().map(|&r| usize::from(r)).sum()
     }
 
     /// Whiten by the noise `model` estimates from the residuals at the current weights.
@@ -222,9 +239,10 @@ impl<N> Weighting<N> {
         self.noise = Some(noise);
     }
 
-    /// Robust scale of the whitened norms (Maxwell median).
+    /// Robust scale of the whitened norms (each over the median norm of its rows' Gaussian).
     pub(crate) fn rescale(&mut self, residuals: &[Vector3<f64>]) {
-        self.sigma = robust_scale((0..residuals.len()).map(|j| self.whiten(j, &residuals[j]).norm()));
+        self.sigma =
+            robust_scale((0..residuals.len()).map(|j| self.whiten(j, &residuals[j]).norm() / chi_median(self.rows[j])));
     }
 
     /// Huber weights of the whitened norms at the current scale.
@@ -244,12 +262,12 @@ impl<N> Weighting<N> {
     }
 }
 
-/// Robust scale of residual norms: their median over the Maxwell median (the norm of a 3-D
-/// standard normal), floored so that a perfect fit does not divide by zero.
+/// Robust scale of residual norms already divided by their Gaussian's median norm
+/// ([`chi_median`]): their median, floored so that a perfect fit does not divide by zero.
 fn robust_scale(norms: impl Iterator<Item = f64>) -> f64 {
     let mut sorted: Vec<f64> = norms.collect();
     sorted.sort_by(f64::total_cmp);
-    (sorted.get(sorted.len() / 2).copied().unwrap_or(0.0) / MAXWELL_MEDIAN).max(1e-15)
+    sorted.get(sorted.len() / 2).copied().unwrap_or(0.0).max(1e-15)
 }
 
 /// The weight `loss` gives a residual of norm `norm` when the quadratic zone ends at `limit`:
@@ -330,7 +348,7 @@ pub(crate) fn fit<M: Residuals>(
     let mut eval = model.evaluate(&x, None, true).map_err(FitError::Start)?;
     let mut region = Region { radius: settings.initial_radius, normal: None };
     let mut log: Vec<IterationLog> = Vec::new();
-    let mut weighting = Weighting::isotropic(eval.residuals.len());
+    let mut weighting = Weighting::isotropic(model);
     // The unwhitened phase's robust scale is the start's (the nominal model's error sets it,
     // so that phase is nearly least squares); the whitened phase's is taken where it begins.
     weighting.rescale(&eval.residuals);
@@ -472,7 +490,7 @@ impl<M: Residuals> Problem<'_, M> {
         let predicted = -(0.5 * curvature + slope);
         // The residual variance per degree of freedom: the decrement in its units is the squared
         // distance to the optimum in standard errors.
-        let dof = (3 * eval.residuals.len()).saturating_sub(free.len()).max(1) as f64;
+        let dof = weighting.total_rows().saturating_sub(free.len()).max(1) as f64;
         let variance = (2.0 * data_cost / dof).max(f64::MIN_POSITIVE);
         let decrement = (2.0 * predicted.max(0.0) / variance).sqrt();
         let converged = step.interior && (decrement < tolerance || delta.amax() < settings.step_tolerance)

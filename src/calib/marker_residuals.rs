@@ -95,12 +95,17 @@ impl MarkerObservation {
     }
 }
 
-/// Per pose, the RMS (mm) of the residuals of its marker observations, in the observations'
-/// order (they come pose by pose, as [`MarkerObservation::of_session`] makes them).
-pub(crate) fn per_pose_rms_mm(observations: &[MarkerObservation], residuals: &[Vector3<f64>]) -> Vec<(u64, f64)> {
+/// Per pose, the RMS of the residuals of its marker observations times `scale` (1e3: metres to
+/// millimetres; 1 for pixels), in the observations' order (they come pose by pose, as
+/// [`MarkerObservation::of_session`] makes them).
+pub(crate) fn per_pose_rms(
+    observations: &[MarkerObservation],
+    residuals: &[Vector3<f64>],
+    scale: f64,
+) -> Vec<(u64, f64)> {
     let mut poses: Vec<(u64, f64, usize)> = Vec::new();
     for (o, r) in observations.iter().zip(residuals) {
-        let squared = (r.norm() * 1e3).powi(2);
+        let squared = (r.norm() * scale).powi(2);
         match poses.last_mut() {
             Some((pose, sum, n)) if *pose == o.pose => {
                 *sum += squared;
@@ -374,6 +379,10 @@ impl Residuals for MarkerResiduals<'_> {
 
     fn len(&self) -> usize {
         self.observations.len()
+    }
+
+    fn rows(&self, j: usize) -> usize {
+        if self.observations[j].camera.is_some() { 2 } else { 3 }
     }
 
     fn with_columns(mut self, columns: Vec<bool>) -> Self {

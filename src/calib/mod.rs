@@ -42,13 +42,15 @@ mod sensitivity;
 mod tests;
 mod uncertainty;
 mod validation;
+mod workspace;
 
 pub use agreement::{MarkerErrors, SetError};
 pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_errors};
 pub use calibration::{CalibError, Calibration, Fitted, Solution};
 pub use camera_choice::{CameraCandidate, CameraModelChoice};
 pub use config::{
-    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, Loss, RigTermGroup, Unidentifiable,
+    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, Loss, PredictionWorkspace, RigTermGroup,
+    Unidentifiable,
 };
 pub use fit::{Convergence, IterationLog, Solver};
 pub use identify::{Direction, Identifiability};
@@ -56,7 +58,7 @@ pub use identify::{Direction, Identifiability};
 pub use marker_residuals::MarkerResiduals;
 #[cfg(not(feature = "internals"))]
 pub(crate) use marker_residuals::MarkerResiduals;
-pub(crate) use marker_residuals::per_pose_rms_mm;
+pub(crate) use marker_residuals::per_pose_rms;
 pub use marker_residuals::{MarkerObservation, StereoNoise};
 pub use model_check::{ModelCheck, StructureTest};
 pub use orientation_residuals::Observation;

@@ -83,6 +83,12 @@ pub(crate) trait Residuals {
     /// Observations (residuals) of the model.
     fn len(&self) -> usize;
 
+    /// The rows observation `j`'s residual really has: 3 for a point or a rotation, 2 for a pixel
+    /// (its third component is always 0). The degrees of freedom and robust scales count these.
+    fn rows(&self, _j: usize) -> usize {
+        3
+    }
+
     /// Residuals (and optionally their Jacobian) at `x`; each pose's FDA starts from `warm` (the
     /// orientations of the previous evaluation) when given.
     ///

@@ -12,7 +12,7 @@ use super::fit::{FitSettings, fit};
 use super::identify::Identifiability;
 use super::marker_residuals::{MarkerObservation, MarkerResiduals};
 use super::orientation_residuals::{Observation, OrientationResiduals};
-use super::parameterisation::Parameterisation;
+use super::parameterisation::{Kind, Parameterisation};
 use super::pipeline::calibrate;
 use super::residuals::{EvalError, Evaluation, Residuals};
 use crate::dataset::Session;
@@ -514,5 +514,61 @@ fn a_fit_restarted_at_its_solution_stays_there() {
             assert!(moved < 0.1, "{name}, {}: {moved} σ", p.entries[i].name);
         }
         assert!(again.log.len() <= 15, "{name}: {} iterations from the solution", again.log.len());
+    }
+}
+
+/// The pixel-level Jacobian with every rig term free (intrinsics, all distortion coefficients,
+/// the second camera's rotation and baseline direction), on a rig of a radial-tangential and an
+/// equidistant camera, against central differences: the rig's columns through the whole fit's
+/// residuals, not only the lens's own derivatives.
+#[test]
+fn the_analytic_jacobian_of_a_pixel_session_matches_central_differences() {
+    use crate::calib::config::RigTermGroup;
+    let mut config = SimConfig::read(Path::new("configs/simulate_agile_wrist_stereo.yaml")).unwrap();
+    (config.poses, config.seed) = (15, 3);
+    let rig = config.camera.rig.as_mut().unwrap();
+    rig.cameras[0].distortion_coeffs = [0.01, -0.004, 0.0005, -0.0003];
+    rig.cameras[1].distortion_model = "equidistant".into();
+    rig.cameras[1].distortion_coeffs = [0.01, -0.003, 0.001, -0.0005];
+    rig.miscalibration.distortion_left_out = false;
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
+    let every = [
+        RigTermGroup::FocalLengths,
+        RigTermGroup::PrincipalPoints,
+        RigTermGroup::RadialK1,
+        RigTermGroup::RadialK2,
+        RigTermGroup::OtherDistortion,
+        RigTermGroup::Extrinsics,
+    ];
+    let p = parameterisation(&session, &model).with_rig(session.rig.clone().unwrap(), &every);
+    let rig_columns = p.entries.iter().filter(|e| matches!(e.kind, Kind::Rig { .. })).count();
+    // 4 intrinsics and 4 distortion coefficients per camera; cam1's rotation (3) and direction (2).
+    assert_eq!(rig_columns, 2 * 8 + 5);
+    let (observations, failed) = MarkerObservation::of_session(&session, &model.spm);
+    assert!(failed.is_empty() && observations.iter().all(|o| o.camera.is_some()));
+    let m = MarkerResiduals::new(&p, &observations);
+    let x = DVector::from_fn(p.len(), |i, _| 2e-3 * ((i * 7 + 3) as f64).sin());
+    let at = m.evaluate(&x, None, true).unwrap();
+    let jac = at.jacobian.as_ref().unwrap();
+    let h = 1e-6;
+    for i in 0..p.len() {
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[i] += h;
+        minus[i] -= h;
+        let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+        let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+        for j in 0..observations.len() {
+            let numeric = (rp[j] - rm[j]) / (2.0 * h);
+            let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+            // Residuals of ~1,000 px: rounding 2e-13 px over 2h = 2e-6 is 1e-7 px; the O(h²)
+            // truncation is far below. 1e-5 px (relative 1e-8 of a column of ~1e3) is above both.
+            assert!(
+                (numeric - analytic).amax() < 1e-5 * analytic.amax().max(1.0),
+                "{}: numeric {numeric:?}, analytic {analytic:?}",
+                p.entries[i].name
+            );
+            assert_eq!(analytic.z, 0.0, "a pixel residual has two rows");
+        }
     }
 }

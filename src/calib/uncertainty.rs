@@ -101,7 +101,6 @@ pub(crate) fn released<N>(outcome: &FitOutcome<N>, free: &[bool], i: usize) -> O
 /// `σ̂²`: the weighted whitened residual variance per degree of freedom (`free` parameters).
 fn residual_scale<N>(outcome: &FitOutcome<N>, free: usize) -> f64 {
     let w = &outcome.weighting;
-    let m = outcome.evaluation.residuals.len();
     let chi2: f64 = outcome
         .evaluation
         .residuals
@@ -109,7 +108,7 @@ fn residual_scale<N>(outcome: &FitOutcome<N>, free: usize) -> f64 {
         .enumerate()
         .map(|(j, r)| w.weights[j] * w.whiten(j, r).norm_squared())
         .sum();
-    let dof = (3 * m).saturating_sub(free).max(1) as f64;
+    let dof = w.total_rows().saturating_sub(free).max(1) as f64;
     chi2 / dof
 }
 
@@ -180,8 +179,11 @@ pub(crate) fn correlations(p: &Parameterisation, cov: &DMatrix<f64>, threshold: 
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PredictedError {
     /// Expected RMS over the session's poses (degrees or mm): an unseen pose drawn from the
-    /// session's own workspace.
+    /// session's own workspace — or, for degrees, from `workspace` when the config names one.
     pub rms: f64,
+    /// The workspace the orientation error is predicted over (the config's `workspace`); `None`:
+    /// the session's own poses.
+    pub workspace: Option<super::config::PredictionWorkspace>,
     /// The largest per-pose figure.
     pub max: f64,
     /// Where the RMS error of this calibration lies with 90% probability (5th and 95th
@@ -261,6 +263,7 @@ impl PredictedError {
             max,
             interval_90: [rms * quantile(-1.645).sqrt(), rms * quantile(1.645).sqrt()],
             effective_dof: k,
+            workspace: None,
             per_pose,
             by_region: Vec::new(),
         })

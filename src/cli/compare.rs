@@ -24,6 +24,10 @@ pub(crate) struct CompareArgs {
     /// A parameters file (e.g. calibrated) to compare beside the nominal model.
     #[arg(long)]
     pub(crate) params: Option<PathBuf>,
+    /// A session seen through its cameras' pixels: see them through this rig instead of the
+    /// session's cameras.yaml (a Kalibr camchain, e.g. the one `calibrate --cameras-out` wrote).
+    #[arg(long)]
+    pub(crate) cameras: Option<PathBuf>,
     /// Vision estimator.
     #[arg(long, value_enum, default_value = "kabsch")]
     pub(crate) method: MethodArg,
@@ -56,6 +60,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     files.output_opt("--rrd", args.rrd.as_deref());
     args.session.register(&mut files, true);
     files.input_opt("--params", args.params.as_deref());
+    files.input_opt("--cameras", args.cameras.as_deref());
     files.check()?;
     let mut outputs = Outputs::new();
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
@@ -65,7 +70,15 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     // The model's own camera model (an exported calibration carries one) corrects its markers.
     let nominal = Parameters { camera_model: model.camera_model, ..Parameters::nominal(&model.spm, None) };
     let mut sets = vec![("nominal".to_string(), nominal)];
-    let mut session = session;
+    let mut session = match &args.cameras {
+        Some(path) if session.rig.is_none() => anyhow::bail!(
+            "--cameras {}: {} is a session of points, not pixels (pixels.csv + cameras.yaml): there are no pixels to see through a rig",
+            path.display(),
+            args.session.dataset.display()
+        ),
+        Some(path) => session.seen_through(&spmcal::model::Rig::read(path)?),
+        None => session,
+    };
     if let Some(path) = &args.params {
         let params = Parameters::read(path)?;
         warnings.extend(params.check_model(path, &model)?);

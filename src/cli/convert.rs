@@ -13,19 +13,25 @@ use super::output::out;
 
 #[derive(Args)]
 #[command(group = clap::ArgGroup::new("input").required(true).args(["bag", "dataset"]))]
+#[command(group = clap::ArgGroup::new("output").required(true).args(["out", "to_bag"]))]
 pub(crate) struct ConvertArgs {
     /// The bag to read (an `.mcap` file or a bag folder); with `--out`.
-    #[arg(long, requires = "out")]
+    #[arg(long, conflicts_with = "to_bag")]
     pub(crate) bag: Option<PathBuf>,
-    /// The session folder to write from the bag (created; an existing session there is replaced).
-    #[arg(long, requires = "bag")]
+    /// The session folder to write (created; an existing session there is replaced): from the bag,
+    /// or from `--dataset` with `--points`.
+    #[arg(long)]
     pub(crate) out: Option<PathBuf>,
-    /// The session folder (or bag) to read; with `--to-bag`.
-    #[arg(long, requires = "to_bag")]
+    /// The session folder (or bag) to read; with `--to-bag`, or `--out` and `--points`.
+    #[arg(long)]
     pub(crate) dataset: Option<PathBuf>,
     /// The bag to write from the session (one `.mcap` file).
     #[arg(long, requires = "dataset")]
     pub(crate) to_bag: Option<PathBuf>,
+    /// A session seen through its cameras' pixels: write the points its rig (`cameras.yaml`)
+    /// triangulates instead, as a tracker that gives points would (a bag carries points only).
+    #[arg(long)]
+    pub(crate) points: bool,
     /// The URDF model (overrides the session's, or the bag mapping's).
     #[arg(long)]
     pub(crate) model: Option<PathBuf>,
@@ -55,25 +61,42 @@ pub(crate) fn run(args: ConvertArgs) -> Result<()> {
             files.session_output("--out", dir);
             (bag, dir)
         }
+        (_, Some(dir), Some(dataset), _) if args.points => {
+            files.session("--dataset", dataset);
+            files.session_output("--out", dir);
+            (dataset, dir)
+        }
+        (_, Some(_), Some(_), _) => anyhow::bail!(
+            "--dataset with --out writes a session's triangulated points: add --points (or --to-bag to write a bag)"
+        ),
         (_, _, Some(dataset), Some(bag)) => {
             files.session("--dataset", dataset);
             files.output("--to-bag", bag);
             (dataset, bag)
         }
-        _ => unreachable!("clap requires --bag with --out or --dataset with --to-bag"),
+        _ => anyhow::bail!("--bag goes with --out, --dataset with --to-bag (or --out and --points)"),
     };
     if let Some(model) = &args.model {
         files.model(model);
     }
     files.check()?;
-    if args.bag.is_some() {
+    let to_folder = args.to_bag.is_none();
+    if to_folder {
         spmcal::dataset::Session::check_destination(output)?;
     }
     let (session, warnings) = load_session(input, args.model.as_deref())?;
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    if args.bag.is_some() {
+    if session.rig.is_some() && args.to_bag.is_some() && !args.points {
+        anyhow::bail!(
+            "{}: a session seen through its cameras' pixels cannot be written as a bag, which carries marker points: \
+             add --points to write the points its rig (cameras.yaml) triangulates",
+            input.display()
+        );
+    }
+    let session = if args.points { session.as_points() } else { session };
+    if to_folder {
         session.write(output)?
     } else {
         session.write_bag(output)?

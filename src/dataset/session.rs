@@ -1020,10 +1020,27 @@ fn read_truth(dir: &Path) -> Result<Option<Truth>, FileError> {
     Ok(Some(Truth { parameters, orientations, rig }))
 }
 impl Session {
-    /// The same pixel session with its points triangulated through `rig` instead of the file's
-    /// (a calibration's refined rig): what the per-pose estimator and the recording then see.
-    /// A session of points is returned as it is.
-    pub(crate) fn seen_through(&self, rig: &Rig) -> Session {
+    /// A pixel session as a tracker that gives points would have recorded it: the points its rig
+    /// triangulates from the pixels (each marker two cameras or more saw), without the pixels or
+    /// the rig; poses where no marker was triangulated are left out. A session of points is
+    /// returned as it is.
+    pub fn as_points(&self) -> Session {
+        if self.rig.is_none() {
+            return self.clone();
+        }
+        let mut points = Session { rig: None, ..self.clone() };
+        points.poses.iter_mut().for_each(|p| p.pixels.clear());
+        points.poses.retain(|p| p.seen() > 0);
+        points.streams =
+            self.streams.as_ref().map(|s| std::sync::Arc::new(Streams { pixels: Vec::new(), ..(**s).clone() }));
+        points
+    }
+
+    /// The same pixel session seen through `rig` instead of its file's (a calibration's refined
+    /// rig, `calibrate --cameras-out`): its pixels through that rig and the points it
+    /// triangulates — what the per-pose estimator, `compare` and the recording then see. A session
+    /// of points is returned as it is.
+    pub fn seen_through(&self, rig: &Rig) -> Session {
         if self.rig.is_none() {
             return self.clone();
         }

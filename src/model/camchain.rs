@@ -471,6 +471,15 @@ fn shown(value: &Value) -> String {
 }
 
 impl Rig {
+    /// Read a rig from a Kalibr camchain (`cameras.yaml`, or what `calibrate --cameras-out`
+    /// wrote).
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file, line and reason for an unreadable or malformed camchain.
+    pub fn read(path: &Path) -> Result<Rig, FileError> {
+        read_camchain(path)
+    }
+
     /// The rig as a Kalibr camchain (`cameras.yaml`): what `spmcal calibrate --cameras-out`
     /// writes for a pixel session's refined rig.
     pub fn to_camchain(&self) -> String {

@@ -46,7 +46,7 @@ pub use rig::{DistortionModel, Lens, Rig, RigCamera};
 #[cfg(feature = "internals")]
 pub use rig::{Projection, RigProjection, RigTerm};
 #[cfg(all(feature = "full", not(feature = "internals")))]
-pub(crate) use rig::{Projection, RigProjection, RigTerm};
+pub(crate) use rig::{RigProjection, RigTerm};
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
 pub use survey::ModelSurvey;

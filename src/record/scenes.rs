@@ -7,7 +7,7 @@ use nalgebra::{Rotation3, Vector3};
 
 use super::scene::{PoseFrames, Scene, Series};
 use crate::calib::FitLevel as Level;
-use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms_mm, registration};
+use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms, registration};
 use crate::compare::SetComparison;
 use crate::dataset::Session;
 use crate::model::{CameraModel, CameraRegistration, Parameters, RobotModel, Spm};
@@ -281,7 +281,7 @@ fn marker_observations_of(calibration: &Calibration) -> &[crate::calib::MarkerOb
 
 /// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers.
 fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
-    let values = per_pose_rms_mm(marker_observations_of(calibration), residuals).into_iter().collect();
+    let values = per_pose_rms(marker_observations_of(calibration), residuals, 1e3).into_iter().collect();
     Series { name: format!("markers_mm/{name}"), values }
 }
 

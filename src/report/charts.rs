@@ -14,7 +14,7 @@ use plotters::prelude::*;
 
 use super::figures::{Figure, Key, Layout, Mark, NARROW, WIDE, font, power, tick, whole};
 use super::summary::{Bin, binned, density, runs};
-use crate::calib::{Calibration, FitLevel, Fitted, MarkerObservation, per_pose_rms_mm};
+use crate::calib::{Calibration, FitLevel, Fitted, MarkerObservation, per_pose_rms};
 use crate::math::so3;
 
 /// Above this many points a series is summarised rather than drawn dot by dot.
@@ -64,9 +64,7 @@ impl Errors {
             FitLevel::Markers => {
                 let observations = marker_observations(c);
                 let (unit, to_unit) = marker_unit(c);
-                let by_pose = |r: &[Vector3<f64>]| -> Vec<(u64, f64)> {
-                    per_pose_rms_mm(observations, r).into_iter().map(|(p, e)| (p, e * 1e-3 * to_unit)).collect()
-                };
+                let by_pose = |r: &[Vector3<f64>]| -> Vec<(u64, f64)> { per_pose_rms(observations, r, to_unit) };
                 let (before, after) = (by_pose(&c.nominal.residuals), by_pose(&c.calibrated.residuals));
                 let recording = c.report.markers.as_ref().is_some_and(|m| m.latency.is_some());
                 let (along, x) = abscissa(observations, &after, recording);

@@ -138,7 +138,11 @@ fn predicted(report: &CalibrationReport) -> String {
     let columns = [("", Align::Text), ("RMS", n), ("90 % range", n), ("worst pose", n)];
     let mut t = Table::new("Predicted error of the calibrated model on unseen poses", &columns).with_named_rows();
     let markers = format!("markers, {}", report.markers.as_ref().map_or("mm", |m| m.before.unit));
-    let rows = [("orientation (FDA), °", &report.predicted_error_deg), (markers.as_str(), &report.predicted_error_mm)];
+    let orientation = report
+        .predicted_error_deg
+        .as_ref()
+        .map_or(String::new(), |e| format!("orientation (FDA) on poses {}, °", super::html_tables::predicted_over(e)));
+    let rows = [(orientation.as_str(), &report.predicted_error_deg), (markers.as_str(), &report.predicted_error_mm)];
     for (what, e) in rows {
         if let Some(e) = e {
             t.row([

@@ -25,9 +25,21 @@ pub(crate) fn all(c: &Calibration) -> String {
     }
     if let Some(m) = &r.markers {
         html += &camera_terms(&m.camera_model).html();
+        if let Some(rig) = &m.rig {
+            html += &rig_terms(rig);
+        }
         html += &markers(m).html();
     }
     html + &flagged(r)
+}
+
+/// Which unseen poses the orientation error is predicted for, in words: the workspace the config
+/// names, or poses like the session's own.
+pub(crate) fn predicted_over(e: &crate::calib::PredictedError) -> String {
+    match &e.workspace {
+        Some(w) => format!("of the workspace (tilt ≤ {:.0}°, yaw ±{:.0}°)", w.max_tilt_deg, w.max_yaw_deg),
+        None => "like the session's".to_string(),
+    }
 }
 
 /// A paragraph of plain text.
@@ -207,6 +219,32 @@ fn camera_terms(c: &CameraModelReport) -> Table {
         t.row([term.name.clone(), format!("{:.5}", term.value), se, held]);
     }
     t
+}
+
+/// A pixel session's rig, as the text report gives it: each camera's pixel noise, what was held
+/// for scale, and every term from the file's value to the fit's.
+fn rig_terms(rig: &crate::calib::RigReport) -> String {
+    let noise: Vec<String> = rig.pixel_noise_px.iter().map(|(c, s, e)| format!("{c} {s:.3} ± {e:.3} px")).collect();
+    let scale = if rig.baseline_held_m > 0.0 {
+        format!(
+            "its baseline held at {:.2} mm (the rig's scale: an SPM's rotation cannot tell it)",
+            rig.baseline_held_m * 1e3
+        )
+    } else {
+        "its scale set by the markers' spacing in the model".to_string()
+    };
+    let n = Align::Number;
+    let columns = [("term", Align::Label), ("file value", n), ("change", n), ("std error", n), ("unit", Align::Text)];
+    let mut t = Table::new("Camera rig (cameras.yaml) refined with the mechanism", &columns);
+    for term in &rig.terms {
+        let file = term.file_value.map_or(String::new(), |v| format!("{v:.6}"));
+        let (change, se) = match term.std_error {
+            Some(se) => (format!("{:+.6}", term.change), format!("{se:.6}")),
+            None => ("held".to_string(), String::new()),
+        };
+        t.row([term.name.clone(), file, change, se, term.unit.to_string()]);
+    }
+    note(&format!("Pixel noise (σ per coordinate): {}. The rig is {scale}.", noise.join(", "))) + &t.html()
 }
 
 /// Which changes are not distinguishable from nominal and which ended at a bound (the

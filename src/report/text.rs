@@ -135,8 +135,12 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
     if let Some(e) = &r.predicted_error_deg {
         writeln!(
             f,
-            "predicted error of the calibrated FDA on unseen poses (as `compare` measures it, from the parameter covariance): {:.4} deg RMS (90%: {:.4}–{:.4}), worst pose {:.4} deg",
-            e.rms, e.interval_90[0], e.interval_90[1], e.max
+            "predicted error of the calibrated FDA on unseen poses {} (as `compare` measures it, from the parameter covariance): {:.4} deg RMS (90%: {:.4}–{:.4}), worst pose {:.4} deg",
+            super::html_tables::predicted_over(e),
+            e.rms,
+            e.interval_90[0],
+            e.interval_90[1],
+            e.max
         )?;
     }
     if let Some(e) = &r.predicted_error_mm {

@@ -4,6 +4,10 @@
 //! quantisation.
 
 mod camera;
+// A config's sections (`camera`, `encoders`, `capture`, `recording`, `truth`, `workspace`) are read
+// from YAML; their types are public to the crate's own studies and tests only (`internals`), so
+// the documented API stays narrow: a user writes the YAML, not the structs.
+#[cfg_attr(not(feature = "internals"), allow(unreachable_pub))]
 mod config;
 // A rig is configured in YAML (`camera.rig`); its settings' types are public to the crate's own
 // studies and tests only (`internals`), so the documented API stays narrow.
@@ -12,7 +16,11 @@ mod rig;
 mod scene;
 mod simulator;
 
-pub use config::{Camera, CaptureSettings, Encoders, Recording, SimConfig, Trajectory, TruthSpread, Workspace};
+#[cfg(not(feature = "internals"))]
+pub(crate) use config::Camera;
+pub use config::SimConfig;
+#[cfg(feature = "internals")]
+pub use config::{Camera, CaptureSettings, Encoders, Recording, Trajectory, TruthSpread, Workspace};
 pub(crate) use config::{PlanRow, PlanSource};
 #[cfg(feature = "internals")]
 pub use rig::{Miscalibration, RigCameraSettings, RigSettings};

@@ -9,7 +9,7 @@ use crate::calib::agreement::{
     MarkerErrors, SetError, corrected_for, largest_rotation, model_markers, pose_errors, pose_orientations,
 };
 use crate::calib::calibration::{CalibError, Fitted};
-use crate::calib::config::{CalibConfig, Group};
+use crate::calib::config::{CalibConfig, Group, PredictionWorkspace};
 use crate::calib::level::{Level, LevelReport, LevelResults, Origin};
 use crate::calib::marker_residuals::{MarkerObservation, MarkerResiduals};
 use crate::calib::parameterisation::{Kind, Parameterisation};
@@ -20,9 +20,8 @@ use crate::calib::report::{
 };
 use crate::calib::residuals::Residuals;
 use crate::calib::rig_terms;
-use crate::calib::uncertainty::{
-    parameter_reports, predicted_marker_error, predicted_orientation_error, released, std_error,
-};
+use crate::calib::uncertainty::{parameter_reports, predicted_marker_error, released, std_error};
+use crate::calib::workspace::predicted_error_for;
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{
@@ -45,6 +44,8 @@ pub(crate) struct MarkerLevel<'s> {
     camera_model: CameraModelKind,
     freeze: Vec<Group>,
     max_deg: f64,
+    /// The config's `workspace`: what the predicted error is for.
+    workspace: Option<PredictionWorkspace>,
     excluded: Vec<String>,
     warnings: Vec<String>,
 }
@@ -122,6 +123,7 @@ impl<'s> MarkerLevel<'s> {
             camera_model,
             freeze: config.freeze.clone(),
             max_deg: largest_rotation(&nominal_r),
+            workspace: config.workspace,
             excluded,
             warnings,
         })
@@ -235,20 +237,32 @@ impl Level for MarkerLevel<'_> {
         }
         let fda: Vec<bool> = p.entries.iter().map(|e| e.kind != Kind::Latency).collect();
         let eval = &r.calibrated.evaluation;
-        let predicted_error_deg = eval
-            .orientation_jacobians
-            .as_ref()
-            .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, r.predicted_covariance));
+        let (predicted_error_deg, beyond_the_session) = predicted_error_for(
+            self.workspace.as_ref(),
+            p,
+            x,
+            r.predicted_covariance,
+            &fda,
+            eval.orientation_jacobians.as_deref(),
+            &eval.orientations,
+            &pose_ids,
+        );
         // Without the misfit's widening, when the model check widened it.
-        let predicted_error_unwidened_deg =
-            match std::ptr::eq(r.predicted_covariance, cov) || r.predicted_covariance == cov {
-                true => None,
-                false => eval
-                    .orientation_jacobians
-                    .as_ref()
-                    .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov))
-                    .map(|e| e.rms),
-            };
+        let predicted_error_unwidened_deg = match r.predicted_covariance == cov {
+            true => None,
+            false => predicted_error_for(
+                self.workspace.as_ref(),
+                p,
+                x,
+                cov,
+                &fda,
+                eval.orientation_jacobians.as_deref(),
+                &eval.orientations,
+                &pose_ids,
+            )
+            .0
+            .map(|e| e.rms),
+        };
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
         let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
             predicted_marker_error(
@@ -313,7 +327,7 @@ impl Level for MarkerLevel<'_> {
             markers: Some(markers),
             excluded: self.excluded.iter().cloned().chain(gross).collect(),
             notes: self.warnings.clone(),
-            findings: camera_warnings,
+            findings: camera_warnings.into_iter().chain(beyond_the_session).collect(),
         })
     }
 }

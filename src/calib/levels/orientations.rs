@@ -6,14 +6,15 @@ use nalgebra::{DVector, Rotation3, Vector3};
 
 use crate::calib::agreement::degrees;
 use crate::calib::calibration::{CalibError, Fitted};
-use crate::calib::config::{CalibConfig, Group};
+use crate::calib::config::{CalibConfig, Group, PredictionWorkspace};
 use crate::calib::level::{Level, LevelReport, LevelResults, MIN_MOTION_DEG, Origin, check_enough};
 use crate::calib::orientation_residuals::{Observation, OrientationResiduals, observations};
 use crate::calib::parameterisation::Parameterisation;
 use crate::calib::registration;
 use crate::calib::report::ErrorStats;
 use crate::calib::residuals::Residuals;
-use crate::calib::uncertainty::{parameter_reports, predicted_orientation_error};
+use crate::calib::uncertainty::parameter_reports;
+use crate::calib::workspace::predicted_error_for;
 use crate::dataset::Session;
 use crate::model::{CameraModel, CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::SessionEstimate;
@@ -29,6 +30,8 @@ pub(crate) struct OrientationLevel {
     excluded: Vec<String>,
     /// The camera model the markers were corrected by (`camera_terms`), written with the result.
     camera_model: CameraModel,
+    /// The config's `workspace`: what the predicted error is for.
+    workspace: Option<PredictionWorkspace>,
 }
 
 impl OrientationLevel {
@@ -78,6 +81,7 @@ impl OrientationLevel {
             max_deg,
             excluded,
             camera_model,
+            workspace: config.workspace,
         })
     }
 }
@@ -146,20 +150,32 @@ impl Level for OrientationLevel {
         let eval = &r.calibrated.evaluation;
         let pose_ids: Vec<u64> = r.problem.observations().iter().map(|o| o.pose).collect();
         let fda = vec![true; p.len()];
-        let predicted_error_deg = eval
-            .orientation_jacobians
-            .as_ref()
-            .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, r.predicted_covariance));
+        let (predicted_error_deg, beyond_the_session) = predicted_error_for(
+            self.workspace.as_ref(),
+            p,
+            x,
+            r.predicted_covariance,
+            &fda,
+            eval.orientation_jacobians.as_deref(),
+            &eval.orientations,
+            &pose_ids,
+        );
         // Without the misfit's widening, when the model check widened it.
-        let predicted_error_unwidened_deg =
-            match std::ptr::eq(r.predicted_covariance, cov) || r.predicted_covariance == cov {
-                true => None,
-                false => eval
-                    .orientation_jacobians
-                    .as_ref()
-                    .and_then(|s| predicted_orientation_error(s, &eval.orientations, &pose_ids, &fda, cov))
-                    .map(|e| e.rms),
-            };
+        let predicted_error_unwidened_deg = match r.predicted_covariance == cov {
+            true => None,
+            false => predicted_error_for(
+                self.workspace.as_ref(),
+                p,
+                x,
+                cov,
+                &fda,
+                eval.orientation_jacobians.as_deref(),
+                &eval.orientations,
+                &pose_ids,
+            )
+            .0
+            .map(|e| e.rms),
+        };
         let residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
@@ -193,7 +209,7 @@ impl Level for OrientationLevel {
             markers: None,
             excluded: self.excluded.iter().cloned().chain(gross).collect(),
             notes: Vec::new(),
-            findings: Vec::new(),
+            findings: beyond_the_session.into_iter().collect(),
         })
     }
 }
