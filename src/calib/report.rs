@@ -173,10 +173,13 @@ impl Verdict {
                 _ => {
                     reasons.push(VerdictReason {
                         level: "WARN",
-                        finding: "no unseen poses were predicted: nothing shows how the model predicts new data".into(),
-                        action: format!("set `folds` to 2 or more (got {})", config.folds),
+                        finding: "nothing shows how the model predicts new data".into(),
+                        action: "set `folds` to 2 or more".into(),
                     });
-                    "no unseen poses were predicted".to_string()
+                    format!(
+                        "no unseen poses were predicted (cross-validation needs `folds` of at least 2, got {})",
+                        config.folds
+                    )
                 }
             }
         };
