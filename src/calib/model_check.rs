@@ -280,14 +280,13 @@ fn rows_of(s: &Matrix3<f64>) -> usize {
     (0..3).filter(|&r| s.row(r).norm() > 0.0).count()
 }
 
-/// The model check of `outcome` (the calibrated fit of `model`, parameters `free`, weak prior
-/// `prior`, covariance `cov`), with the cross-validation's held-out residuals when there are some
+/// The model check of `outcome` (the calibrated fit of `model`, parameters `free`, covariance
+/// `cov`), with the cross-validation's held-out residuals when there are some
 /// (markers are named by index until [`ModelCheck::name_markers`]). `None` without a Jacobian or with nothing to test.
 pub(crate) fn check<M: Residuals>(
     model: &M,
     outcome: &FitOutcome<M::Noise>,
     free: &[bool],
-    prior: Option<&DMatrix<f64>>,
     cov: &DMatrix<f64>,
     held_out: Option<HeldOut<'_>>,
 ) -> Option<(ModelCheck, Misfit)> {
@@ -301,7 +300,6 @@ pub(crate) fn check<M: Residuals>(
     let nf = idx.len();
     // The projection off the Jacobian's columns is the data's alone: a weak prior's directions are
     // the data's null space, which no regression column enters.
-    let _ = prior;
     let (h, jte) = weighted_normal(&outcome.evaluation, &outcome.weighting, &idx);
     let h_inv = scaled_inverse(&h)?;
     // The residuals with the Jacobian's share taken out too: at a fit with a prior, or stopped

@@ -315,14 +315,7 @@ fn run<L: Level>(
     // do widens the predicted error (the parameters' covariance stays the data's).
     let held_out =
         cross_validation.as_ref().map(|cv| super::model_check::HeldOut { residuals: &cv.held_out, folds: cv.folds });
-    let checked = super::model_check::check(
-        &problem,
-        &calibrated,
-        &determined,
-        prior.as_ref().map(|(l, _)| l),
-        &covariance,
-        held_out,
-    );
+    let checked = super::model_check::check(&problem, &calibrated, &determined, &covariance, held_out);
     let predicted_covariance = match checked.as_ref().filter(|(c, _)| !c.passed) {
         Some((_, misfit)) => match &misfit.bias {
             Some(bias) => &covariance + bias * bias.transpose(),
