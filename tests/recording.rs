@@ -330,3 +330,162 @@ fn a_free_motion_calibration_is_recorded_at_its_fitted_latency() {
     let frame_times = scalars(&chunks, "errors/markers_mm/calibrated", "time");
     assert_eq!(frame_times.len(), after.len());
 }
+
+/// `(pose, 2-D points)` of every row logged at `entity` on the `pose` timeline.
+fn points2d(chunks: &[Chunk], entity: &str) -> BTreeMap<i64, Vec<[f32; 2]>> {
+    let component = rerun::Points2D::descriptor_positions().component;
+    let mut out = BTreeMap::new();
+    for c in chunks.iter().filter(|c| c.entity_path().to_string().trim_start_matches('/') == entity) {
+        let Some(times) = c.timelines().get(&"pose".into()) else { continue };
+        let rows: Vec<Vec<[f32; 2]>> = c.iter_slices::<[f32; 2]>(component).map(|s| s.to_vec()).collect();
+        assert_eq!(times.times_raw().len(), rows.len(), "{entity}");
+        out.extend(times.times_raw().iter().copied().zip(rows));
+    }
+    out
+}
+
+/// The names of the components logged at `entity` (static or not).
+fn components_at(chunks: &[Chunk], entity: &str) -> BTreeSet<String> {
+    chunks
+        .iter()
+        .filter(|c| c.entity_path().to_string().trim_start_matches('/') == entity)
+        .flat_map(|c| c.components_identifiers().map(|k| k.as_str().to_string()).collect::<Vec<_>>())
+        .collect()
+}
+
+#[test]
+fn a_pixel_session_is_recorded_in_each_cameras_image_plane() {
+    let dataset = Path::new("datasets/agile_wrist_stereo_200");
+    let (session, _) = Session::load(dataset, None).unwrap();
+    let model = RobotModel::load(&session.model).unwrap();
+    let calibration = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("pixels.rrd");
+    spmcal::record::Scene::calibration(&session, &model, &calibration).unwrap().write(&path).unwrap();
+    let chunks = chunks(&path);
+    let found = entities(&chunks);
+    // pixels.csv's rows per (pose, camera), read independently of the session reader.
+    let text = std::fs::read_to_string(dataset.join("pixels.csv")).unwrap();
+    let mut rows: BTreeMap<(i64, String), usize> = BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        *rows.entry((f[0].parse().unwrap(), f[2].to_string())).or_default() += 1;
+    }
+    let rig = &calibration.report.markers.as_ref().unwrap().rig.as_ref().unwrap().refined;
+    let registration = calibration.parameters.camera.unwrap();
+    let spm = calibration.parameters.spm().unwrap();
+    for (c, camera) in rig.cameras.iter().enumerate() {
+        let plane = format!("world/camera/{}", camera.name);
+        // The Pinhole: intrinsics and resolution.
+        let components = components_at(&chunks, &plane);
+        for k in ["Pinhole:image_from_camera", "Pinhole:resolution", "Transform3D:translation"] {
+            assert!(components.contains(k), "{plane}: {k} missing; {components:?}");
+        }
+        assert!(found.contains(&format!("{plane}/border")), "{plane}/border missing");
+        let measured = points2d(&chunks, &format!("{plane}/measured"));
+        let predicted = points2d(&chunks, &format!("{plane}/predicted"));
+        let nominal = points2d(&chunks, &format!("{plane}/nominal"));
+        assert_eq!(measured.len(), session.poses.len(), "{plane}: a row for every pose");
+        for (pose, points) in &measured {
+            let expected = rows.get(&(*pose, camera.name.clone())).copied().unwrap_or(0);
+            assert_eq!(points.len(), expected, "{plane}/measured at pose {pose}");
+            assert_eq!(predicted[pose].len(), expected, "{plane}/predicted at pose {pose}");
+            assert_eq!(nominal[pose].len(), expected, "{plane}/nominal at pose {pose}");
+        }
+        // The predicted pixels are the calibrated model's: FDA, the fitted markers, the registration
+        // and the refined rig, projected here through the public API (Rerun's pixel centres are
+        // Kalibr's + 0.5; f32 in the file: 1e-3 px).
+        let mut compared = 0;
+        for pose in &session.poses {
+            let r = spm.forward(&pose.joints).unwrap();
+            let mut expected: Vec<[f64; 2]> = pose
+                .pixels
+                .iter()
+                .filter(|p| p.camera == c)
+                .map(|p| {
+                    let marker = calibration.parameters.marker(&session.markers[p.marker]).unwrap();
+                    let y = registration.to_camera(&(r * marker));
+                    let q = rig.project(c, &y).unwrap().lens.pixel;
+                    [q.x + 0.5, q.y + 0.5]
+                })
+                .collect();
+            let logged = &predicted[&(pose.id as i64)];
+            expected.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            let mut logged: Vec<[f64; 2]> = logged.iter().map(|p| [f64::from(p[0]), f64::from(p[1])]).collect();
+            logged.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            for (a, b) in expected.iter().zip(&logged) {
+                assert!((a[0] - b[0]).abs() < 1e-3 && (a[1] - b[1]).abs() < 1e-3, "pose {}: {a:?} vs {b:?}", pose.id);
+                compared += 1;
+            }
+        }
+        assert!(compared > 500, "{compared} pixels compared in {}", camera.name);
+    }
+    // The fit's residuals in pixels, not in mm.
+    assert!(found.contains("errors/pixels_px/calibrated") && !found.contains("errors/markers_mm/calibrated"));
+    assert!(found.contains("errors/predicted_error_px") && !found.contains("errors/predicted_error_mm"), "{found:?}");
+    // The default layout shows each camera's image.
+    let origins = blueprint_views(&path);
+    for camera in ["/world/camera/cam0", "/world/camera/cam1"] {
+        assert!(origins.iter().any(|o| o == camera), "{camera} not in {origins:?}");
+    }
+
+    // `replay` with the calibrated parameters: measured and predicted pixels in each camera. Seen
+    // through the refined rig (`--cameras`, the camchain `calibrate --cameras-out` writes), its
+    // predictions (projected by the recording) are the fit's (measured less residual) to f32's
+    // precision; through the file's rig they are pixels off.
+    let params = dir.path().join("p.yaml");
+    calibration.parameters.write(&params).unwrap();
+    let refined = dir.path().join("cameras.yaml");
+    std::fs::write(&refined, rig.to_camchain()).unwrap();
+    let rms = |chunks: &[Chunk]| {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for camera in ["cam0", "cam1"] {
+            let measured = points2d(chunks, &format!("world/camera/{camera}/measured"));
+            let predicted = points2d(chunks, &format!("world/camera/{camera}/predicted"));
+            let total: usize = measured.values().map(Vec::len).sum();
+            assert_eq!(total, rows.iter().filter(|((_, c), _)| c == camera).map(|(_, n)| n).sum::<usize>());
+            assert_eq!(predicted.values().map(Vec::len).sum::<usize>(), total, "{camera}");
+            for (pose, m) in &measured {
+                for (a, b) in m.iter().zip(&predicted[pose]) {
+                    sum += f64::from(a[0] - b[0]).powi(2) + f64::from(a[1] - b[1]).powi(2);
+                    n += 1;
+                }
+            }
+        }
+        (sum / n as f64).sqrt()
+    };
+    let fitted = rms(&chunks);
+    let replay = |name: &str, cameras: Option<&Path>| {
+        let path = dir.path().join(name);
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_spmcal"));
+        command.args(["replay", "--dataset", dataset.to_str().unwrap(), "--params", params.to_str().unwrap()]);
+        command.args(["--rrd", path.to_str().unwrap()]);
+        if let Some(c) = cameras {
+            command.arg("--cameras").arg(c);
+        }
+        let out = command.output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        path
+    };
+    let replayed = replay("replay.rrd", Some(&refined));
+    let through_refined = rms(&self::chunks(&replayed));
+    assert!((through_refined - fitted).abs() < 1e-3 * fitted, "{through_refined} px vs the fit's {fitted} px");
+    let through_file = rms(&self::chunks(&replay("replay_file_rig.rrd", None)));
+    eprintln!(
+        "pixel RMS: fit {fitted} px, replay through the refined rig {through_refined} px, through the file's {through_file} px"
+    );
+    assert!(through_file > 3.0 * fitted, "{through_file} px through the file's rig vs {fitted} px");
+    if let Ok(v) = std::process::Command::new("rerun").arg("--version").output()
+        && String::from_utf8_lossy(&v.stdout).contains("0.36")
+    {
+        for file in [&path, &replayed] {
+            let verify = std::process::Command::new("rerun").args(["rrd", "verify"]).arg(file).output().unwrap();
+            assert!(
+                verify.status.success(),
+                "rerun rrd verify {}: {}",
+                file.display(),
+                String::from_utf8_lossy(&verify.stderr)
+            );
+        }
+    }
+}

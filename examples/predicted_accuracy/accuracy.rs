@@ -128,6 +128,9 @@ fn standardised_errors(calibration: &Calibration, session: &Session) -> Vec<(Gro
             }
             let error = match e.kind {
                 Kind::Latency => p.latency(x) - truth.parameters.latency_s.unwrap_or(0.0),
+                Kind::ClockRate => {
+                    (p.clock_rate_ppm(x) - truth.parameters.clock_rate_ppm.unwrap_or(0.0)) * 1e-6 * p.clock_rate_span_s
+                }
                 _ => x[i] - gauge.x[i],
             };
             Some((e.kind.group(), (error / sigma).abs()))

@@ -46,7 +46,7 @@ from ._spmcal import (
     plan,
     simulate,
 )
-from ._types import ParametersTable, PoseErrors
+from ._types import ParametersTable, Pixels, PoseErrors, RigTerm, RigTerms
 
 __all__ = [
     "ArrayError",
@@ -60,8 +60,11 @@ __all__ = [
     "Model",
     "ModelError",
     "ParametersTable",
+    "Pixels",
     "PlanError",
     "PoseErrors",
+    "RigTerm",
+    "RigTerms",
     "Session",
     "ShapeError",
     "SimulationError",

@@ -11,7 +11,7 @@ from typing import Any, Iterable, Literal, Optional, Sequence, Union
 import numpy as np
 import numpy.typing as npt
 
-from ._types import ParametersTable, PoseErrors
+from ._types import ParametersTable, Pixels, PoseErrors, RigTerms
 
 _Path = Union[str, "os.PathLike[str]"]
 _Array = npt.NDArray[np.float64]
@@ -92,6 +92,12 @@ class Session:
     def markers(self) -> _Array: ...
     @property
     def times(self) -> _Array: ...
+    @property
+    def cameras(self) -> list[str]:
+        """The rig's camera names (cameras.yaml) of a session seen through its pixels; [] for points."""
+    @property
+    def pixels(self) -> Pixels:
+        """Each pixel a camera saw: {"pose" (k,) uint64 | "time_s" (k,), "marker", "camera" (k,) int64, "uv" (k, 2) px}."""
     def save(self, path: _Path) -> None: ...
     def __len__(self) -> int: ...
 
@@ -141,6 +147,11 @@ class Calibration:
         """The parameters as the text report shows them (deg, mm, ms), one row each, as columns."""
     def errors(self) -> PoseErrors:
         """Per-pose errors against the camera: {"poses", "nominal", "calibrated", "unit"}."""
+    @property
+    def rig(self) -> Optional[RigTerms]:
+        """The camera rig refined with the mechanism, as the report gives it; None for points."""
+    def write_cameras(self, path: _Path) -> None:
+        """Write the refined rig as a Kalibr camchain, as `spmcal calibrate --cameras-out`."""
     def save(self, path: _Path) -> None: ...
 
 class Exported:

@@ -400,6 +400,39 @@ impl Session {
         a.into_pyarray(py)
     }
 
+    /// The cameras of a session seen through its pixels (`cameras.yaml`'s names, in the order of
+    /// `pixels["camera"]`); empty for a session of points.
+    #[getter]
+    fn cameras(&self) -> Vec<String> {
+        self.inner.rig.iter().flat_map(|r| r.cameras.iter().map(|c| c.name.clone())).collect()
+    }
+
+    /// Each pixel a camera saw (`pixels.csv`), one row per marker per camera: a dict of arrays —
+    /// `pose` `(k,)` uint64 (a free-motion recording: `time_s` `(k,)`, the capture's time in s on
+    /// the camera's clock), `marker` `(k,)` int64 (into `marker_names`), `camera` `(k,)` int64
+    /// (into `cameras`), `uv` `(k, 2)` px (the top-left pixel's centre at (0, 0)). Empty arrays
+    /// for a session of points.
+    #[getter]
+    fn pixels<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let out = PyDict::new(py);
+        let rows: Vec<(f64, u64, &spmcal::dataset::SeenPixel)> = match &self.inner.streams {
+            Some(streams) => streams.pixels().map(|(t, p)| (t, 0, p)).collect(),
+            None => {
+                self.inner.poses.iter().flat_map(|pose| pose.pixels.iter().map(|p| (f64::NAN, pose.id, p))).collect()
+            }
+        };
+        if self.inner.streams.is_some() {
+            out.set_item("time_s", rows.iter().map(|r| r.0).collect::<Vec<_>>().into_pyarray(py))?;
+        } else {
+            out.set_item("pose", rows.iter().map(|r| r.1).collect::<Vec<_>>().into_pyarray(py))?;
+        }
+        out.set_item("marker", rows.iter().map(|r| r.2.marker as i64).collect::<Vec<_>>().into_pyarray(py))?;
+        out.set_item("camera", rows.iter().map(|r| r.2.camera as i64).collect::<Vec<_>>().into_pyarray(py))?;
+        let uv = Array2::from_shape_fn((rows.len(), 2), |(i, k)| rows[i].2.pixel[k]);
+        out.set_item("uv", uv.into_pyarray(py))?;
+        Ok(out)
+    }
+
     /// Capture times `(n,)`, s (NaN where none was recorded).
     #[getter]
     fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
@@ -671,7 +704,9 @@ impl Calibration {
 
     /// The unit of each entry of the parameter vector, as `parameter_names` orders them: `rad`
     /// (axis tilts, link angles, offsets, rotations), `m` (camera translation, marker positions),
-    /// `s` (latency), `""` (camera model terms, dimensionless). The units of `covariance` and
+    /// `s` (latency), `s` (also the camera clock's rate, as the drift it makes over the recording:
+    /// ppm × 1e-6 × the recording's span), `""` (camera
+    /// model terms, dimensionless). The units of `covariance` and
     /// `std_errors`.
     #[getter]
     fn parameter_units(&self) -> Vec<&'static str> {
@@ -720,6 +755,29 @@ impl Calibration {
         Ok(out)
     }
 
+    /// The camera rig refined with the mechanism (a session seen through its pixels), as the
+    /// report gives it (`to_dict()["markers"]["rig"]`): `baseline_held_m`, `terms` (each with
+    /// `name`, `unit`, `file_value`, `change`, `std_error`, `held`) and `pixel_noise_px`; `None`
+    /// for a session of points.
+    #[getter]
+    fn rig<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.rig_report().map(|r| to_python(py, r)).transpose()
+    }
+
+    /// Write the refined rig as a Kalibr camchain (atomically), as `spmcal calibrate
+    /// --cameras-out` does; a session of points has no rig to write (`CalibrationError`).
+    fn write_cameras(&self, path: PathBuf) -> PyResult<()> {
+        let Some(rig) = self.rig_report() else {
+            return Err(CalibrationError::new_err(format!(
+                "{}: a session of points, not pixels (pixels.csv + cameras.yaml): it has no camera rig to write",
+                self.session.name
+            )));
+        };
+        let mut file = spmcal::io::StagedFile::create(&path).map_err(raise!(FileError))?;
+        file.write(rig.refined.to_camchain().as_bytes()).map_err(raise!(FileError))?;
+        file.commit().map_err(raise!(FileError))
+    }
+
     /// Write the calibrated parameters file (atomically), as `spmcal calibrate --out` does.
     fn save(&self, path: PathBuf) -> PyResult<()> {
         self.inner.parameters.write(&path).map_err(raise!(FileError))
@@ -733,6 +791,13 @@ impl Calibration {
     fn __repr__(&self) -> String {
         let predicted = self.predicted_error_deg().map_or("none".to_string(), |e| format!("{e:.4} deg"));
         format!("Calibration({}: {}, predicted error {predicted})", self.session.name, self.verdict())
+    }
+}
+
+impl Calibration {
+    /// The report's refined rig, for a session seen through its pixels.
+    fn rig_report(&self) -> Option<&spmcal::calib::RigReport> {
+        self.inner.report.markers.as_ref().and_then(|m| m.rig.as_ref())
     }
 }
 

@@ -33,6 +33,7 @@ pub(crate) fn internal_unit(kind: Kind) -> &'static str {
         | Kind::Reference { .. } => "rad",
         Kind::Translation { .. } | Kind::Marker { .. } => "m",
         Kind::Latency => "s",
+        Kind::ClockRate => "s",
         Kind::CameraTerm { .. } => "",
         Kind::Rig { term } => match term {
             RigTerm::Intrinsic { .. } => "px",
@@ -50,6 +51,7 @@ pub(crate) fn rows(c: &Calibration) -> Vec<Row> {
     out.extend(translation(c));
     if let Some(m) = &r.markers {
         out.extend(latency(m));
+        out.extend(clock_rate(m));
         out.extend(camera_terms(m));
         out.extend(markers(m));
     }
@@ -127,6 +129,19 @@ fn latency(m: &MarkerFitReport) -> Option<Row> {
         std_error,
         unit: "ms",
         status: status(std_error, l.at_bound),
+    })
+}
+
+/// The camera clock's rate difference (ppm; none is its nominal value, so its change is itself).
+fn clock_rate(m: &MarkerFitReport) -> Option<Row> {
+    let c = m.clock_rate_ppm.as_ref()?;
+    Some(Row {
+        name: "camera.clock_rate".into(),
+        value: c.value,
+        change: c.value,
+        std_error: c.std_error,
+        unit: "ppm",
+        status: status(c.std_error, c.at_bound),
     })
 }
 

@@ -229,6 +229,9 @@ def report_figures(text: str) -> dict[str, list[str]]:
     latency = re.search(rf"camera latency: {number} ± {number} ms", text)
     if latency:
         figures["camera.latency"] = [latency[1], latency[2]]
+    clock = re.search(rf"camera clock rate: {number} ± {number} ppm", text)
+    if clock:
+        figures["camera.clock_rate"] = [clock[1], clock[2]]
     triple = rf"\[\s*{number},\s*{number},\s*{number}\]"
     for row in re.finditer(rf"^  (\S+)\s+{triple}\s+{triple}\s+{triple}$", text, re.MULTILINE):
         for k, axis in enumerate("xyz"):
@@ -263,6 +266,8 @@ def assert_table_is_the_report(calibration: spmcal.Calibration) -> int:
             assert [f"{r['value'] / 1e3:.4f}", f"{r['std_error']:.4f}"] == printed, r
         elif r["unit"] == "ms":
             assert [f"{r['value']:.3f}", f"{r['std_error']:.3f}"] == printed, r
+        elif r["unit"] == "ppm":
+            assert [f"{r['value']:+.2f}", f"{r['std_error']:.2f}"] == printed, r
         elif r["unit"] == "":
             assert [f"{r['value']:.5f}", f"{r['std_error']:.5f}"] == printed, r
         else:  # a marker: fitted position in m, change and standard error in mm

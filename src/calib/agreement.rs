@@ -214,7 +214,7 @@ pub(crate) fn pose_errors(
 }
 
 /// The per-pose marker errors (mm) of `params` on `session` (a free-motion recording read at the
-/// set's latency, 0 when it has none), registration as the module says, and that registration.
+/// set's camera clock, latency 0 when it has none), registration as the module says, and that registration.
 ///
 /// # Errors
 /// A [`SetError`]: an invalid geometry, a session marker the model lacks, fewer than three
@@ -225,7 +225,7 @@ pub(crate) fn marker_pose_errors(
     params: &Parameters,
 ) -> Result<(PoseErrors, CameraRegistration), SetError> {
     let spm = Spm::new(params.legs).map_err(SetError::Geometry)?;
-    let (session, left_out) = session.at_latency(params.latency_s.unwrap_or(0.0));
+    let (session, left_out) = session.at_clock(params.latency_s.unwrap_or(0.0), params.clock_rate_ppm.unwrap_or(0.0));
     let (observations, failed) = MarkerObservation::of_session(&session, &spm);
     let mut excluded: Vec<String> = left_out.iter().map(|w| w.to_string()).collect();
     excluded.extend(failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")));

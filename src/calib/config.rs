@@ -34,6 +34,8 @@ pub enum Group {
     MarkerPositions,
     /// The camera's latency (free-motion recordings): frozen, `latency_s` is used as it is.
     Latency,
+    /// The camera clock's rate (free-motion recordings): frozen, `clock_rate_ppm` is used as it is.
+    ClockRate,
     /// The camera model's terms (marker-level fit): frozen, `camera_terms` are used as they are.
     CameraModel,
     /// A pixel session's camera rig (`rig_terms`): frozen, the rig is used as `cameras.yaml` gives it.
@@ -193,6 +195,18 @@ pub struct CalibConfig {
     pub latency_s: f64,
     /// The bound on the estimated latency, either sign (s).
     pub latency_bound_s: f64,
+    /// How much faster the camera's clock runs than the encoders' (ppm), for free-motion
+    /// recordings: a capture stamped `t` was taken at `(t − latency) / (1 + rate·10⁻⁶)`, the
+    /// latency being the one at the encoders' time 0. The marker-level fit estimates it from here
+    /// (within ±`clock_rate_bound_ppm`) on a recording that spans at least
+    /// `clock_rate_min_duration_s`, unless `clock_rate` is frozen; a shorter one holds it here.
+    pub clock_rate_ppm: f64,
+    /// The bound on the estimated clock rate difference, either sign (ppm).
+    pub clock_rate_bound_ppm: f64,
+    /// The shortest recording (camera time from its first frame to its last, s) on which the
+    /// clock rate is estimated: over a shorter one the drift of any plausible rate is lost in the
+    /// latency's own uncertainty.
+    pub clock_rate_min_duration_s: f64,
     /// Free-motion recordings: a capture taken while a joint turns faster than this (deg/s) is
     /// flagged and its noise inflated in proportion (blur, interpolation error).
     pub max_joint_speed_deg_s: f64,
@@ -286,6 +300,9 @@ impl Default for CalibConfig {
             pass_held_out_deg: 0.5,
             latency_s: 0.0,
             latency_bound_s: 0.2,
+            clock_rate_ppm: 0.0,
+            clock_rate_bound_ppm: 500.0,
+            clock_rate_min_duration_s: 60.0,
             max_joint_speed_deg_s: 90.0,
             workspace: None,
             camera_model: CameraModelSetting::Auto,
@@ -411,6 +428,27 @@ impl CalibConfig {
                 self.latency_bound_s, self.latency_s
             );
             return Err(("latency_s".into(), reason));
+        }
+        // The same for the clock rate.
+        let most = crate::model::limits::MAX_CLOCK_RATE_PPM;
+        let bound = self.clock_rate_bound_ppm;
+        if !(bound.is_finite() && bound > 0.0 && bound <= most) {
+            let reason = format!("`clock_rate_bound_ppm` must be in (0, {most}] ppm (got {bound})");
+            return Err(("clock_rate_bound_ppm".into(), reason));
+        }
+        if !(self.clock_rate_ppm.is_finite() && self.clock_rate_ppm.abs() < bound) {
+            let reason = format!(
+                "`clock_rate_ppm` must lie inside ±`clock_rate_bound_ppm` = {bound} ppm (got {})",
+                self.clock_rate_ppm
+            );
+            return Err(("clock_rate_ppm".into(), reason));
+        }
+        if !(self.clock_rate_min_duration_s.is_finite() && self.clock_rate_min_duration_s >= 0.0) {
+            let reason = format!(
+                "`clock_rate_min_duration_s` must be a non-negative time (got {})",
+                self.clock_rate_min_duration_s
+            );
+            return Err(("clock_rate_min_duration_s".into(), reason));
         }
         if let Some(w) = &self.workspace {
             if !(w.max_tilt_deg.is_finite() && w.max_tilt_deg > 0.0 && w.max_tilt_deg < 90.0) {

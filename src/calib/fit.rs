@@ -305,8 +305,8 @@ const PRECISION: f64 = 1e-12;
 /// uncertainty of the fixed point, and the next step would move them a millionth.
 const DECREMENT_TOLERANCE: f64 = 1e-3;
 
-/// A full Gauss–Newton step promising less than this many standard errors that the cost does not
-/// confirm ends the fit: the cost is rough below that scale (see `trust_region_step`).
+/// A step that the cost does not confirm, within this many standard errors of the model's optimum,
+/// ends the fit: the cost is rough below that scale (see `trust_region_step`).
 const ROUGH_DECREMENT: f64 = 0.3;
 
 /// The longest step along a Gauss–Newton direction the curvature test may try, in its lengths.
@@ -570,11 +570,13 @@ impl<M: Residuals> Problem<'_, M> {
             // converged fit's last step may be rejected for rounding alone: the radius stays.)
             *radius = 0.25 * step_norm.min(*radius);
         }
-        // A full Gauss–Newton step that promises less than `ROUGH_DECREMENT` standard errors and
-        // does not deliver: below that scale the cost is rougher than its model (a free-motion
-        // recording's joints interpolated between quantised encoder samples), and x is at its
-        // minimum to within it; the log's decrement says how close.
-        let rough = !accepted && step.solver == Solver::GaussNewton && decrement < ROUGH_DECREMENT;
+        // A step that does not deliver while the optimum of the model is less than
+        // `ROUGH_DECREMENT` standard errors away: below that scale the cost is rougher than its
+        // model (a free-motion recording's joints interpolated between quantised encoder
+        // samples), and x is at its minimum to within it; the log's decrement says how close. (A
+        // full Gauss–Newton step, or one the trust region cut short after such a step failed: the
+        // decrement is the distance to the model's optimum either way.)
+        let rough = !accepted && decrement < ROUGH_DECREMENT;
         let done = if converged || rough {
             Some(Convergence::Converged)
         } else {

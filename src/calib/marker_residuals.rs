@@ -139,8 +139,9 @@ pub struct StereoNoise {
     pub pixel_std_error_px: Vec<f64>,
 }
 
-/// A pose's joints and their rate of change with the camera latency.
-type JointsAndRate = (Vector3<f64>, Vector3<f64>);
+/// A pose's joints and their rates of change with the camera latency and with the clock's rate
+/// entry (the drift over the recording, `ρ·10⁻⁶·T`).
+type JointsAndRate = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
 
 /// Smallest σ the whitening uses (0.1 µm): noise-free data must not divide by zero.
 const SIGMA_FLOOR_M: f64 = 1e-7;
@@ -167,7 +168,7 @@ pub struct MarkerResiduals<'a> {
     /// A Jacobian the fit gave back, reused by the next evaluation.
     spare: std::cell::RefCell<Option<DMatrix<f64>>>,
     /// A free-motion recording's streams: with a latency parameter, each pose's joints are
-    /// interpolated at its time less the latency.
+    /// interpolated at the encoders' time of its stamp (the parameters' camera clock).
     streams: Option<&'a Streams>,
     /// Per observation, the factor its noise is inflated by (captures taken while the joystick
     /// moved too fast); empty: none.
@@ -243,18 +244,30 @@ impl<'a> MarkerResiduals<'a> {
         self.streams
     }
 
-    /// Each pose's joints at `x` (the latency moves them along the encoder stream), with their
-    /// rate of change with the latency, `−θ̇`.
+    /// Each pose's joints at `x` (the camera clock moves them along the encoder stream), with
+    /// their rates of change with the latency and with the clock's rate entry (the drift `r·T`).
+    /// A capture stamped `t` is read at `e = (t − τ) / (1 + r)`, `r = ρ·10⁻⁶`: `∂e/∂τ = −1 / (1 + r)`
+    /// and `∂e/∂(rT) = −e / ((1 + r) T)`, each times the joint velocity `θ̇(e)`.
     fn joints(&self, x: &DVector<f64>) -> Result<Vec<JointsAndRate>, EvalError> {
-        let latency = self.p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| self.p.latency(x));
+        let latency = self.p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| self.p.clock(x));
         self.poses
             .iter()
             .map(|&(pose, joints, time)| match (latency, self.streams, time) {
-                (Some(tau), Some(s), Some(t)) => match (s.joints_at(t - tau), s.velocity_at(t - tau)) {
-                    (Some(j), Some(v)) => Ok((j, -v)),
-                    _ => Err(EvalError::OutsideStream { pose, latency_s: tau }),
-                },
-                _ => Ok((joints, Vector3::zeros())),
+                (Some(clock), Some(s), Some(t)) => {
+                    let e = clock.encoder_time(t);
+                    match (s.joints_at(e), s.velocity_at(e)) {
+                        (Some(j), Some(v)) => {
+                            let stretch = 1.0 + clock.rate_ppm * 1e-6;
+                            Ok((j, -v / stretch, -v * (e / (stretch * self.p.clock_rate_span_s))))
+                        }
+                        _ => Err(EvalError::OutsideStream {
+                            pose,
+                            latency_s: clock.latency_s,
+                            clock_rate_ppm: clock.rate_ppm,
+                        }),
+                    }
+                }
+                _ => Ok((joints, Vector3::zeros(), Vector3::zeros())),
             })
             .collect()
     }
@@ -447,7 +460,7 @@ impl Residuals for MarkerResiduals<'_> {
         let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
         let joints = self.joints(x)?;
         let mut orientations = Vec::with_capacity(self.poses.len());
-        for (k, ((pose, _, _), (theta, _))) in self.poses.iter().zip(&joints).enumerate() {
+        for (k, ((pose, _, _), (theta, _, _))) in self.poses.iter().zip(&joints).enumerate() {
             let r = match warm {
                 Some(w) => spm.track(theta, &w[k]),
                 None => spm.forward(theta),
@@ -470,17 +483,24 @@ impl Residuals for MarkerResiduals<'_> {
             let frames = Frames::new(p, x);
             let mechanism = self.mechanism_needed();
             let latency = p.entries.iter().position(|e| e.kind == Kind::Latency);
+            let clock_rate = p.entries.iter().position(|e| e.kind == Kind::ClockRate);
             let sensitivities: Vec<DMatrix<f64>> = joints
                 .iter()
                 .zip(&eval.orientations)
-                .map(|((theta, rate), r)| {
+                .map(|((theta, per_latency, per_rate), r)| {
                     let mut s = match mechanism {
                         true => frames.orientation_sensitivity(&spm, &legs, theta, r),
                         false => DMatrix::zeros(3, p.len()),
                     };
-                    // ∂ω/∂τ = J(θ) ∂θ/∂τ, J = A⁻¹B mapping joint rates to the MP's angular velocity.
-                    if let (Some(i), Some(j)) = (latency, spm.jacobians(theta, r).forward()) {
-                        s.set_column(i, &(j * rate));
+                    // ∂ω/∂τ = J(θ) ∂θ/∂τ, J = A⁻¹B mapping joint rates to the MP's angular
+                    // velocity; the same for the clock's rate.
+                    if latency.is_some() || clock_rate.is_some() {
+                        let forward = spm.jacobians(theta, r).forward();
+                        for (i, rate) in [(latency, per_latency), (clock_rate, per_rate)] {
+                            if let (Some(i), Some(j)) = (i, forward) {
+                                s.set_column(i, &(j * rate));
+                            }
+                        }
                     }
                     s
                 })
@@ -544,7 +564,7 @@ impl MarkerResiduals<'_> {
             let in_camera = k * (camera * rp).cross_matrix() * jc;
             let rotation = k * camera.matrix() * orientations[pose].matrix();
             let mut block = jac.fixed_rows_mut::<3>(3 * j);
-            // The mechanism's (and the latency's) columns in one product (∂ω/∂x is zero in the
+            // The mechanism's (and the camera clock's) columns in one product (∂ω/∂x is zero in the
             // others), then the rest.
             if mechanism {
                 block.gemm(1.0, &mech, &sensitivities[pose], 0.0);
@@ -555,7 +575,7 @@ impl MarkerResiduals<'_> {
                     Kind::Translation { k: axis } => -k.column(axis),
                     Kind::Marker { marker, k: axis } if marker == o.marker => -rotation.column(axis),
                     Kind::CameraTerm { term } if o.camera.is_none() => -camera_model.term_derivative(term, &y),
-                    Kind::Latency if !mechanism => mech * sensitivities[pose].column(i),
+                    Kind::Latency | Kind::ClockRate if !mechanism => mech * sensitivities[pose].column(i),
                     _ => continue,
                 };
                 block.set_column(i, &column);

@@ -69,8 +69,8 @@ pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
-    CalibrationReport, CameraModelReport, CameraTermReport, ErrorStats, FastCapture, FlaggedObservation, Latency,
-    MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict, VerdictReason,
+    CalibrationReport, CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, FlaggedObservation,
+    Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict, VerdictReason,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;

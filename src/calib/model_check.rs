@@ -776,8 +776,8 @@ impl ModelCheck {
                 "the residuals drift with time: the camera's clock runs at another rate than the encoders', or the \
                  camera or the base moved during the recording"
                     .to_string(),
-                "check the clocks' rates and that the camera and the base stay fixed (this version fits a latency, \
-                 not a clock rate)"
+                "fit the camera clock's rate (a recording of at least `clock_rate_min_duration_s`, `clock_rate` not \
+                 frozen), and check that the camera and the base stay fixed"
                     .to_string(),
             ),
             Structure::Marker => {

@@ -16,7 +16,8 @@
 //! axis), `α1`, `α2`, `δ`; then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
 //! level, the reference rotation `A = exp(a) A⁰` (see `orientation_residuals.rs`). The marker level
 //! has instead of `A` the camera translation `t_CB` and the markers' positions in P (metres), and
-//! for a free-motion recording the camera's latency (seconds).
+//! for a free-motion recording the camera's latency (seconds) and its clock's rate difference
+//! (a fraction).
 
 use nalgebra::{DVector, Rotation3, Vector3};
 
@@ -71,8 +72,13 @@ pub enum Kind {
         /// Axis 0, 1 or 2.
         k: usize,
     },
-    /// The camera's latency behind the encoders, `τ − τ⁰` (s; free-motion recordings).
+    /// The camera's latency behind the encoders, `τ − τ⁰` (s; free-motion recordings): at the
+    /// encoders' time 0 when the clock rate is a parameter too.
     Latency,
+    /// The camera clock's rate difference as the drift it makes over the recording,
+    /// `ρ·10⁻⁶·T` (s; `T` = [`Parameterisation::clock_rate_span_s`]; free-motion recordings): a
+    /// capture stamped `t` was taken at `(t − τ) / (1 + ρ·10⁻⁶)` on the encoders' clock.
+    ClockRate,
     /// A term of the camera model, from its start (dimensionless).
     CameraTerm {
         /// Which term.
@@ -106,6 +112,7 @@ impl Kind {
             Kind::Translation { .. } => Group::CameraTranslation,
             Kind::Marker { .. } => Group::MarkerPositions,
             Kind::Latency => Group::Latency,
+            Kind::ClockRate => Group::ClockRate,
             Kind::CameraTerm { .. } => Group::CameraModel,
             Kind::Rig { .. } => Group::CameraRig,
         }
@@ -125,7 +132,8 @@ impl Kind {
             | Kind::Marker { .. }
             | Kind::CameraTerm { .. }
             | Kind::Rig { .. }
-            | Kind::Latency => None,
+            | Kind::Latency
+            | Kind::ClockRate => None,
         }
     }
 }
@@ -164,6 +172,14 @@ pub struct Parameterisation {
     pub latency0: f64,
     /// Where the fit starts the latency (s): the config's `latency_s`.
     pub latency_start: f64,
+    /// Where the fit starts (or holds) the camera clock's rate difference (ppm): the config's
+    /// `clock_rate_ppm`.
+    pub clock_rate_start_ppm: f64,
+    /// The span `T` (s) over which the clock-rate entry is the drift: the entry is `ρ·10⁻⁶·T`, so
+    /// that its standard error is of the latency's size (a fraction's would be a thousand times
+    /// smaller than any other parameter's, and the trust region, in the parameters' own units,
+    /// would let it roam over many standard errors where the cost is rough).
+    pub clock_rate_span_s: f64,
     /// The camera model at `x = 0` (marker level; a perfect camera otherwise): its kind is the
     /// model fitted, its values where the fit starts.
     pub camera_model0: CameraModel,
@@ -242,6 +258,8 @@ impl Parameterisation {
             markers0: Vec::new(),
             latency0: 0.0,
             latency_start: 0.0,
+            clock_rate_start_ppm: 0.0,
+            clock_rate_span_s: 1.0,
             camera_model0: CameraModel::rigid(),
             rig0: None,
             entries,
@@ -287,6 +305,18 @@ impl Parameterisation {
         self
     }
 
+    /// The same parameterisation with the camera clock's rate difference as a parameter, started
+    /// at `start_ppm` and bounded by `bound_ppm` either side of zero; the entry is the drift over
+    /// `span_s` (the recording's span, at least 1 s), `ρ·10⁻⁶·T`.
+    pub(crate) fn with_clock_rate(mut self, start_ppm: f64, bound_ppm: f64, span_s: f64) -> Self {
+        self.clock_rate_start_ppm = start_ppm;
+        self.clock_rate_span_s = span_s.max(1.0);
+        let bound = Some(bound_ppm * 1e-6 * self.clock_rate_span_s);
+        let entry = Entry { kind: Kind::ClockRate, name: "camera.clock_rate".into(), bound };
+        self.entries.push(entry);
+        self
+    }
+
     /// The same parameterisation with the terms of `start`'s camera model as parameters, started
     /// at its values and bounded by `bound` either side of them.
     fn with_camera_model(mut self, start: CameraModel, bound: f64) -> Self {
@@ -322,7 +352,23 @@ impl Parameterisation {
         if let Some(i) = self.entries.iter().position(|e| e.kind == Kind::Latency) {
             x[i] = self.latency_start;
         }
+        if let Some(i) = self.entries.iter().position(|e| e.kind == Kind::ClockRate) {
+            x[i] = self.clock_rate_start_ppm * 1e-6 * self.clock_rate_span_s;
+        }
         x
+    }
+
+    /// The camera clock's rate difference at `x` (ppm; the start without the parameter).
+    pub fn clock_rate_ppm(&self, x: &DVector<f64>) -> f64 {
+        match self.entries.iter().position(|e| e.kind == Kind::ClockRate) {
+            Some(i) => x[i] / self.clock_rate_span_s * 1e6,
+            None => self.clock_rate_start_ppm,
+        }
+    }
+
+    /// The camera clock at `x`: the latency at the encoders' time 0 (s) and the rate difference (ppm).
+    pub(crate) fn clock(&self, x: &DVector<f64>) -> crate::dataset::Clock {
+        crate::dataset::Clock { latency_s: self.latency(x), rate_ppm: self.clock_rate_ppm(x) }
     }
 
     /// The camera latency at `x` (s).
@@ -463,6 +509,7 @@ impl Parameterisation {
                 Kind::Translation { .. }
                 | Kind::Marker { .. }
                 | Kind::Latency
+                | Kind::ClockRate
                 | Kind::CameraTerm { .. }
                 | Kind::Rig { .. } => 0.0,
             };

@@ -42,14 +42,19 @@ pub fn calibrate(
     on_iteration: &mut dyn FnMut(&IterationLog),
 ) -> Result<Calibration, CalibError> {
     config.check().map_err(|(key, reason)| CalibError::Config { key, reason })?;
-    // A free-motion recording's poses at the configured camera latency; when the marker-level fit
-    // estimates it, only frames inside the encoder stream for every latency within its bounds.
-    let tau = config.latency_s;
+    // A free-motion recording's poses at the configured camera clock; when the marker-level fit
+    // estimates the latency (and the clock's rate), only frames inside the encoder stream for
+    // every latency (and rate) within their bounds.
+    let clock = crate::dataset::Clock { latency_s: config.latency_s, rate_ppm: config.clock_rate_ppm };
     let range = match config.fit == FitLevel::Markers && !config.freeze.contains(&Group::Latency) {
         true => (-config.latency_bound_s, config.latency_bound_s),
-        false => (tau, tau),
+        false => (clock.latency_s, clock.latency_s),
     };
-    let resampled = session.streams.is_some().then(|| session.at_latency_within(tau, range));
+    let rates = match levels::clock_rate_held(session, config) {
+        None => (-config.clock_rate_bound_ppm, config.clock_rate_bound_ppm),
+        Some(_) => (clock.rate_ppm, clock.rate_ppm),
+    };
+    let resampled = session.streams.is_some().then(|| session.at_clock_within(clock, range, rates));
     let (session, left_out) = match &resampled {
         Some((s, warnings)) => (s, warnings.iter().map(|w| w.to_string()).collect()),
         None => (session, Vec::new()),

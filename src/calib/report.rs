@@ -263,15 +263,32 @@ pub struct MarkerReport {
     pub std_error_mm: Option<[f64; 3]>,
 }
 
-/// The camera's latency behind the encoders, for a free-motion recording.
+/// The camera's latency behind the encoders, for a free-motion recording: at the encoders' time
+/// 0 (with the clock rate, it is `value_s + ρ·10⁻⁶·t` at time `t`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Latency {
-    /// The latency (s): estimated, or as given when frozen.
+    /// The latency (s) at the encoders' time 0: estimated, or as given when frozen.
     pub value_s: f64,
     /// Its standard error (s); `None` when frozen or at its bound.
     pub std_error_s: Option<f64>,
     /// It ended at its bound, `±latency_bound_s`: the data want it further.
     pub at_bound: bool,
+}
+
+/// How much faster the camera's clock runs than the encoders', for a free-motion recording.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ClockRate {
+    /// The rate difference (ppm): estimated, or as held.
+    pub value: f64,
+    /// Its standard error (ppm); `None` when held or at its bound.
+    pub std_error: Option<f64>,
+    /// It ended at its bound, `±clock_rate_bound_ppm`: the data want it further.
+    pub at_bound: bool,
+    /// Held, not fitted: `frozen` (the config), `short_recording` (shorter than
+    /// `clock_rate_min_duration_s`) or `orientations` (the orientation-level fit holds it).
+    pub held: Option<&'static str>,
+    /// The camera time the recording spans, first frame to last (s).
+    pub span_s: f64,
 }
 
 /// One stage of a calibration: what it did, the fit iterations it took and its wall-clock time.
@@ -341,6 +358,14 @@ pub struct FastCapture {
 pub struct MarkerFitReport {
     /// The camera latency of a free-motion recording.
     pub latency: Option<Latency>,
+    /// The camera clock's rate of a free-motion recording.
+    pub clock_rate_ppm: Option<ClockRate>,
+    /// The latency each part of a free-motion recording implies, in time bins: `[t, latency,
+    /// standard error]` (s), `t` the bin's time on the encoders' clock — the fitted latency there
+    /// plus the one-parameter step the bin's residuals ask for (everything else held), so that a
+    /// clock running at another rate shows as a slope, whether or not the fit estimated it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub apparent_latency: Vec<[f64; 3]>,
     /// The camera model.
     pub camera_model: CameraModelReport,
     /// Marker observations fitted.
@@ -453,7 +478,8 @@ pub struct CalibrationReport {
     /// session's workspace, as `compare` measures it (up to the common rotations no measurement
     /// sees), from the parameter covariance; the same definition at both fit levels.
     pub predicted_error_deg: Option<PredictedError>,
-    /// The same for the markers' positions, mm (marker-level fit).
+    /// The same for the markers' positions, mm (marker-level fit) — px for a session seen through its
+    /// cameras' pixels (the reprojection of the markers; `unit` says which).
     pub predicted_error_mm: Option<PredictedError>,
     /// Residual standard deviation per camera axis, degrees, by the number of markers seen:
     /// `(markers, poses, [σx, σy, σz])` (orientation-level fit).

@@ -29,13 +29,17 @@ pub enum EvalError {
     #[error("the parameters do not make a valid manipulator: {0}")]
     /// The parameters make no valid manipulator.
     Geometry(SpmError),
-    #[error("pose {pose}: at a camera latency of {latency_s} s its frame falls outside the encoder stream")]
-    /// A frame falls outside the encoder stream at the latency tried.
+    #[error(
+        "pose {pose}: at a camera latency of {latency_s} s (at time 0) and a clock rate of {clock_rate_ppm} ppm its frame falls outside the encoder stream"
+    )]
+    /// A frame falls outside the encoder stream at the camera clock tried.
     OutsideStream {
         /// Pose (frame) id.
         pose: u64,
-        /// The latency tried (s).
+        /// The latency tried (s, at the encoders' time 0).
         latency_s: f64,
+        /// The clock's rate difference tried (ppm).
+        clock_rate_ppm: f64,
     },
     #[error("pose {pose}: the marker falls behind camera {camera} of the rig")]
     /// A marker the model puts behind a camera that saw it.

@@ -86,7 +86,8 @@ impl<'a> Frames<'a> {
             | Kind::Marker { .. }
             | Kind::CameraTerm { .. }
             | Kind::Rig { .. }
-            | Kind::Latency => 0.0,
+            | Kind::Latency
+            | Kind::ClockRate => 0.0,
         }
     }
 }

@@ -396,6 +396,76 @@ fn the_latency_column_of_the_jacobian_matches_central_differences() {
     assert_eq!(agree, observations.len(), "{agree} of {} frames agree", observations.len());
 }
 
+#[test]
+fn the_clock_rate_and_latency_columns_match_central_differences_on_a_drifting_clock() {
+    // 10 s of the shipped recording's settings, its camera clock 300 ppm fast (3 ms over 10 s).
+    let (session, model) = free_motion(10.0, 20.0);
+    let (recording, _) = session.at_clock(0.04, 300.0);
+    let truth = session.truth.as_ref().unwrap();
+    let markers: Vec<_> = model.markers.iter().map(|m| m.position).collect();
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &truth.parameters.camera.unwrap(),
+        &markers,
+        &recording.markers,
+        CameraModel::rigid(),
+        &CalibConfig::default().bounds,
+    )
+    .with_latency(0.04, 0.2)
+    .with_clock_rate(300.0, 500.0, 10.0);
+    let (tau, rate) = (p.len() - 2, p.len() - 1);
+    assert_eq!((p.entries[tau].name.as_str(), p.entries[rate].name.as_str()), ("camera.latency", "camera.clock_rate"));
+    let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-4 * ((i * 5 + 1) as f64).sin());
+    let clock = p.clock(&x);
+    let streams = recording.streams.as_ref().unwrap();
+    let (observations, _) = MarkerObservation::of_session(&recording, &model.spm);
+    // The analytic columns use the joint velocity over ±10 ms (`VELOCITY_WINDOW_S`), and the
+    // slope of one 1 ms interval is quantisation, not motion: each frame is differenced between
+    // the steps that read it exactly 10 ms either side, as the latency's test does. For the
+    // latency, ∓0.01·(1 + r); for the rate r = ρ·10⁻⁶, which reads `e = c / (1 + r)` (`c = t − τ`),
+    // `1 + r + h± = c / (e ∓ 0.01)`: a secant over `h₊ + h₋`, whose slope in `e` differs from
+    // `∂e/∂r = −e / (1 + r)` by a relative `O(h / (1 + r))` ≤ 0.3 % from 4 s on. Frames from 4 s
+    // on, and 50 ms inside the stream's end.
+    let end = streams.encoders[streams.encoders.len() - 1].time_s - 0.05;
+    let mut checked = 0;
+    for frame in observations.chunk_by(|a, b| a.pose == b.pose).step_by(7) {
+        let e = clock.encoder_time(frame[0].time_s.unwrap());
+        if !(4.0..end).contains(&e) {
+            continue;
+        }
+        let m = MarkerResiduals::new(&p, frame).with_streams(streams);
+        let at = m.evaluate(&x, None, true).unwrap();
+        let jac = at.jacobian.unwrap();
+        let stretch = 1.0 + clock.rate_ppm * 1e-6;
+        let c = e * stretch;
+        // The rate's entry is the drift over the span T = 10 s, r·T.
+        let span = p.clock_rate_span_s;
+        let drift = |r: f64| r * span;
+        for (i, up, down) in [
+            (tau, 0.01 * stretch, 0.01 * stretch),
+            (rate, drift(c / (e - 0.01) - stretch), drift(stretch - c / (e + 0.01))),
+        ] {
+            let (mut plus, mut minus) = (x.clone(), x.clone());
+            plus[i] += up;
+            minus[i] -= down;
+            let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+            let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+            for j in 0..frame.len() {
+                let numeric = (rp[j] - rm[j]) / (up + down);
+                let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+                // Up to the curvature of the motion over ±10 ms (as for the latency alone): 1%.
+                assert!(
+                    (numeric - analytic).norm() <= 0.01 * analytic.norm() + 1e-6,
+                    "{} at {e:.2} s: {numeric} vs {analytic}",
+                    p.entries[i].name
+                );
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked} frames checked");
+}
+
 /// The six directions the parameterisation fixes (the gauge), as extra Jacobian columns: `jac`
 /// with six columns added: the central-difference derivatives of the residuals along tilts
 /// of `u_1` (2), of `u_2` out of its plane with `u_1` (1; for a coaxial SPM, a turn of leg 1's

@@ -106,19 +106,21 @@ impl SessionArgs {
     }
 
     /// Load the session, printing its warnings on standard error; the warnings also go to `--json`.
-    /// The session at a parameters file's camera latency (a free-motion recording), and a warning
-    /// when frames fall outside the encoder stream there (printed, and added to `warnings`).
+    /// The session at a parameters file's camera clock (a free-motion recording: its latency and
+    /// clock rate), and a warning when frames fall outside the encoder stream there (printed, and
+    /// added to `warnings`).
     pub(crate) fn at_latency(
         session: Session,
         params: &std::path::Path,
-        latency_s: Option<f64>,
+        parameters: &Parameters,
         warnings: &mut Vec<String>,
     ) -> Session {
-        let Some(latency_s) = latency_s.filter(|_| session.streams.is_some()) else { return session };
-        let (moved, dropped) = session.at_latency(latency_s);
+        let Some(latency_s) = parameters.latency_s.filter(|_| session.streams.is_some()) else { return session };
+        let rate_ppm = parameters.clock_rate_ppm.unwrap_or(0.0);
+        let (moved, dropped) = session.at_clock(latency_s, rate_ppm);
         if let Some(first) = dropped.first() {
             let warning = format!(
-                "{}: at its latency_s = {latency_s} s, {} of {} camera frames fall outside the encoder stream and were left out (first: {}:{})",
+                "{}: at its latency_s = {latency_s} s and clock_rate_ppm = {rate_ppm}, {} of {} camera frames fall outside the encoder stream and were left out (first: {}:{})",
                 params.display(),
                 dropped.len(),
                 moved.poses.len() + dropped.len(),
@@ -129,6 +131,20 @@ impl SessionArgs {
             warnings.push(warning);
         }
         moved
+    }
+
+    /// `--cameras`: the pixel session seen through that camchain instead of its own (a session of
+    /// points has no pixels to see: an error naming it).
+    pub(crate) fn seen_through(&self, session: Session, cameras: Option<&std::path::Path>) -> Result<Session> {
+        match cameras {
+            Some(path) if session.rig.is_none() => anyhow::bail!(
+                "--cameras {}: {} is a session of points, not pixels (pixels.csv + cameras.yaml): there are no pixels to see through a rig",
+                path.display(),
+                self.dataset.display()
+            ),
+            Some(path) => Ok(session.seen_through(&spmcal::model::Rig::read(path)?)),
+            None => Ok(session),
+        }
     }
 
     /// The session as the camera model of the parameters file at `params` corrects it (every

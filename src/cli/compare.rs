@@ -70,20 +70,12 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     // The model's own camera model (an exported calibration carries one) corrects its markers.
     let nominal = Parameters { camera_model: model.camera_model, ..Parameters::nominal(&model.spm, None) };
     let mut sets = vec![("nominal".to_string(), nominal)];
-    let mut session = match &args.cameras {
-        Some(path) if session.rig.is_none() => anyhow::bail!(
-            "--cameras {}: {} is a session of points, not pixels (pixels.csv + cameras.yaml): there are no pixels to see through a rig",
-            path.display(),
-            args.session.dataset.display()
-        ),
-        Some(path) => session.seen_through(&spmcal::model::Rig::read(path)?),
-        None => session,
-    };
+    let mut session = args.session.seen_through(session, args.cameras.as_deref())?;
     if let Some(path) = &args.params {
         let params = Parameters::read(path)?;
         warnings.extend(params.check_model(path, &model)?);
         // A free-motion recording is drawn at the parameters' latency.
-        session = SessionArgs::at_latency(session, path, params.latency_s, &mut warnings);
+        session = SessionArgs::at_latency(session, path, &params, &mut warnings);
         let label = format!("{:?}", params.source).to_lowercase();
         sets.push((label, params));
     }

@@ -49,7 +49,7 @@ pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     let (mut session, mut warnings) = args.session.load()?;
     if let Some(path) = &args.params {
         let p = Parameters::read(path)?;
-        session = SessionArgs::at_latency(session, path, p.latency_s, &mut warnings);
+        session = SessionArgs::at_latency(session, path, &p, &mut warnings);
         session = SessionArgs::corrected(session, path, &p)?;
     }
     let method: Method = args.method.into();

@@ -19,6 +19,11 @@ pub(crate) struct ReplayArgs {
     /// markers; default: the nominal model and the markers as measured.
     #[arg(long)]
     pub(crate) params: Option<PathBuf>,
+    /// A session seen through its cameras' pixels: see them through this rig instead of the
+    /// session's cameras.yaml (a Kalibr camchain, e.g. the one `calibrate --cameras-out` wrote):
+    /// its cameras' image planes, and the points it triangulates.
+    #[arg(long)]
+    pub(crate) cameras: Option<PathBuf>,
     /// The recording to write.
     #[arg(long)]
     pub(crate) rrd: PathBuf,
@@ -32,6 +37,7 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     files.output("--rrd", &args.rrd);
     args.session.register(&mut files, true);
     files.input_opt("--params", args.params.as_deref());
+    files.input_opt("--cameras", args.cameras.as_deref());
     files.check()?;
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(&args.rrd)?;
@@ -39,10 +45,10 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let params = args.params.as_deref().map(Parameters::read).transpose()?;
-    let mut session = session;
+    let mut session = args.session.seen_through(session, args.cameras.as_deref())?;
     if let (Some(path), Some(p)) = (&args.params, &params) {
         warnings.extend(p.check_model(path, &model)?);
-        session = SessionArgs::at_latency(session, path, p.latency_s, &mut warnings);
+        session = SessionArgs::at_latency(session, path, p, &mut warnings);
         session = SessionArgs::corrected(session, path, p)?;
     }
     let summary = record(&outputs, slot, &spmcal::record::Scene::replay(&session, &model, params.as_ref())?)?;

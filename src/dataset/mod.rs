@@ -16,4 +16,4 @@ pub(crate) use pixels::{PixelRow, triangulate};
 pub(crate) use session::MIN_MARKERS;
 pub use session::{Session, SessionPose, Truth, Warning};
 pub use streams::Streams;
-pub(crate) use streams::{Capture, EncoderSample};
+pub(crate) use streams::{Capture, Clock, EncoderSample};

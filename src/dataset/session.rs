@@ -39,7 +39,7 @@ use super::pixels::SeenPixel;
 use super::pixels::{
     PixelRow, check_rows, pose_pixels_csv, read_pose_pixels, timed_pixels_csv, triangulate, unmet_message,
 };
-use super::streams::{StreamLimits, Streams, Unmet, captures_csv, encoders_csv};
+use super::streams::{Clock, StreamLimits, Streams, Unmet, captures_csv, encoders_csv};
 use crate::io::files::{FileError, in_parallel, relative_path, write_atomic};
 use crate::io::table::first_repeat;
 use crate::math::constellation::{self, MARKER_NOISE_M};
@@ -411,24 +411,53 @@ impl Session {
     /// stream at that latency are left out, each with a warning naming its `captures.csv` line.
     /// A session without streams is returned as it is.
     pub fn at_latency(&self, latency_s: f64) -> (Session, Vec<Warning>) {
-        self.at_latency_within(latency_s, (latency_s, latency_s))
+        self.at_clock(latency_s, 0.0)
     }
 
     /// As [`Session::at_latency`], keeping only the frames that lie inside the encoder stream for
     /// every latency in `range` (`lo ≤ latency_s ≤ hi`): a fit that estimates the latency within
     /// those bounds then works on the same frames whatever value it tries.
-    pub fn at_latency_within(&self, latency_s: f64, (lo, hi): (f64, f64)) -> (Session, Vec<Warning>) {
+    pub fn at_latency_within(&self, latency_s: f64, range: (f64, f64)) -> (Session, Vec<Warning>) {
+        self.at_clock_within(Clock::latency(latency_s), range, (0.0, 0.0))
+    }
+
+    /// As [`Session::at_latency`] for a camera clock that also runs `rate_ppm` faster than the
+    /// encoders': each frame's joints at the encoders' time of its stamp `t`,
+    /// `(t − latency_s) / (1 + rate_ppm·10⁻⁶)` (`latency_s` the latency at the encoders' time 0).
+    pub fn at_clock(&self, latency_s: f64, rate_ppm: f64) -> (Session, Vec<Warning>) {
+        self.at_clock_within(Clock { latency_s, rate_ppm }, (latency_s, latency_s), (rate_ppm, rate_ppm))
+    }
+
+    /// As [`Session::at_clock`], keeping only the frames that lie inside the encoder stream for
+    /// every clock with its latency in `latency` and its rate in `rate_ppm` (`lo ≤ hi` each): a
+    /// fit that estimates them within those bounds then works on the same frames whatever values
+    /// it tries. (The encoders' time of a stamp moves monotonically with each, so the four
+    /// corners of the box bound it.)
+    pub(crate) fn at_clock_within(
+        &self,
+        clock: Clock,
+        (lo, hi): (f64, f64),
+        (slow, fast): (f64, f64),
+    ) -> (Session, Vec<Warning>) {
         let Some(streams) = &self.streams else { return (self.clone(), Vec::new()) };
         let m = self.markers.len();
         let (mut poses, mut warnings): (Vec<SessionPose>, Vec<Warning>) = (Vec::new(), Vec::new());
         for frame in streams.frames() {
             let time = frame.time_s;
-            let inside = streams.joints_at(time - lo).and(streams.joints_at(time - hi));
-            let Some(joints) = inside.and(streams.joints_at(time - latency_s)) else {
-                let at = if lo == hi {
-                    format!("at a latency of {lo} s")
-                } else {
-                    format!("for a latency in [{lo}, {hi}] s")
+            let corners = [(lo, slow), (lo, fast), (hi, slow), (hi, fast)];
+            let inside = corners.iter().all(|&(latency_s, rate_ppm)| {
+                streams.joints_at(Clock { latency_s, rate_ppm }.encoder_time(time)).is_some()
+            });
+            let Some(joints) = streams.joints_at(clock.encoder_time(time)).filter(|_| inside) else {
+                let at = match (lo == hi, slow == fast) {
+                    (true, true) if slow == 0.0 => format!("at a latency of {lo} s"),
+                    (true, true) => format!("at a latency of {lo} s and a clock rate of {slow} ppm"),
+                    (false, true) if slow == 0.0 => format!("for a latency in [{lo}, {hi}] s"),
+                    (false, true) => format!("for a latency in [{lo}, {hi}] s at a clock rate of {slow} ppm"),
+                    (true, false) => format!("at a latency of {lo} s for a clock rate in [{slow}, {fast}] ppm"),
+                    (false, false) => {
+                        format!("for a latency in [{lo}, {hi}] s and a clock rate in [{slow}, {fast}] ppm")
+                    }
                 };
                 warnings.push(Warning {
                     path: streams.captures_path.clone(),

@@ -5,8 +5,10 @@
 //! `cameras.yaml` instead of `captures.csv`: the streams then keep the pixel rows, and as captures
 //! the points the rig triangulates from each capture's pixels.
 //!
-//! A capture stamped `t` on the camera's clock was taken at `t − τ` on the encoders' clock (τ the
-//! camera's latency), where the joints are interpolated linearly between the two samples around it.
+//! A capture stamped `t` on the camera's clock was taken at `(t − τ) / (1 + ρ·10⁻⁶)` on the
+//! encoders' clock ([`Clock`]: τ the camera's latency at the encoders' time 0, ρ the rate
+//! difference of the two clocks in ppm, 0 unless fitted), where the joints are interpolated
+//! linearly between the two samples around it.
 //! Every problem is an error naming the file, line and column: time stamps that do not increase,
 //! a gap in the encoder stream longer than the limit (the interpolation would bridge motion it
 //! never saw), a capture outside the encoder stream for every latency within the bound.
@@ -52,6 +54,34 @@ pub(crate) const MIN_FRAMES: usize = 3;
 
 /// Half-width of the window over which the joint velocity is taken (s).
 pub(crate) const VELOCITY_WINDOW_S: f64 = 0.01;
+
+/// The camera's clock against the encoders': a capture stamped `t` on the camera's clock was
+/// taken at `(t − τ) / (1 + ρ·10⁻⁶)` on the encoders' clock.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Clock {
+    /// τ: the latency at the encoders' time 0 (s).
+    pub(crate) latency_s: f64,
+    /// ρ: how much faster the camera's clock runs (ppm).
+    pub(crate) rate_ppm: f64,
+}
+
+impl Clock {
+    /// A clock that runs at the encoders' rate, `latency_s` behind them.
+    pub(crate) fn latency(latency_s: f64) -> Self {
+        Clock { latency_s, rate_ppm: 0.0 }
+    }
+
+    /// The encoders' time of a capture stamped `camera_time_s`.
+    pub(crate) fn encoder_time(&self, camera_time_s: f64) -> f64 {
+        (camera_time_s - self.latency_s) / (1.0 + self.rate_ppm * 1e-6)
+    }
+
+    /// The latency at the encoders' time `encoder_time_s`: `τ + ρ·10⁻⁶·t` (a capture taken then
+    /// is stamped that much later).
+    pub(crate) fn latency_at(&self, encoder_time_s: f64) -> f64 {
+        self.latency_s + self.rate_ppm * 1e-6 * encoder_time_s
+    }
+}
 
 /// Limits a recording must meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -301,9 +331,23 @@ impl Streams {
         })
     }
 
+    /// The camera time from the recording's first frame to its last (s).
+    pub(crate) fn camera_span_s(&self) -> f64 {
+        let times = self.captures.iter().map(|c| c.time_s).chain(self.pixels.iter().map(|p| p.at));
+        let (first, last) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
+        (last - first).max(0.0)
+    }
+
     /// How many encoder samples the recording holds.
     pub fn encoder_count(&self) -> usize {
         self.encoders.len()
+    }
+
+    /// The pixels of a recording seen through its cameras (`pixels.csv`'s rows, time
+    /// non-decreasing): each as its capture's time on the camera's clock (s) and what was seen;
+    /// nothing for a recording of points.
+    pub fn pixels(&self) -> impl Iterator<Item = (f64, &super::SeenPixel)> {
+        self.pixels.iter().map(|r| (r.at, &r.seen))
     }
 
     /// How many marker captures the recording holds.

@@ -9,6 +9,7 @@
 //! | positions (`t_cb_m`, marker positions, their standard errors) | finite, within [`MAX_POSITION_M`] of O | a joystick and a camera on a desk; beyond is a unit error |
 //! | `r_cb_wxyz` | finite, unit within 1e-6 | as `so3::from_wxyz` accepts |
 //! | `latency_s` | finite, within ±[`MAX_LATENCY_S`] | the latency bound a recording is loaded with |
+//! | `clock_rate_ppm` | finite, within ±[`MAX_CLOCK_RATE_PPM`] | quartz clocks differ by tens of ppm; a thousand is a broken clock or a wrong unit |
 
 use std::path::Path;
 
@@ -28,6 +29,11 @@ pub(crate) const MAX_OFFSET_DEG: f64 = 360.0;
 /// searched for it when loaded (`StreamLimits::default().latency_bound_s`); a parameters file
 /// with a larger one would drop most frames of any recording.
 pub(crate) const MAX_LATENCY_S: f64 = 0.2;
+
+/// Largest rate difference (ppm), either sign, of a camera's clock from the encoders': free-running
+/// quartz clocks differ by tens of ppm (±100 ppm is a poor crystal's tolerance); a thousand is a
+/// broken clock, or a rate written in another unit.
+pub(crate) const MAX_CLOCK_RATE_PPM: f64 = 1000.0;
 
 /// Largest departure of a camera model's term from a perfect camera's (a scale of 1 ± this, a
 /// shear of this): a camera whose depths read half again too long is broken, not miscalibrated.

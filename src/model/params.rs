@@ -1,6 +1,6 @@
 //! The parameters file (`params.yaml`): per-leg geometry, optional camera registration,
 //! and a header saying where it came from; a fit adds the markers' positions and a free-motion
-//! recording the camera's latency. Angles are degrees (`_deg`), lengths metres (`_m`), times
+//! recording the camera's latency (at the encoders' time 0) and its clock's rate difference. Angles are degrees (`_deg`), lengths metres (`_m`), times
 //! seconds (`_s`).
 //!
 //! ```yaml
@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use super::camera::{CameraModel, CameraModelKind, CameraTerm};
 use super::geometry::{GeometryError, HomeBranch, LegGeometry};
-use super::limits::{MAX_CAMERA_TERM, MAX_LATENCY_S, MAX_POSITION_M, Ranges};
+use super::limits::{MAX_CAMERA_TERM, MAX_CLOCK_RATE_PPM, MAX_LATENCY_S, MAX_POSITION_M, Ranges};
 use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
 #[cfg(feature = "full")]
@@ -103,8 +103,12 @@ pub struct Parameters {
     /// empty: the model's companion holds them.
     pub markers: Vec<MarkerPosition>,
     /// The camera's latency behind the encoders (s), when fitted (or simulated) from a
-    /// free-motion recording.
+    /// free-motion recording: at the encoders' time 0 when the camera's clock runs at its own rate.
     pub latency_s: Option<f64>,
+    /// How much faster the camera's clock runs than the encoders' (ppm), when fitted (or
+    /// simulated, or held) with the latency: a capture stamped `t` was taken at
+    /// `(t − latency) / (1 + rate·10⁻⁶)` on the encoders' clock. Absent: 0.
+    pub clock_rate_ppm: Option<f64>,
     /// Statistics of the fit that produced the file (informational).
     pub fit: Option<serde_yaml::Value>,
 }
@@ -347,6 +351,8 @@ struct ParametersRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     latency_s: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    clock_rate_ppm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     fit: Option<serde_yaml::Value>,
 }
 
@@ -361,6 +367,7 @@ impl Parameters {
             camera_model: CameraModel::rigid(),
             markers: Vec::new(),
             latency_s: None,
+            clock_rate_ppm: None,
             fit: None,
         }
     }
@@ -470,6 +477,14 @@ impl Parameters {
             };
             return Err(check.error("latency_s", reason));
         }
+        if let Some(rate) = record.clock_rate_ppm
+            && !(rate.is_finite() && rate.abs() <= MAX_CLOCK_RATE_PPM)
+        {
+            let reason = format!(
+                "`clock_rate_ppm` = {rate}: a camera clock's rate difference must be a finite number within ±{MAX_CLOCK_RATE_PPM} ppm (quartz clocks differ by tens of ppm)"
+            );
+            return Err(check.error("clock_rate_ppm", reason));
+        }
         Ok(Parameters {
             source: record.source,
             model: record.model,
@@ -478,6 +493,7 @@ impl Parameters {
             camera_model,
             markers,
             latency_s: record.latency_s,
+            clock_rate_ppm: record.clock_rate_ppm,
             fit: record.fit,
         })
     }
@@ -515,6 +531,7 @@ impl Parameters {
                 })
                 .collect(),
             latency_s: self.latency_s,
+            clock_rate_ppm: self.clock_rate_ppm,
             fit: self.fit.clone(),
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");

@@ -3,9 +3,9 @@
 use std::path::Path;
 
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
-use rerun::{Arrows3D, Color, LineStrips3D, Points3D, Scalars, TextDocument, Transform3D};
+use rerun::{Arrows3D, Color, LineStrips3D, Pinhole, Points2D, Points3D, Scalars, TextDocument, Transform3D};
 
-use super::scene::{FIT_TABLE, RecordError, Scene};
+use super::scene::{FIT_TABLE, ImagePlanes, RecordError, Scene};
 use crate::model::Spm;
 use crate::report::tables;
 
@@ -47,6 +47,28 @@ fn colour(name: &str) -> Color {
         "truth" => Color::from_rgb(40, 110, 230),
         _ => Color::from_rgb(180, 60, 180),
     }
+}
+
+/// The colour of a layer of pixels in an image plane.
+fn pixel_colour(name: &str) -> Color {
+    match name {
+        "measured" => Color::from_rgb(240, 140, 20),
+        "predicted" => Color::from_rgb(40, 170, 80),
+        "nominal" => Color::from_rgb(150, 150, 150),
+        _ => Color::from_rgb(180, 60, 180),
+    }
+}
+
+/// The entity of camera `name`'s image plane (a Pinhole, placed relative to cam0, the camera
+/// frame `world/camera`).
+pub(crate) fn image_plane(name: &str) -> String {
+    format!("world/camera/{name}")
+}
+
+/// A pixel in Rerun's image coordinates: Kalibr's (and OpenCV's) put the top-left pixel's centre
+/// at (0, 0), Rerun puts the image's top-left corner there (that pixel's centre at (0.5, 0.5)).
+fn rerun_pixel(u: f64, v: f64) -> [f32; 2] {
+    [(u + 0.5) as f32, (v + 0.5) as f32]
 }
 
 fn axes(length: f32) -> Arrows3D {
@@ -96,6 +118,9 @@ impl Logger<'_> {
             self.log_static("world/camera/axes", &axes(0.1))?;
             self.log_static("world/camera/centre", &Points3D::new([[0.0f32, 0.0, 0.0]]).with_labels(["camera"]))?;
         }
+        if let Some(planes) = &scene.image_planes {
+            self.image_planes(planes)?;
+        }
         for (name, text) in &scene.documents {
             self.log_static(
                 &format!("parameters/{name}"),
@@ -111,6 +136,64 @@ impl Logger<'_> {
                 let entity = format!("world/mp/{}/markers", frame.name);
                 self.log_static(&entity, &LineStrips3D::new([outline.clone()]).with_colors([colour(&frame.name)]))?;
                 self.log_static(&format!("world/mp/{}/axes", frame.name), &axes(0.06))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Each camera of a pixel session as a Pinhole (its intrinsics and resolution; Rerun draws
+    /// no distortion) placed relative to cam0 by the rig.
+    fn image_planes(&self, planes: &ImagePlanes) -> Result<(), RecordError> {
+        for (c, camera) in planes.rig.cameras.iter().enumerate() {
+            let entity = image_plane(&camera.name);
+            // The camera's own frame in cam0's: the inverse of cam0 → camera.
+            let pose = planes.rig.from_cam0(c).inverse();
+            let q = pose.rotation;
+            let rotation = rerun::Quaternion::from_xyzw([q.i as f32, q.j as f32, q.k as f32, q.w as f32]);
+            self.log_static(
+                &entity,
+                &Transform3D::from_translation_rotation(f32x3(&pose.translation.vector), rotation),
+            )?;
+            let [fu, fv, pu, pv] = camera.lens.intrinsics;
+            let [pu, pv] = rerun_pixel(pu, pv);
+            let [width, height] = camera.lens.resolution;
+            let pinhole = Pinhole::new([[fu as f32, 0.0, 0.0], [0.0, fv as f32, 0.0], [pu, pv, 1.0]])
+                .with_resolution([width as f32, height as f32])
+                .with_camera_xyz(rerun::components::ViewCoordinates::RDF)
+                .with_image_plane_distance(0.05f32);
+            self.log_static(&entity, &pinhole)?;
+            // The image's edges, so that the 2-D view shows where in the image the markers are.
+            let (w, h) = (width as f32, height as f32);
+            self.log_static(
+                &format!("{entity}/border"),
+                &rerun::LineStrips2D::new([[[0.0, 0.0], [w, 0.0], [w, h], [0.0, h], [0.0, 0.0]]])
+                    .with_colors([Color::from_rgb(110, 110, 110)]),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// A pose's pixels in every camera's image plane, one entity per layer (empty where the
+    /// camera saw nothing, so that no pose shows another's).
+    fn pose_pixels(&self, scene: &Scene, planes: &ImagePlanes, pose: u64) -> Result<(), RecordError> {
+        for layer in &planes.layers {
+            let pixels = layer.pixels.get(&pose).map_or(&[][..], Vec::as_slice);
+            for (c, camera) in planes.rig.cameras.iter().enumerate() {
+                let (points, labels): (Vec<[f32; 2]>, Vec<String>) = pixels
+                    .iter()
+                    .filter(|(camera, _, _)| *camera == c)
+                    .map(|(_, m, p)| {
+                        (rerun_pixel(p.x, p.y), scene.session.markers.get(*m).cloned().unwrap_or_default())
+                    })
+                    .unzip();
+                // The measured pixels carry the markers' names; the predictions beside them are
+                // smaller and unlabelled (three labels a marker would hide the points).
+                let measured = layer.name == "measured";
+                let entity = format!("{}/{}", image_plane(&camera.name), layer.name);
+                let points = Points2D::new(points)
+                    .with_colors([pixel_colour(&layer.name)])
+                    .with_radii([rerun::Radius::new_ui_points(if measured { 4.0 } else { 2.5 })]);
+                self.log(&entity, &if measured { points.with_labels(labels) } else { points })?;
             }
         }
         Ok(())
@@ -168,6 +251,9 @@ impl Logger<'_> {
                         .with_colors([Color::from_rgb(240, 140, 20)])
                         .with_radii([0.006f32]),
                 )?;
+            }
+            if let Some(planes) = &scene.image_planes {
+                self.pose_pixels(scene, planes, pose.id)?;
             }
             for frame in &scene.frames {
                 if let Some(r) = frame.rotations.get(&pose.id) {

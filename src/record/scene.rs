@@ -27,6 +27,27 @@ pub(crate) struct Series {
     pub(crate) values: BTreeMap<u64, f64>,
 }
 
+/// Pixels of one source (`measured`, `predicted`, `nominal`, …) in a pixel session's image
+/// planes: per pose, `(camera, marker, pixel)` in Kalibr's pixel coordinates (the top-left
+/// pixel's centre at (0, 0)).
+#[derive(Debug, Clone)]
+pub(crate) struct PixelLayer {
+    /// Entity name under `world/camera/<camera>/`.
+    pub(crate) name: String,
+    /// The pixels, by pose.
+    pub(crate) pixels: BTreeMap<u64, Vec<(usize, usize, nalgebra::Vector2<f64>)>>,
+}
+
+/// A pixel session's cameras: the rig that places and draws their image planes (each a Pinhole
+/// under `world/camera/<camera>`) and the pixels shown in them.
+#[derive(Debug, Clone)]
+pub(crate) struct ImagePlanes {
+    /// The rig drawn (the refined one after a calibration).
+    pub(crate) rig: crate::model::Rig,
+    /// What is drawn in every camera's image, measured first.
+    pub(crate) layers: Vec<PixelLayer>,
+}
+
 /// Everything one recording shows.
 pub struct Scene<'a> {
     /// The session recorded.
@@ -51,6 +72,8 @@ pub struct Scene<'a> {
     /// The markers' fitted positions in P (marker-level calibration): the predicted markers use
     /// them, and the model's positions are drawn beside them.
     pub fitted_markers: Option<Vec<nalgebra::Vector3<f64>>>,
+    /// A pixel session's image planes (none for a session of points).
+    pub(crate) image_planes: Option<ImagePlanes>,
 }
 
 /// What was written.

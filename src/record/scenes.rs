@@ -3,14 +3,14 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Rotation3, Vector2, Vector3};
 
-use super::scene::{PoseFrames, Scene, Series};
+use super::scene::{ImagePlanes, PixelLayer, PoseFrames, Scene, Series};
 use crate::calib::FitLevel as Level;
 use crate::calib::{Calibration, Fitted, marker_pose_errors, observations, per_pose_rms, registration};
 use crate::compare::SetComparison;
 use crate::dataset::Session;
-use crate::model::{CameraModel, CameraRegistration, Parameters, RobotModel, Spm};
+use crate::model::{CameraModel, CameraRegistration, Parameters, Rig, RobotModel, Spm};
 use crate::report::tables;
 use crate::vision::{MarkerError, Method, SessionEstimate, VisionError};
 
@@ -131,7 +131,9 @@ impl Scene<'_> {
                     iterations: Vec::new(),
                     documents: vec![("used".to_string(), tables::parameters("Parameters used", p))],
                     fitted_markers: fitted_markers(session, p),
-                })
+                    image_planes: None,
+                }
+                .with_image_planes(None, None))
             }
             Err(e) => Err(e.into()),
         }
@@ -141,6 +143,58 @@ impl Scene<'_> {
 /// The marker positions a parameters file carries, in the session's marker order (all or none).
 fn fitted_markers(session: &Session, params: &Parameters) -> Option<Vec<nalgebra::Vector3<f64>>> {
     session.markers.iter().map(|name| params.marker(name)).collect()
+}
+
+/// A pixel session's measured pixels, pose by pose.
+fn measured_pixels(session: &Session) -> PixelLayer {
+    let pixels = session
+        .poses
+        .iter()
+        .map(|p| (p.id, p.pixels.iter().map(|s| (s.camera, s.marker, s.pixel)).collect()))
+        .collect();
+    PixelLayer { name: "measured".into(), pixels }
+}
+
+impl Scene<'_> {
+    /// A pixel session's image planes drawn through `rig` (the session's when `None`): the
+    /// measured pixels and, with a registration, where the scene's mechanism (forward kinematics
+    /// at each pose), markers (`markers`, else the scene's fitted ones, else the model's) and
+    /// registration put each of them (`predicted`). A session of points is left as it is.
+    fn with_image_planes(mut self, rig: Option<&Rig>, markers: Option<Vec<Vector3<f64>>>) -> Self {
+        let Some(rig) = rig.or(self.session.rig.as_deref()) else { return self };
+        let mut layers = vec![measured_pixels(self.session)];
+        let by_name = |name: &String| self.model.markers.iter().find(|m| &m.name == name).map(|m| m.position);
+        let markers: Option<Vec<Vector3<f64>>> = markers
+            .or_else(|| self.fitted_markers.clone())
+            .or_else(|| self.session.markers.iter().map(by_name).collect());
+        if let (Some(reg), Some(markers)) = (&self.registration, markers) {
+            let mut pixels = BTreeMap::new();
+            for pose in &self.session.poses {
+                let Ok(r) = self.mechanism.forward(&pose.joints) else { continue };
+                let seen = pose.pixels.iter().filter_map(|s| {
+                    let y = reg.to_camera(&(r * markers.get(s.marker)?));
+                    Some((s.camera, s.marker, rig.project(s.camera, &y)?.lens.pixel))
+                });
+                pixels.insert(pose.id, seen.collect());
+            }
+            layers.push(PixelLayer { name: "predicted".into(), pixels });
+        }
+        self.image_planes = Some(ImagePlanes { rig: rig.clone(), layers });
+        self
+    }
+}
+
+/// The pixels a marker-level calibration's observations predict with `residuals` (measured less
+/// residual), pose by pose; `measured` gives the observations' own pixels instead.
+fn fitted_pixels(name: &str, calibration: &Calibration, residuals: Option<&[Vector3<f64>]>) -> PixelLayer {
+    let mut pixels: BTreeMap<u64, Vec<(usize, usize, Vector2<f64>)>> = BTreeMap::new();
+    for (k, o) in marker_observations_of(calibration).iter().enumerate() {
+        let Some(camera) = o.camera else { continue };
+        let r = residuals.and_then(|r| r.get(k)).copied().unwrap_or_else(Vector3::zeros);
+        let pixel = Vector2::new(o.measured.x - r.x, o.measured.y - r.y);
+        pixels.entry(o.pose).or_default().push((camera, o.marker, pixel));
+    }
+    PixelLayer { name: name.into(), pixels }
 }
 
 impl Scene<'_> {
@@ -187,7 +241,9 @@ fn vision_scene<'a>(
         iterations: Vec::new(),
         documents,
         fitted_markers: params.and_then(|p| fitted_markers(session, p)),
-    })
+        image_planes: None,
+    }
+    .with_image_planes(None, None))
 }
 
 impl Scene<'_> {
@@ -218,7 +274,12 @@ impl Scene<'_> {
             iterations: Vec::new(),
             documents,
             fitted_markers: None,
-        })
+            image_planes: None,
+        }
+        .with_image_planes(
+            truth.and_then(|t| t.rig.as_ref()),
+            truth.and_then(|t| fitted_markers(session, &t.parameters)),
+        ))
     }
 }
 
@@ -255,6 +316,7 @@ impl Scene<'_> {
             iterations: Vec::new(),
             documents: vec![("uncertainty_map".into(), plan.uncertainty_map())],
             fitted_markers: None,
+            image_planes: None,
         })
     }
 }
@@ -279,26 +341,47 @@ fn marker_observations_of(calibration: &Calibration) -> &[crate::calib::MarkerOb
     }
 }
 
-/// Per-pose RMS (mm) over its markers of the distance between measured and predicted markers.
-fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
-    let values = per_pose_rms(marker_observations_of(calibration), residuals, 1e3).into_iter().collect();
-    Series { name: format!("markers_mm/{name}"), values }
+/// Whether a calibration fitted pixels (its residuals in px) rather than points (in m).
+fn fits_pixels(calibration: &Calibration) -> bool {
+    marker_observations_of(calibration).iter().any(|o| o.camera.is_some())
 }
 
-/// Each marker's residual (mm) at each pose that saw it.
+/// Per-pose RMS over its markers of the distance between measured and predicted markers: in mm
+/// (`markers_mm/NAME`), or for pixels in px (`pixels_px/NAME`).
+fn marker_series(name: &str, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Series {
+    let observations = marker_observations_of(calibration);
+    match fits_pixels(calibration) {
+        true => Series {
+            name: format!("pixels_px/{name}"),
+            values: per_pose_rms(observations, residuals, 1.0).into_iter().collect(),
+        },
+        false => Series {
+            name: format!("markers_mm/{name}"),
+            values: per_pose_rms(observations, residuals, 1e3).into_iter().collect(),
+        },
+    }
+}
+
+/// Each marker's residual at each pose that saw it: mm (`marker_residuals_mm/MARKER`), or for
+/// pixels the RMS over the cameras that saw it in px (`pixel_residuals_px/MARKER`).
 fn marker_residuals(session: &Session, calibration: &Calibration, residuals: &[nalgebra::Vector3<f64>]) -> Vec<Series> {
+    let pixels = fits_pixels(calibration);
     session
         .markers
         .iter()
         .enumerate()
         .map(|(k, name)| {
-            let values = marker_observations_of(calibration)
+            let (observations, residuals): (Vec<_>, Vec<_>) = marker_observations_of(calibration)
                 .iter()
                 .zip(residuals)
                 .filter(|(o, _)| o.marker == k)
-                .map(|(o, r)| (o.pose, r.norm() * 1e3))
-                .collect();
-            Series { name: format!("marker_residuals_mm/{name}"), values }
+                .map(|(o, r)| (*o, *r))
+                .unzip();
+            let (prefix, scale) = if pixels { ("pixel_residuals_px", 1.0) } else { ("marker_residuals_mm", 1e3) };
+            Series {
+                name: format!("{prefix}/{name}"),
+                values: per_pose_rms(&observations, &residuals, scale).into_iter().collect(),
+            }
         })
         .collect()
 }
@@ -333,10 +416,12 @@ impl Scene<'_> {
             series.extend(marker_residuals(session, calibration, after));
         }
         // The report's predicted error of the calibrated model at each pose (the same figures as
-        // `--json`'s `predicted_error_deg` / `predicted_error_mm`).
+        // `--json`'s `predicted_error_deg` / `predicted_error_mm`, the latter in px for a fit of
+        // pixels, and so recorded as `predicted_error_px`).
         let report = &calibration.report;
+        let markers = if fits_pixels(calibration) { "predicted_error_px" } else { "predicted_error_mm" };
         for (name, predicted) in
-            [("predicted_error_deg", &report.predicted_error_deg), ("predicted_error_mm", &report.predicted_error_mm)]
+            [("predicted_error_deg", &report.predicted_error_deg), (markers, &report.predicted_error_mm)]
         {
             if let Some(e) = predicted {
                 series.push(Series { name: name.into(), values: e.per_pose.iter().copied().collect() });
@@ -345,6 +430,18 @@ impl Scene<'_> {
         let fitted_markers = (!marker_observations_of(calibration).is_empty())
             .then(|| (0..p.markers0.len()).map(|k| p.marker(x, k)).collect());
         let after = tables::calibrated_parameters(calibration);
+        // A pixel session's image planes through the refined rig: the pixels the fit measured, and
+        // what the calibrated and the nominal model predict for them (measured less residual).
+        let refined = report.markers.as_ref().and_then(|m| m.rig.as_ref()).map(|r| &r.refined);
+        let image_planes =
+            refined.or(session.rig.as_deref()).filter(|_| fits_pixels(calibration)).map(|rig| ImagePlanes {
+                rig: rig.clone(),
+                layers: vec![
+                    fitted_pixels("measured", calibration, None),
+                    fitted_pixels("predicted", calibration, Some(&calibration.calibrated.residuals)),
+                    fitted_pixels("nominal", calibration, Some(&calibration.nominal.residuals)),
+                ],
+            });
         Ok(Scene {
             session,
             model,
@@ -371,6 +468,7 @@ impl Scene<'_> {
             )
             .collect(),
             fitted_markers,
+            image_planes,
         })
     }
 }
@@ -412,11 +510,12 @@ impl Scene<'_> {
     }
 }
 
-/// The entity of a comparison's per-pose errors: `fda_vs_vision/LABEL` (degrees) or
-/// `markers_mm/LABEL`.
+/// The entity of a comparison's per-pose errors: `fda_vs_vision/LABEL` (degrees),
+/// `markers_mm/LABEL`, or for a pixel session's reprojection error `pixels_px/LABEL`.
 fn comparison_series(r: &SetComparison) -> String {
-    match r.level {
-        Level::Orientations => format!("fda_vs_vision/{}", r.label),
-        Level::Markers => format!("markers_mm/{}", r.label),
+    match (r.level, r.unit) {
+        (Level::Orientations, _) => format!("fda_vs_vision/{}", r.label),
+        (Level::Markers, "px") => format!("pixels_px/{}", r.label),
+        (Level::Markers, _) => format!("markers_mm/{}", r.label),
     }
 }

@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use rerun::blueprint::{
-    Blueprint, BlueprintActivation, BlueprintPanel, Horizontal, SelectionPanel, Spatial3DView, Tabs, TextDocumentView,
-    TimePanel, TimeSeriesView, Vertical,
+    Blueprint, BlueprintActivation, BlueprintPanel, Horizontal, SelectionPanel, Spatial2DView, Spatial3DView, Tabs,
+    TextDocumentView, TimePanel, TimeSeriesView, Vertical,
 };
 
 use super::draw;
@@ -71,6 +71,18 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
             TimeSeriesView::new("calibrated residual per marker (mm)").with_origin("errors/marker_residuals_mm").into(),
         );
     }
+    if has("pixels_px") {
+        panels.push(
+            TimeSeriesView::new("FDA vs cameras, per pose (px RMS over its pixels)")
+                .with_origin("errors/pixels_px")
+                .into(),
+        );
+    }
+    if has("pixel_residuals_px") {
+        panels.push(
+            TimeSeriesView::new("calibrated residual per marker (px)").with_origin("errors/pixel_residuals_px").into(),
+        );
+    }
     if has("e_j") {
         panels.push(TimeSeriesView::new("e_j").with_origin("errors/e_j").into());
     }
@@ -85,6 +97,13 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
         panels.push(
             TimeSeriesView::new("predicted marker error after calibration (mm)")
                 .with_origin("errors/predicted_error_mm")
+                .into(),
+        );
+    }
+    if has("predicted_error_px") {
+        panels.push(
+            TimeSeriesView::new("predicted pixel error after calibration (px)")
+                .with_origin("errors/predicted_error_px")
                 .into(),
         );
     }
@@ -105,6 +124,16 @@ fn send_blueprint(rec: &rerun::RecordingStream, scene: &Scene) -> rerun::Recordi
         .with_origin("world")
         .with_contents(["$origin/**", "- $origin/camera/**"])
         .into();
+    // A pixel session: each camera's image plane (its measured and predicted pixels) below the
+    // 3-D view.
+    let images: Vec<rerun::blueprint::ContainerLike> = scene
+        .image_planes
+        .iter()
+        .flat_map(|planes| &planes.rig.cameras)
+        .map(|c| Spatial2DView::new(format!("{} (px)", c.name)).with_origin(draw::image_plane(&c.name)).into())
+        .collect();
+    let mechanism =
+        if images.is_empty() { mechanism } else { Vertical::new([mechanism, Horizontal::new(images).into()]).into() };
     let layout: rerun::blueprint::ContainerLike =
         if panels.is_empty() { mechanism } else { Horizontal::new([mechanism, Vertical::new(panels).into()]).into() };
     // The side panels start collapsed: the first look is at the data (a click opens them).

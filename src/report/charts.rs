@@ -498,6 +498,82 @@ fn fitted_poses(c: &Calibration) -> &[crate::calib::Observation] {
     }
 }
 
+/// A free-motion recording's camera clock: the latency each time bin of the recording implies
+/// (`Latency::apparent`, ± 2σ) against the encoders' time, with the fitted line `τ + ρ·t` — a
+/// clock running at another rate shows as a slope, one the model misses as dots off the line.
+/// `None` without a recording (or too few frames for a bin).
+pub(crate) fn apparent_latency(c: &Calibration) -> Option<Figure> {
+    let m = c.report.markers.as_ref()?;
+    let (l, rate) = (m.latency.as_ref()?, m.clock_rate_ppm.as_ref()?);
+    let apparent = &m.apparent_latency;
+    if apparent.len() < 2 {
+        return None;
+    }
+    let (first, last) = (apparent[0][0], apparent[apparent.len() - 1][0]);
+    let (along, scale) = if last > 600.0 { (Along::Minutes, 60.0) } else { (Along::Seconds, 1.0) };
+    let title = match along {
+        Along::Minutes => "time on the encoders' clock (min)",
+        _ => "time on the encoders' clock (s)",
+    };
+    let line = |t: f64| (l.value_s + rate.value * 1e-6 * t) * 1e3;
+    let points: Vec<(f64, f64, f64)> = apparent.iter().map(|&[t, v, s]| (t / scale, v * 1e3, 2.0 * s * 1e3)).collect();
+    let lows = points.iter().map(|p| p.1 - p.2).chain([line(first), line(last)]);
+    let highs = points.iter().map(|p| p.1 + p.2).chain([line(first), line(last)]);
+    let (lo, hi) = (lows.fold(f64::INFINITY, f64::min), highs.fold(f64::NEG_INFINITY, f64::max));
+    let pad = ((hi - lo) * 0.1).max(0.05);
+    let (y0, y1) = (lo - pad, hi + pad);
+    let (x0, x1) = (0.0_f64.min(first / scale), last / scale * 1.02);
+    const ORANGE: RGBColor = RGBColor(230, 120, 20);
+    let figure = Figure::new(
+        "the camera's apparent latency against time, with the fitted clock",
+        (WIDE, 300),
+        (NARROW, 280),
+        &|root, layout| {
+            let mut chart = ChartBuilder::on(root)
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(if layout.narrow { 52 } else { 64 })
+                .build_cartesian_2d(x0..x1, y0..y1)?;
+            chart
+                .configure_mesh()
+                .light_line_style(TRANSPARENT)
+                .label_style(font())
+                .axis_desc_style(font())
+                .x_labels(layout.x_labels())
+                .y_labels(6)
+                .x_label_formatter(&|x| tick(*x))
+                .y_label_formatter(&|y| tick(*y))
+                .x_desc(title)
+                .y_desc("latency (ms)")
+                .draw()?;
+            let ends = [(first / scale, line(first)), (last / scale, line(last))];
+            chart.draw_series(LineSeries::new(ends, ORANGE.stroke_width(2)))?;
+            chart.draw_series(
+                points.iter().map(|&(t, v, e)| PathElement::new(vec![(t, v - e), (t, v + e)], BLUE.stroke_width(1))),
+            )?;
+            chart.draw_series(points.iter().map(|&(t, v, _)| Circle::new((t, v), 3, BLUE.filled())))?;
+            Ok(())
+        },
+    );
+    let fitted = match rate.held {
+        None => format!(
+            "τ = {:.2} ms at time 0, ρ = {:+.2} ppm (a drift of {:+.2} ms over the recording)",
+            l.value_s * 1e3,
+            rate.value,
+            rate.value * 1e-6 * rate.span_s * 1e3
+        ),
+        Some(_) => format!("{:.2} ms, its rate held at {:+.2} ppm", l.value_s * 1e3, rate.value),
+    };
+    let keys = vec![
+        Key { colour: BLUE, mark: Mark::Dot, label: "apparent latency of a time bin (± 2σ)".into() },
+        Key { colour: ORANGE, mark: Mark::Square, label: "the fitted clock: τ + ρ·t".into() },
+    ];
+    Some(figure.keys(keys).caption(format!(
+        "Each dot is the latency the frames of one of {} time bins imply: the fitted latency there plus the step their residuals ask for with everything else held, with ± 2 standard errors. The line is the fitted clock, {fitted}. A camera clock that runs at another rate than the encoders' shows as a slope; dots off the line say the clock model misses something.",
+        points.len()
+    )))
+}
+
 /// The evidence of a failed model check: the residuals against the feature of the structure that
 /// explains most (binned means ± 2 standard errors); `None` when the check passed.
 pub(crate) fn model_check(c: &Calibration) -> Option<Figure> {

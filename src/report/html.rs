@@ -11,6 +11,10 @@ use super::html_tables;
 use super::tables::{Align, Table, escape};
 use crate::calib::{Calibration, CalibrationReport, FitLevel};
 
+/// The title of a free-motion recording's section on its camera clock (`camera-clock`, after
+/// the pose-by-pose errors).
+const CLOCK_TITLE: &str = "Camera clock: the apparent latency against time";
+
 /// The sections of the report, in order: `(id, title)`.
 const SECTIONS: [(&str, &str); 7] = [
     ("verdict", "Verdict"),
@@ -45,6 +49,12 @@ impl Calibration {
                 html += &weakest(report);
             }
             html += "</section>";
+            // A free-motion recording's camera clock, after the errors against time.
+            if *id == "per-pose"
+                && let Some(clock) = charts::apparent_latency(self)
+            {
+                let _ = write!(html, "<section id=\"camera-clock\"><h2>{CLOCK_TITLE}</h2>{}</section>", clock.html());
+            }
         }
         let _ = writeln!(
             html,

@@ -4,7 +4,9 @@
 //! (the verdict, the warnings and the predicted error head the page instead).
 
 use super::tables::{Align, Table, escape, parameter_changes};
-use crate::calib::{Calibration, CalibrationReport, CameraModelReport, Convergence, MarkerFitReport};
+use crate::calib::{
+    Calibration, CalibrationReport, CameraModelReport, ClockRate, Convergence, Latency, MarkerFitReport,
+};
 use crate::math::stats::Stats;
 
 /// How many excluded or flagged items are listed before "… and N more", as in the text report.
@@ -118,15 +120,10 @@ fn fit(r: &CalibrationReport) -> String {
     t.row(["camera translation t_CB".to_string(), translation(r)]);
     if let Some(m) = &r.markers {
         if let Some(l) = &m.latency {
-            let latency = match l.std_error_s {
-                Some(se) => format!("{:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3),
-                None if l.at_bound => format!(
-                    "{:.3} ms, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
-                    l.value_s * 1e3
-                ),
-                None => format!("{:.3} ms (as given; frozen)", l.value_s * 1e3),
-            };
-            t.row(["camera latency".to_string(), latency]);
+            t.row(["camera latency".to_string(), latency(l, m.clock_rate_ppm.as_ref())]);
+        }
+        if let Some(c) = &m.clock_rate_ppm {
+            t.row(["camera clock rate".to_string(), clock_rate(c)]);
         }
         t.row(["camera model".to_string(), camera_model(&m.camera_model)]);
         if let Some(n) = &m.stereo_noise {
@@ -174,6 +171,46 @@ fn convergence(r: &CalibrationReport) -> String {
         Convergence::StalledAtMinimum => format!(
             "stalled at a minimum after {iterations} iterations (the cost stopped changing before the steps fell below the tolerance)"
         ),
+    }
+}
+
+/// The camera latency in words (the text report's too): at time 0 when the clock's rate was
+/// estimated.
+pub(super) fn latency(l: &Latency, rate: Option<&ClockRate>) -> String {
+    let at = match rate {
+        Some(c) if c.held.is_none() => " at time 0",
+        _ => "",
+    };
+    match l.std_error_s {
+        Some(se) => format!("{:.3} ± {:.3} ms{at} (estimated)", l.value_s * 1e3, se * 1e3),
+        None if l.at_bound => format!(
+            "{:.3} ms{at}, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
+            l.value_s * 1e3
+        ),
+        None => format!("{:.3} ms{at} (as given; frozen)", l.value_s * 1e3),
+    }
+}
+
+/// How much faster the camera's clock runs, in words (the text report's too): estimated, with
+/// the drift it makes over the recording, or held and why.
+pub(super) fn clock_rate(c: &ClockRate) -> String {
+    let drift = c.value * 1e-6 * c.span_s * 1e3;
+    match (c.std_error, c.held) {
+        (Some(se), _) => format!(
+            "{:+.2} ± {se:.2} ppm (estimated): the latency drifts {drift:+.2} ms over the recording's {:.0} s",
+            c.value, c.span_s
+        ),
+        (None, None) if c.at_bound => format!(
+            "{:+.2} ppm, AT ITS BOUND (`clock_rate_bound_ppm`): the data want it further; no standard error",
+            c.value
+        ),
+        (None, Some("frozen")) => format!("{:+.2} ppm (as given; frozen)", c.value),
+        (None, Some("short_recording")) => format!(
+            "{:+.2} ppm (held: the recording spans {:.1} s, shorter than `clock_rate_min_duration_s`)",
+            c.value, c.span_s
+        ),
+        (None, Some(_)) => format!("{:+.2} ppm (held: the orientation-level fit does not estimate it)", c.value),
+        (None, None) => format!("{:+.2} ppm (unidentifiable: no standard error)", c.value),
     }
 }
 

@@ -250,15 +250,10 @@ fn rig_lines(f: &mut fmt::Formatter<'_>, rig: &crate::calib::RigReport) -> fmt::
 /// Fitted markers, stereo noise and fast captures of a marker-level calibration.
 fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Result {
     if let Some(l) = &m.latency {
-        match l.std_error_s {
-            Some(se) => writeln!(f, "camera latency: {:.3} ± {:.3} ms (estimated)", l.value_s * 1e3, se * 1e3)?,
-            None if l.at_bound => writeln!(
-                f,
-                "camera latency: {:.3} ms, AT ITS BOUND (`latency_bound_s`): the data want it further; no standard error",
-                l.value_s * 1e3
-            )?,
-            None => writeln!(f, "camera latency: {:.3} ms (as given; frozen)", l.value_s * 1e3)?,
-        }
+        writeln!(f, "camera latency: {}", super::html_tables::latency(l, m.clock_rate_ppm.as_ref()))?;
+    }
+    if let Some(c) = &m.clock_rate_ppm {
+        writeln!(f, "camera clock rate: {}", super::html_tables::clock_rate(c))?;
     }
     match &m.rig {
         Some(rig) => rig_lines(f, rig)?,

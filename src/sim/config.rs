@@ -238,8 +238,11 @@ pub struct Recording {
     pub encoder_rate_hz: f64,
     /// Camera frame rate (Hz).
     pub camera_rate_hz: f64,
-    /// The camera's latency behind the encoders (s): a frame taken at `t` is stamped `t + latency`.
+    /// The camera's latency behind the encoders (s): a frame taken at `t` (on the encoders'
+    /// clock) is stamped `t·(1 + clock_rate_ppm·10⁻⁶) + latency`.
     pub latency_s: f64,
+    /// How much faster the camera's clock runs than the encoders' (ppm; 0: one clock).
+    pub clock_rate_ppm: f64,
     /// Standard deviation of the camera's time stamps (s).
     pub jitter_s: f64,
     /// Every marker in every frame (else one marker per frame, round robin).
@@ -255,6 +258,7 @@ impl Default for Recording {
             encoder_rate_hz: 1000.0,
             camera_rate_hz: 15.0,
             latency_s: 0.04,
+            clock_rate_ppm: 0.0,
             jitter_s: 0.001,
             all_markers: false,
             period_s: 20.0,
@@ -432,6 +436,13 @@ impl SimConfig {
                 return Err((
                     "recording.latency_s".into(),
                     format!("`latency_s` must be within ±0.2 s (got {})", r.latency_s),
+                ));
+            }
+            let most = crate::model::limits::MAX_CLOCK_RATE_PPM;
+            if !(r.clock_rate_ppm.is_finite() && r.clock_rate_ppm.abs() <= most) {
+                return Err((
+                    "recording.clock_rate_ppm".into(),
+                    format!("`clock_rate_ppm` must be within ±{most} ppm (got {})", r.clock_rate_ppm),
                 ));
             }
             if !(r.jitter_s.is_finite() && r.jitter_s >= 0.0 && r.jitter_s < 0.25 / r.camera_rate_hz) {

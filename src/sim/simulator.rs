@@ -531,7 +531,7 @@ impl Simulator<'_> {
         }
         self.summary.poses = poses.len();
         self.summary.poses_with_too_few_markers = poses.iter().filter(|p| p.seen() < MIN_MARKERS).count();
-        let parameters = self.truth_parameters(None);
+        let parameters = self.truth_parameters(None, None);
         let description = self.config.description.clone().unwrap_or_else(|| {
             let trajectory = if plan.is_some() { "planned" } else { self.config.workspace.trajectory.name() };
             format!(
@@ -565,8 +565,9 @@ impl Simulator<'_> {
         self.pixels.as_ref().map(|p| p.truth.clone())
     }
 
-    /// The true parameters (with the camera latency of a recording).
-    fn truth_parameters(&self, latency_s: Option<f64>) -> Parameters {
+    /// The true parameters (with the camera latency of a recording, and its clock rate when the
+    /// camera's clock runs at its own).
+    fn truth_parameters(&self, latency_s: Option<f64>, clock_rate_ppm: Option<f64>) -> Parameters {
         Parameters {
             source: ParameterSource::Truth,
             model: Some(crate::io::files::tidy_path(&self.model.urdf_path).display().to_string()),
@@ -581,6 +582,7 @@ impl Simulator<'_> {
                 .map(|(m, p)| MarkerPosition { name: m.name.clone(), position: *p, std_error: None })
                 .collect(),
             latency_s,
+            clock_rate_ppm,
             fit: None,
         }
     }
@@ -589,7 +591,7 @@ impl Simulator<'_> {
     /// workspace's tilt and yaw (one every `period_s / 10`), shrunk until every encoder sample is
     /// reachable, away from singularities and free of collisions; the encoders stream its IK
     /// with noise and quantisation, the camera measures markers at its own rate, stamped late by
-    /// the latency with jitter.
+    /// the latency with jitter, on a clock that runs `clock_rate_ppm` fast.
     fn record_streams(&mut self, r: &Recording, progress: &mut dyn FnMut(usize)) -> Result<Session, SimError> {
         let w = &self.config.workspace;
         let (tilt, yaw) = (0.8 * w.max_tilt_deg.to_radians(), 0.8 * w.max_yaw_deg.to_radians());
@@ -670,7 +672,8 @@ impl Simulator<'_> {
             let Ok(joints) = self.spm.ik(&rot) else { continue };
             let which: Vec<usize> = if r.all_markers { (0..m).collect() } else { vec![f % m] };
             let pose = self.record(0, &rot, &joints, &which);
-            let stamp = t + r.latency_s + jitter.sample(&mut self.rng);
+            // Taken at `t` on the encoders' clock: the camera's reads `t·(1 + ρ·10⁻⁶)` then.
+            let stamp = t * (1.0 + r.clock_rate_ppm * 1e-6) + r.latency_s + jitter.sample(&mut self.rng);
             for (marker, seen) in pose.markers.iter().enumerate() {
                 if let Some(position) = seen {
                     captures.push(Capture { time_s: stamp, marker, position: *position, line: 0 });
@@ -705,14 +708,15 @@ impl Simulator<'_> {
             reference_pose: 0,
             poses: Vec::new(),
             truth: Some(Truth {
-                parameters: self.truth_parameters(Some(r.latency_s)),
+                parameters: self
+                    .truth_parameters(Some(r.latency_s), (r.clock_rate_ppm != 0.0).then_some(r.clock_rate_ppm)),
                 orientations: BTreeMap::new(),
                 rig: self.true_rig(),
             }),
             streams: Some(std::sync::Arc::new(streams)),
             folder: None,
         };
-        Ok(session.at_latency(r.latency_s).0)
+        Ok(session.at_clock(r.latency_s, r.clock_rate_ppm).0)
     }
 
     /// The `k`-th candidate orientation of `n`.

@@ -74,6 +74,9 @@ impl ZScores {
             }
             errors.push(match e.kind {
                 Kind::Latency => p.latency(x) - truth.latency_s.unwrap_or(0.0),
+                Kind::ClockRate => {
+                    (p.clock_rate_ppm(x) - truth.clock_rate_ppm.unwrap_or(0.0)) * 1e-6 * p.clock_rate_span_s
+                }
                 _ => x[i] - gauge.x[i],
             });
             indices.push(i);

@@ -1,7 +1,7 @@
 //! The marker-level fit (`fit: markers`, the default): maximum likelihood over every marker
 //! observation with the encoder reading of its own capture, under the stereo noise model; the
-//! markers' positions, `t_CB` and (for a free-motion recording) the camera's latency are
-//! parameters like the mechanism's.
+//! markers' positions, `t_CB` and (for a free-motion recording) the camera's latency and clock
+//! rate are parameters like the mechanism's.
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
@@ -15,7 +15,7 @@ use crate::calib::marker_residuals::{MarkerObservation, MarkerResiduals};
 use crate::calib::parameterisation::{Kind, Parameterisation};
 use crate::calib::registration;
 use crate::calib::report::{
-    CameraModelReport, CameraTermReport, ErrorStats, FastCapture, Latency, MarkerFitReport, MarkerReport,
+    CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, Latency, MarkerFitReport, MarkerReport,
     observations_file,
 };
 use crate::calib::residuals::Residuals;
@@ -48,6 +48,24 @@ pub(crate) struct MarkerLevel<'s> {
     workspace: Option<PredictionWorkspace>,
     excluded: Vec<String>,
     warnings: Vec<String>,
+    /// Why the camera clock's rate is held (a recording's), if it is.
+    clock_held: Option<&'static str>,
+    /// The camera time the recording spans (s; 0 without streams).
+    span_s: f64,
+}
+
+/// Why the camera clock's rate of `session`'s recording is held at `clock_rate_ppm` rather than
+/// estimated under `config`: `frozen`, `orientations` (that fit holds it), `short_recording`
+/// (the recording spans less than `clock_rate_min_duration_s`); `None`: the marker-level fit
+/// estimates it (and for a session without streams, which has no clock).
+pub(crate) fn clock_rate_held(session: &Session, config: &CalibConfig) -> Option<&'static str> {
+    let streams = session.streams.as_deref()?;
+    match () {
+        _ if config.freeze.contains(&Group::ClockRate) => Some("frozen"),
+        _ if config.fit != crate::calib::config::FitLevel::Markers => Some("orientations"),
+        _ if streams.camera_span_s() < config.clock_rate_min_duration_s => Some("short_recording"),
+        _ => None,
+    }
 }
 
 impl<'s> MarkerLevel<'s> {
@@ -105,14 +123,33 @@ impl<'s> MarkerLevel<'s> {
             Some(rig) => p.with_rig(rig.clone(), &config.rig_terms),
             None => p,
         };
-        // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as given).
+        // A free-motion recording: the camera's latency is a parameter (frozen: `latency_s` as
+        // given), and its clock's rate unless held (at `clock_rate_ppm`, without an entry).
         let streams = session.streams.as_deref();
-        let p = match streams {
+        let clock_held = clock_rate_held(session, config);
+        let mut p = match streams {
             // The fit starts at `latency_s` and keeps the latency within ±`latency_bound_s`: the
-            // frames were chosen for that range, and a parameters file holds no more.
+            // frames were chosen for that range, and a parameters file holds no more. The same
+            // for the clock rate.
+            Some(_) if clock_held.is_none() => {
+                p.with_latency(config.latency_s, config.latency_bound_s).with_clock_rate(
+                    config.clock_rate_ppm,
+                    config.clock_rate_bound_ppm,
+                    streams.map_or(1.0, Streams::camera_span_s),
+                )
+            }
             Some(_) => p.with_latency(config.latency_s, config.latency_bound_s),
             None => p,
         };
+        p.clock_rate_start_ppm = config.clock_rate_ppm;
+        let span_s = streams.map_or(0.0, Streams::camera_span_s);
+        let mut warnings: Vec<String> = warnings;
+        if clock_held == Some("short_recording") {
+            warnings.push(format!(
+                "the camera clock's rate is held at {} ppm: the recording spans {span_s:.1} s, shorter than `clock_rate_min_duration_s` = {} s (the latency is then the recording's average)",
+                config.clock_rate_ppm, config.clock_rate_min_duration_s
+            ));
+        }
         Ok(MarkerLevel {
             p,
             observations,
@@ -126,6 +163,8 @@ impl<'s> MarkerLevel<'s> {
             workspace: config.workspace,
             excluded,
             warnings,
+            clock_held,
+            span_s,
         })
     }
 }
@@ -202,6 +241,7 @@ impl Level for MarkerLevel<'_> {
                 })
                 .collect(),
             latency_s: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.latency(x)),
+            clock_rate_ppm: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.clock_rate_ppm(x)),
             fit: None,
         };
         // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
@@ -235,7 +275,7 @@ impl Level for MarkerLevel<'_> {
         for (j, o) in observations.iter().enumerate() {
             pose_ids[r.problem.pose_of(j)] = o.pose;
         }
-        let fda: Vec<bool> = p.entries.iter().map(|e| e.kind != Kind::Latency).collect();
+        let fda: Vec<bool> = p.entries.iter().map(|e| !matches!(e.kind, Kind::Latency | Kind::ClockRate)).collect();
         let eval = &r.calibrated.evaluation;
         let (predicted_error_deg, beyond_the_session) = predicted_error_for(
             self.workspace.as_ref(),
@@ -283,6 +323,21 @@ impl Level for MarkerLevel<'_> {
                 std_error_s: std_error(cov, free, i),
                 at_bound: p.at_bound(x, i),
             }),
+            clock_rate_ppm: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| {
+                let i = p.entries.iter().position(|e| e.kind == Kind::ClockRate);
+                ClockRate {
+                    value: p.clock_rate_ppm(x),
+                    std_error: i.and_then(|i| std_error(cov, free, i)).map(|s| s / p.clock_rate_span_s * 1e6),
+                    at_bound: i.is_some_and(|i| p.at_bound(x, i)),
+                    held: self.clock_held,
+                    span_s: self.span_s,
+                }
+            }),
+            apparent_latency: p
+                .entries
+                .iter()
+                .position(|e| e.kind == Kind::Latency)
+                .map_or_else(Vec::new, |i| apparent_latency(&r, i)),
             camera_model: camera_report,
             observations: observations.len(),
             poses: r.problem.poses(),
@@ -305,6 +360,7 @@ impl Level for MarkerLevel<'_> {
                     .collect()
             }),
         };
+        let drift = self.drift_finding(&markers);
         let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency), p.rig0.is_some());
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
@@ -327,12 +383,34 @@ impl Level for MarkerLevel<'_> {
             markers: Some(markers),
             excluded: self.excluded.iter().cloned().chain(gross).collect(),
             notes: self.warnings.clone(),
-            findings: camera_warnings.into_iter().chain(beyond_the_session).collect(),
+            findings: camera_warnings.into_iter().chain(beyond_the_session).chain(drift).collect(),
         })
     }
 }
 
 impl MarkerLevel<'_> {
+    /// With the clock's rate held, a warning when the apparent latency drifts beyond
+    /// [`CAMERA_SIGNIFICANCE`] standard errors of its slope (its bins' weighted straight line):
+    /// the camera's clock runs at its own rate, and the latency fitted is true of no moment.
+    fn drift_finding(&self, m: &MarkerFitReport) -> Option<String> {
+        let (held, rate) = (self.clock_held?, m.clock_rate_ppm?);
+        let (slope, se) = drift(&m.apparent_latency)?;
+        // The bins lie around the held clock's line: their slope is the rate they imply.
+        let (ppm, se_ppm) = (slope * 1e6, se * 1e6);
+        let how = match held {
+            "short_recording" => "lower `clock_rate_min_duration_s` to fit it",
+            "frozen" => "unfreeze `clock_rate` to fit it",
+            _ => "fit the recording at the marker level (`fit: markers`) to estimate it",
+        };
+        ((ppm - rate.value).abs() > CAMERA_SIGNIFICANCE * se_ppm).then(|| {
+            format!(
+                "the apparent latency drifts: the camera's clock runs {ppm:+.1} ± {se_ppm:.1} ppm against the encoders' ({:.1} standard errors from the {:+.1} ppm held), so the latency fitted holds for no moment of the recording; {how}",
+                (ppm - rate.value).abs() / se_ppm,
+                rate.value
+            )
+        })
+    }
+
     /// The camera model term by term: fitted or held (and why), a held term tested against the
     /// residuals, and what is significant said in words; a held term the residuals want moved is
     /// also a warning (the mechanism took the blame).
@@ -444,9 +522,9 @@ fn at_fitted_latency(
     x: &DVector<f64>,
 ) -> Vec<MarkerObservation> {
     if let Some(s) = streams.filter(|_| p.entries.iter().any(|e| e.kind == Kind::Latency)) {
-        let tau = p.latency(x);
+        let clock = p.clock(x);
         for o in observations.iter_mut() {
-            if let Some(joints) = o.time_s.and_then(|t| s.joints_at(t - tau)) {
+            if let Some(joints) = o.time_s.and_then(|t| s.joints_at(clock.encoder_time(t))) {
                 o.joints = joints;
             }
         }
@@ -454,11 +532,92 @@ fn at_fitted_latency(
     observations
 }
 
-/// The fastest joint's speed (deg/s) at each observation's capture, at the starting latency.
+/// The fastest joint's speed (deg/s) at each observation's capture, at the starting clock.
 fn joint_speeds(observations: &[MarkerObservation], streams: &Streams, p: &Parameterisation) -> Vec<f64> {
+    let clock = crate::dataset::Clock { latency_s: p.latency_start, rate_ppm: p.clock_rate_start_ppm };
     observations
         .iter()
-        .map(|o| o.time_s.and_then(|t| streams.velocity_at(t - p.latency_start)).map_or(0.0, |v| v.amax().to_degrees()))
+        .map(|o| {
+            o.time_s.and_then(|t| streams.velocity_at(clock.encoder_time(t))).map_or(0.0, |v| v.amax().to_degrees())
+        })
+        .collect()
+}
+
+/// The slope of the apparent latency against time (s per s) and its standard error: the straight
+/// line through the bins `[t, latency, σ]` weighted by `1/σ²`; `None` for fewer than three.
+fn drift(bins: &[[f64; 3]]) -> Option<(f64, f64)> {
+    if bins.len() < 3 {
+        return None;
+    }
+    let w: Vec<f64> = bins.iter().map(|b| 1.0 / (b[2] * b[2])).collect();
+    let sw: f64 = w.iter().sum();
+    let mean = |k: usize| bins.iter().zip(&w).map(|(b, w)| w * b[k]).sum::<f64>() / sw;
+    let (t0, l0) = (mean(0), mean(1));
+    let stt: f64 = bins.iter().zip(&w).map(|(b, w)| w * (b[0] - t0).powi(2)).sum();
+    let stl: f64 = bins.iter().zip(&w).map(|(b, w)| w * (b[0] - t0) * (b[1] - l0)).sum();
+    (stt > 0.0).then(|| (stl / stt, 1.0 / stt.sqrt()))
+}
+
+/// Time bins of the apparent latency: at most this many, of at least [`POSES_PER_BIN`] poses.
+const LATENCY_BINS: usize = 20;
+
+/// Fewest poses (camera frames) a bin of the apparent latency holds.
+const POSES_PER_BIN: usize = 30;
+
+/// The latency each part of the recording implies (`Latency::apparent`): per time bin of the
+/// encoders' clock, the fitted latency at the bin's time plus the one-parameter Gauss–Newton step
+/// the bin's whitened, weighted residuals ask for with everything else held,
+/// `δ = −Σ w gᵀ(W r) / Σ w |g|²` (`g = W ∂r/∂τ`), its standard error `1 / √Σ |g|²`; the bin's time
+/// is the information-weighted mean of its frames'. `latency` is the latency's entry.
+fn apparent_latency(r: &LevelResults<'_, MarkerResiduals<'_>>, latency: usize) -> Vec<[f64; 3]> {
+    let (p, x) = (&r.problem.p, &r.calibrated.x);
+    let clock = p.clock(x);
+    let fresh;
+    let jacobian = match &r.calibrated.evaluation.jacobian {
+        Some(j) => j,
+        None => match r.problem.evaluate(x, None, true) {
+            Ok(e) => {
+                fresh = e.jacobian;
+                match &fresh {
+                    Some(j) => j,
+                    None => return Vec::new(),
+                }
+            }
+            Err(_) => return Vec::new(),
+        },
+    };
+    let observations = r.problem.observations();
+    let w = &r.calibrated.weighting;
+    let times: Vec<Option<f64>> = observations.iter().map(|o| o.time_s.map(|t| clock.encoder_time(t))).collect();
+    let (first, last) =
+        times.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &t| (a.min(t), b.max(t)));
+    let bins = (r.problem.poses() / POSES_PER_BIN).clamp(1, LATENCY_BINS);
+    // No timed frame, or all at one time: no bins.
+    if last.partial_cmp(&first) != Some(std::cmp::Ordering::Greater) {
+        return Vec::new();
+    }
+    let width = (last - first) / bins as f64;
+    // Per bin: Σ w |g|², Σ w gᵀ(W r), Σ |g|², Σ |g|² t.
+    let mut sums = vec![[0.0; 4]; bins];
+    for (j, t) in times.iter().enumerate() {
+        let Some(t) = *t else { continue };
+        let b = (((t - first) / width) as usize).min(bins - 1);
+        let whiten = w.whitening[j];
+        let g: Vector3<f64> = whiten * jacobian.fixed_view::<3, 1>(3 * j, latency);
+        let wr = whiten * r.calibrated.evaluation.residuals[j];
+        let h = w.weights.get(j).copied().unwrap_or(1.0);
+        let s = &mut sums[b];
+        s[0] += h * g.norm_squared();
+        s[1] += h * g.dot(&wr);
+        s[2] += g.norm_squared();
+        s[3] += g.norm_squared() * t;
+    }
+    sums.iter()
+        .filter(|s| s[0] > 0.0 && s[2] > 0.0)
+        .map(|s| {
+            let t = s[3] / s[2];
+            [t, clock.latency_at(t) - s[1] / s[0], 1.0 / s[2].sqrt()]
+        })
         .collect()
 }
 

@@ -3,5 +3,5 @@
 mod markers;
 mod orientations;
 
-pub(crate) use markers::MarkerLevel;
+pub(crate) use markers::{MarkerLevel, clock_rate_held};
 pub(crate) use orientations::OrientationLevel;

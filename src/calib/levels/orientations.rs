@@ -139,6 +139,7 @@ impl Level for OrientationLevel {
         let parameters = Parameters {
             markers: Vec::new(),
             latency_s: None,
+            clock_rate_ppm: None,
             source: ParameterSource::Calibrated,
             model: Some(crate::io::files::tidy_path(&r.robot.urdf_path).display().to_string()),
             legs: p.legs(x),
