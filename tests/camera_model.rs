@@ -79,10 +79,15 @@ fn the_default_calibration_reads_a_camera_two_percent_long_and_predicts_as_with_
     let rigid_config = CalibConfig { camera_model: CameraModelKind::Rigid.into(), ..CalibConfig::default() };
     let rigid = calibrate(&long, &model, &rigid_config, &mut |_| {}).unwrap();
     assert!(error_vs_truth(&long, &rigid) > 1.5 * with_perfect);
-    // The self-check (cross-validated error against the fit's own prediction) catches the rigid
-    // camera too, and passes the camera model.
-    let consistent = |c: &Calibration| c.report.cross_validation.as_ref().unwrap().consistent;
-    assert!(!consistent(&rigid) && consistent(&calibration));
+    // The model check catches the rigid camera too — the verdict warns and names the camera model
+    // — and passes the camera model's fit.
+    let check = |c: &Calibration| c.report.model_check.clone().unwrap();
+    assert!(!check(&rigid).passed && check(&calibration).passed, "{:?}", check(&rigid));
+    assert_eq!(check(&rigid).cause, Some("camera volume"));
+    assert!(check(&rigid).action.unwrap().contains("camera_model: auto"));
+    assert_eq!(rigid.report.verdict.label(), "WARN");
+    assert!(rigid.report.verdict.reasons.iter().any(|r| r.finding.contains("beyond the `rigid` camera model")));
+    assert_eq!(calibration.report.verdict.label(), "PASS", "{}", calibration.report.verdict);
     let warning = rigid.report.warnings.iter().find(|w| w.contains("the residuals follow the camera"));
     assert!(warning.is_some_and(|w| w.contains("% long")), "{:?}", rigid.report.warnings);
     // ... and says nothing of the kind for a perfect camera.

@@ -94,9 +94,13 @@ fn marked_tables(readme: &str) -> Vec<(String, Vec<Row>)> {
 fn every_figure_of_a_marked_readme_table_is_in_its_studys_last_output() {
     let readme = std::fs::read_to_string("README.md").unwrap();
     let tables = marked_tables(&readme);
-    // The accuracy, predicted-accuracy, camera-model, joint-scale, clock-rate and benchmark tables.
-    assert!(tables.len() >= 6, "only {} marked tables in README.md", tables.len());
-    assert!(tables.iter().any(|(file, _)| file == "docs/results/joint_scales.md"), "the joint-scale table is marked");
+    // The accuracy, predicted-accuracy, camera-model, pixels, joint-scale, clock-rate, verdict and
+    // benchmark tables.
+    assert!(tables.len() >= 8, "only {} marked tables in README.md", tables.len());
+    for study in ["pixels", "joint_scales", "clock_rate", "verdict"] {
+        let file = format!("docs/results/{study}.md");
+        assert!(tables.iter().any(|(f, _)| *f == file), "the {study} table is marked");
+    }
     let mut problems = Vec::new();
     for (file, rows) in &tables {
         assert!(!rows.is_empty(), "README.md: the table under `<!-- figures: {file} -->` has no rows");

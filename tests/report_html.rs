@@ -158,13 +158,15 @@ fn the_report_has_every_section_and_plot_with_the_reports_numbers() {
     };
     assert!(p.svg_texts.iter().any(|t| t == "50"), "{:?}", p.svg_texts);
     assert_eq!(p.svg_texts.iter().filter(whole_with_decimal).count(), 0, "{:?}", p.svg_texts);
-    // The verdict says the report's numbers (3 decimals) and the config's threshold.
+    // The verdict says the report's numbers (3 decimals), and the model check its p-value.
     let cv = &report["cross_validation"];
     for key in ["calibrated_rms", "nominal_rms"] {
         let shown = format!("{:.3} mm", cv[key].as_f64().unwrap());
         assert!(text.contains(&shown), "{shown}");
     }
-    assert!(text.contains("PASS") && text.contains("threshold 1.000 mm"));
+    assert!(text.contains("<b>PASS</b>") && !text.contains("threshold"));
+    let p_value = report["model_check"]["p_value"].as_f64().unwrap();
+    assert!(text.contains(&format!("Model check: the residuals are what the noise model says (p = {p_value:.3}")));
     // The predicted error once under one title, a row per unit, with the report's numbers.
     assert_eq!(text.matches("Predicted error of the calibrated model on unseen poses").count(), 1);
     for (row, key) in [
@@ -212,12 +214,40 @@ fn the_report_has_every_section_and_plot_with_the_reports_numbers() {
 }
 
 #[test]
-fn a_calibration_above_the_configs_threshold_is_a_warning() {
+fn a_calibration_short_of_the_required_accuracy_fails_and_the_cameras_noise_decides_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("c.yaml");
-    std::fs::write(&config, "pass_held_out_mm: 0.01\n").unwrap();
+    // The old threshold on the marker error (the camera's noise included) is read, and no longer
+    // decides; the required accuracy of the mechanism does.
+    std::fs::write(&config, "pass_held_out_mm: 0.01\nrequired_accuracy_deg: 0.0001\n").unwrap();
     let (text, _) = calibrate(dir.path(), "datasets/agile_wrist_sim_20", &["--config", config.to_str().unwrap()]);
-    assert!(text.contains("<b>WARN</b>") && text.contains("threshold 0.010 mm"), "{}", &text[..600]);
+    assert!(text.contains("<b>FAIL</b>") && text.contains("more than the 0.0001° required"), "{}", &text[..1200]);
+    assert!(!text.contains("threshold"), "{}", &text[..1200]);
+}
+
+/// A depth camera 2 % long fitted as rigid: the report's verdict warns, names the camera model,
+/// and shows the residuals against the distance from the camera.
+#[test]
+fn a_failed_model_check_names_its_cause_with_a_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).unwrap();
+    (sim.poses, sim.camera.depth_scale) = (200, 1.02);
+    let model = RobotModel::load(&sim.model).unwrap();
+    let session = dir.path().join("session");
+    sim.simulate(&model, &mut |_| {}).unwrap().0.write(&session).unwrap();
+    let config = dir.path().join("c.yaml");
+    std::fs::write(&config, "camera_model: rigid\n").unwrap();
+    let (text, json) = calibrate(dir.path(), session.to_str().unwrap(), &["--config", config.to_str().unwrap()]);
+    let report = &json["results"];
+    assert_eq!(report["verdict"]["level"], "WARN");
+    assert_eq!(report["model_check"]["cause"], "camera volume");
+    assert!(
+        text.contains("Likely cause: the residuals follow the markers&#39; position in the camera&#39;s volume")
+            || text.contains("Likely cause: the residuals follow the markers' position in the camera's volume"),
+        "{}",
+        &text[..2000]
+    );
+    assert!(text.contains("distance from the camera (mm)") && text.contains("`camera_model: auto`"));
 }
 
 /// A ten-minute free-motion recording (some 9,000 poses): its errors against time are bands

@@ -113,11 +113,18 @@ class Calibration:
     @property
     def model(self) -> Model: ...
     @property
-    def verdict(self) -> Literal["PASS", "WARN"]:
-        """The report's verdict word (there is no FAIL: a calibration that cannot be made raises)."""
+    def verdict(self) -> Literal["PASS", "WARN", "FAIL"]:
+        """The report's verdict word, about the mechanism (the camera's noise is reported beside it)."""
     @property
     def verdict_reason(self) -> str:
         """The verdict's sentence, as the report prints it after the word."""
+    @property
+    def verdict_reasons(self) -> list[dict[str, str]]:
+        """Why it is not a pass: each reason's `level` (WARN or FAIL), `finding` and `action`."""
+    @property
+    def model_check(self) -> dict[str, Any] | None:
+        """Whether the residuals are what the noise model says: `passed`, `statistic`, `p_value`,
+        `tests`, and for a failed check its `cause`, `finding` and `action`."""
     @property
     def passed(self) -> bool:
         """`verdict == "PASS"`."""

@@ -653,22 +653,37 @@ impl Calibration {
         })
     }
 
-    /// The verdict's word as the report prints it: `PASS` (the calibrated model predicts unseen
-    /// poses clearly better than the nominal one, within the threshold) or `WARN` (it does not:
-    /// read `verdict_reason`). There is no `FAIL`: a calibration that cannot be made raises.
+    /// The verdict's word as the report prints it: `PASS` (the calibrated mechanism predicts
+    /// unseen poses clearly better than the nominal one, the model check finds its residuals what
+    /// the noise model says, and its predicted error meets `required_accuracy_deg` when set),
+    /// `WARN` or `FAIL` (read `verdict_reasons`).
     #[getter]
     fn verdict(&self) -> &'static str {
         self.inner.report.verdict.label()
     }
 
-    /// Why: the verdict's sentence (what the cross-validation says of the calibrated model
-    /// against the nominal one), as the report prints it after the word.
+    /// The verdict's sentence (what the cross-validation says of the calibrated model against
+    /// the nominal one), as the report prints it after the word.
     #[getter]
     fn verdict_reason(&self) -> String {
         self.inner.report.verdict.summary.clone()
     }
 
-    /// The calibrated model predicts unseen poses clearly better than the nominal one.
+    /// Why the verdict is not a pass: a list of `{"level", "finding", "action"}` (empty for a pass).
+    #[getter]
+    fn verdict_reasons<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.inner.report.verdict.reasons)
+    }
+
+    /// The model check (the report's `model_check`): `passed`, `statistic`, `p_value`, every test,
+    /// and for a failed check its `cause`, `finding` and `action`; `None` when there was nothing
+    /// to test.
+    #[getter]
+    fn model_check<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.inner.report.model_check)
+    }
+
+    /// The verdict is `PASS`.
     #[getter]
     fn passed(&self) -> bool {
         self.inner.report.verdict.pass

@@ -61,6 +61,9 @@ pub(crate) struct LevelResults<'a, M: Residuals> {
     pub(crate) calibrated: FitOutcome<M::Noise>,
     pub(crate) free: Vec<bool>,
     pub(crate) covariance: &'a DMatrix<f64>,
+    /// The covariance the predicted error uses: `covariance`, widened by what the misfit can do
+    /// when the model check failed.
+    pub(crate) predicted_covariance: &'a DMatrix<f64>,
     /// Each residual's expected squared prediction error `tr(J_j Cov J_jᵀ)` (unit²), when the
     /// calibrated evaluation has its Jacobian.
     pub(crate) predicted_ms: Option<Vec<f64>>,
@@ -81,6 +84,9 @@ pub(crate) struct LevelReport {
     pub(crate) parameters_report: Vec<ParameterReport>,
     pub(crate) predicted_error_deg: Option<PredictedError>,
     pub(crate) predicted_error_mm: Option<PredictedError>,
+    /// The predicted orientation error (RMS, degrees) from `covariance` alone, when the predicted
+    /// covariance was widened.
+    pub(crate) predicted_error_unwidened_deg: Option<f64>,
     pub(crate) residual_sigma_deg: Vec<(usize, usize, [f64; 3])>,
     pub(crate) camera_translation_m: Option<[f64; 3]>,
     pub(crate) camera_translation_std_error_m: Option<[f64; 3]>,

@@ -423,6 +423,17 @@ impl Residuals for MarkerResiduals<'_> {
         self.pose_of[j]
     }
 
+    fn observed(&self, j: usize) -> super::residuals::Observed {
+        let o = &self.observations[j];
+        super::residuals::Observed {
+            point: o.camera.is_none().then_some(o.measured),
+            pixel: o.camera.map(|c| (c, [o.measured.x, o.measured.y])),
+            joints: o.joints,
+            time_s: o.time_s,
+            marker: Some(o.marker),
+        }
+    }
+
     fn poses(&self) -> usize {
         self.poses.len()
     }

@@ -11,7 +11,8 @@
 //! `marker_residuals` (its two implementations), `registration` (starting registrations), `fit`
 //! (the trust-region fit), `identify`, `uncertainty`, `validation`, `agreement` (how far a
 //! parameter set and the camera disagree), `camera_choice` (which camera model `auto` fits),
-//! `joint_scales` (which joint scales a session identifies), `report` (the one report and its verdict),
+//! `joint_scales` (which joint scales a session identifies), `model_check` (are the residuals what
+//! the noise model says, and if not, why), `report` (the one report and its verdict),
 //! `calibration` (what a calibration produces, and its errors), `level` (the trait of a fit level
 //! and what a level hands back), `levels/` (its two implementations) and `pipeline` (the one flow,
 //! over the trait). Nothing imports `pipeline` but this facade.
@@ -28,6 +29,7 @@ mod levels;
 // Without `internals`, what only the studies and tests use is neither reachable nor used here.
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod marker_residuals;
+mod model_check;
 mod orientation_residuals;
 // Without `internals`, what only the studies and tests use is neither reachable nor used here.
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
@@ -62,6 +64,7 @@ pub use marker_residuals::MarkerResiduals;
 pub(crate) use marker_residuals::MarkerResiduals;
 pub(crate) use marker_residuals::per_pose_rms;
 pub use marker_residuals::{MarkerObservation, StereoNoise};
+pub use model_check::{ModelCheck, StructureTest};
 pub use orientation_residuals::Observation;
 pub(crate) use orientation_residuals::observations;
 #[cfg(feature = "internals")]
@@ -71,7 +74,7 @@ pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
 pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, FlaggedObservation,
-    Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict,
+    Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict, VerdictReason,
 };
 pub use residuals::EvalError;
 pub(crate) use residuals::Residuals;

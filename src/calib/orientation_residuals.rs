@@ -128,6 +128,10 @@ impl Residuals for OrientationResiduals<'_> {
         j
     }
 
+    fn observed(&self, j: usize) -> super::residuals::Observed {
+        super::residuals::Observed { joints: self.observations[j].joints, ..Default::default() }
+    }
+
     fn poses(&self) -> usize {
         self.observations.len()
     }

@@ -366,7 +366,7 @@ fn run<L: Level>(
         );
         return Err(CalibError::Config { key: "folds".into(), reason });
     }
-    let mut cross_validation =
+    let cross_validation =
         cross_validate(&problem, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
     // Scales the session cannot tell are a warning; ones that show no error the report's lines only.
@@ -380,22 +380,20 @@ fn run<L: Level>(
                 .to_string(),
         );
     }
-    // Each residual's expected squared prediction error: the self-check's and the level's report's.
-    let predicted_ms = super::uncertainty::residual_mean_squares(&calibrated, &covariance);
-    if let (Some(cv), Some(predicted)) = (cross_validation.as_mut(), predicted_ms.as_ref()) {
-        let noise = super::uncertainty::noise_mean_squares(&calibrated, determined.iter().filter(|f| **f).count());
-        cv.check(&noise, predicted, problem.unit_scale());
-        if let (false, Some(expected)) = (cv.consistent, cv.expected_rms) {
-            let unit = problem.unit();
-            warnings.push(format!(
-                "the cross-validated error ({:.4} {unit} RMS) disagrees with the {expected:.4} {unit} the fit predicts \
-                 for itself (camera noise plus the predicted error) beyond their uncertainty: the noise problem or the \
-                 problem is wrong (a camera error the camera problem does not cover, poses too alike to tell the \
-                 mechanism from the camera, …)",
-                cv.calibrated_rms
-            ));
-        }
-    }
+    // The model check: are the residuals what the noise model says? When not, what the misfit can
+    // do widens the predicted error (the parameters' covariance stays the data's).
+    let held_out =
+        cross_validation.as_ref().map(|cv| super::model_check::HeldOut { residuals: &cv.held_out, folds: cv.folds });
+    let checked = super::model_check::check(&problem, &calibrated, &determined, &covariance, held_out);
+    let predicted_covariance = match checked.as_ref().filter(|(c, _)| !c.passed) {
+        Some((_, misfit)) => match &misfit.bias {
+            Some(bias) => &covariance + bias * bias.transpose(),
+            None => &covariance * misfit.scale,
+        },
+        None => covariance.clone(),
+    };
+    // Each residual's expected squared prediction error: the level's report's.
+    let predicted_ms = super::uncertainty::residual_mean_squares(&calibrated, &predicted_covariance);
     if let Some(cv) = cross_validation.as_ref().filter(|cv| !cv.clearly_better) {
         let warning = not_better_warning(cv, &identifiability.unidentifiable, problem.poses());
         if config.if_not_better == IfNotBetter::Refuse {
@@ -419,6 +417,7 @@ fn run<L: Level>(
         calibrated,
         free: determined,
         covariance: &covariance,
+        predicted_covariance: &predicted_covariance,
         predicted_ms,
         flagged: &flagged,
     };
@@ -441,9 +440,11 @@ fn run<L: Level>(
         fit_poses: fitted_poses,
         held_out_poses: part.held_out_poses,
         excluded,
-        verdict: Verdict { pass: false, summary: String::new() },
+        verdict: Verdict::of(None, &part.before, &part.after, None, None, config),
         warnings: part.notes.into_iter().chain(warnings).chain(part.findings).collect(),
         cross_validation,
+        model_check: checked.map(|(c, _)| c),
+        predicted_error_unwidened_deg: part.predicted_error_unwidened_deg,
         before: part.before,
         after: part.after,
         iterations,
@@ -465,7 +466,29 @@ fn run<L: Level>(
         joint_scales: scales,
         stages: clock.stages,
     };
-    report.verdict = Verdict::of(report.cross_validation.as_ref(), &report.before, &report.after, config);
+    if let Some(check) = report.model_check.as_mut() {
+        let names: Vec<String> = report
+            .markers
+            .as_ref()
+            .map(|m| m.after.per_marker.iter().map(|(n, _, _)| n.clone()).collect())
+            .unwrap_or_default();
+        check.name_markers(&names);
+        let camera = report.markers.as_ref().map(|m| m.camera_model.model.name());
+        check.diagnose(camera, unit == "px");
+        if let (false, Some(before), Some(after)) =
+            (check.passed, report.predicted_error_unwidened_deg, report.predicted_error_deg.as_ref())
+        {
+            check.widening = Some(after.rms / before.max(f64::MIN_POSITIVE));
+        }
+    }
+    report.verdict = Verdict::of(
+        report.cross_validation.as_ref(),
+        &report.before,
+        &report.after,
+        report.model_check.as_ref(),
+        report.predicted_error_deg.as_ref(),
+        config,
+    );
     report.not_significant = super::uncertainty::not_significant(&report.parameters);
     let mut parameters = part.parameters;
     parameters.fit = Some(report::fit_header(&report));

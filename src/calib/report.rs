@@ -9,6 +9,7 @@ use super::config::{CalibConfig, FitLevel, Loss};
 use super::fit::{Convergence, IterationLog};
 use super::identify::Identifiability;
 use super::marker_residuals::StereoNoise;
+use super::model_check::ModelCheck;
 use super::uncertainty::{Correlation, ParameterReport, PredictedError};
 use super::validation::CrossValidation;
 use crate::math::stats::Stats;
@@ -43,77 +44,205 @@ pub struct FlaggedObservation {
     pub excluded: bool,
 }
 
-/// Whether a calibration can be trusted, decided once for every view of the report.
+/// The verdict's word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum VerdictLevel {
+    /// The calibration can be used as it is.
+    Pass,
+    /// It can be used, with what the reasons say in mind.
+    Warn,
+    /// It should not be used: what the reasons say must be fixed first.
+    Fail,
+}
+
+impl VerdictLevel {
+    /// `PASS`, `WARN` or `FAIL`.
+    fn label(self) -> &'static str {
+        match self {
+            VerdictLevel::Pass => "PASS",
+            VerdictLevel::Warn => "WARN",
+            VerdictLevel::Fail => "FAIL",
+        }
+    }
+}
+
+/// One reason of a verdict that is not a pass: what was found, and what to do.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct VerdictReason {
+    /// `WARN` or `FAIL`: what this reason alone makes of the verdict.
+    pub level: &'static str,
+    /// What was found, in words.
+    pub finding: String,
+    /// What to do about it.
+    pub action: String,
+}
+
+/// Whether the calibrated mechanism can be trusted, decided once for every view of the report:
+/// from (a) whether it predicts unseen poses clearly better than the nominal one, (b) the model
+/// check (are the residuals what the noise model says), and (c) its predicted orientation error
+/// against `required_accuracy_deg` when the config sets one. The camera's noise is reported beside
+/// it, never a reason by itself.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct Verdict {
-    /// It predicts unseen data clearly better than the nominal model, within the config's
-    /// threshold (`pass_held_out_mm` or `pass_held_out_deg`).
+    /// `PASS`, `WARN` or `FAIL`.
+    pub level: &'static str,
+    /// `level` is `PASS`.
     pub pass: bool,
-    /// The reason, in one sentence.
+    /// What the unseen poses say, in one sentence.
     pub summary: String,
+    /// Why it is not a pass, each reason with what to do (empty for a pass).
+    pub reasons: Vec<VerdictReason>,
 }
 
 impl Verdict {
-    /// `PASS` or `WARN`.
+    /// `PASS`, `WARN` or `FAIL`.
     pub fn label(&self) -> &'static str {
-        if self.pass { "PASS" } else { "WARN" }
+        self.level
     }
 
-    /// The verdict on cross-validation `cv`, else on the held-out poses' errors `before`, `after`.
+    /// A verdict from its summary and reasons: the most severe reason decides.
+    fn from_reasons(summary: String, reasons: Vec<VerdictReason>) -> Self {
+        let severity = |label: &str| match label {
+            "FAIL" => VerdictLevel::Fail,
+            "WARN" => VerdictLevel::Warn,
+            _ => VerdictLevel::Pass,
+        };
+        let level = reasons.iter().map(|r| severity(r.level)).max().unwrap_or(VerdictLevel::Pass);
+        Verdict { level: level.label(), pass: level == VerdictLevel::Pass, summary, reasons }
+    }
+
+    /// The verdict on cross-validation `cv`, else on the held-out poses' errors `before`, `after`;
+    /// with the model check `check` and the predicted orientation error `predicted`.
     pub(crate) fn of(
         cv: Option<&CrossValidation>,
         before: &ErrorStats,
         after: &ErrorStats,
+        check: Option<&ModelCheck>,
+        predicted: Option<&PredictedError>,
         config: &CalibConfig,
     ) -> Self {
-        if let Some(cv) = cv {
-            // A pixel session's reprojection error has no threshold in millimetres.
-            let (threshold, unit, what) = match (cv.level, cv.unit) {
-                (FitLevel::Markers, "px") => (f64::INFINITY, " px", "pixels"),
-                (FitLevel::Markers, _) => (config.pass_held_out_mm, " mm", "markers"),
-                (FitLevel::Orientations, _) => (config.pass_held_out_deg, "°", "orientations"),
+        let mut reasons = Vec::new();
+        let summary = if let Some(cv) = cv {
+            let what = match (cv.level, cv.unit) {
+                (FitLevel::Markers, "px") => "pixels",
+                (FitLevel::Markers, _) => "markers",
+                (FitLevel::Orientations, _) => "orientations",
             };
-            return Verdict {
-                pass: cv.clearly_better && cv.calibrated_rms <= threshold,
-                summary: format!(
-                    "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
-                     {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({}{})",
-                    cv.folds,
-                    cv.observations,
-                    cv.calibrated_rms,
-                    cv.nominal_rms,
-                    if cv.clearly_better { "clearly better" } else { "not clearly better" },
-                    match threshold.is_finite() {
-                        true => format!("; threshold {threshold:.3}{unit}"),
-                        false => String::new(),
+            let unit = if cv.unit == "deg" { "°".to_string() } else { format!(" {}", cv.unit) };
+            if !cv.clearly_better {
+                let worse = cv.reduction < -2.0 * cv.reduction_std_error;
+                reasons.push(VerdictReason {
+                    level: if worse { "FAIL" } else { "WARN" },
+                    finding: if worse {
+                        "the calibrated model predicts unseen poses worse than the nominal one".into()
+                    } else {
+                        "the calibrated model does not predict unseen poses clearly better than the nominal one".into()
+                    },
+                    action: "capture more poses, spread over the workspace (`spmcal plan` says where), and \
+                             check the camera model"
+                        .into(),
+                });
+            }
+            format!(
+                "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
+                 {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({}; the camera's noise \
+                 included)",
+                cv.folds,
+                cv.observations,
+                cv.calibrated_rms,
+                cv.nominal_rms,
+                if cv.clearly_better { "clearly better" } else { "not clearly better" },
+            )
+        } else {
+            match (before.held_out, after.held_out) {
+                (Some(b), Some(a)) => {
+                    if a.rms >= b.rms {
+                        reasons.push(VerdictReason {
+                            level: "FAIL",
+                            finding: "the calibrated model is not better than the nominal one on the held-out poses"
+                                .into(),
+                            action: "capture more poses, spread over the workspace".into(),
+                        });
                     }
-                ),
+                    format!(
+                        "on held-out poses the calibrated model's FDA agrees with vision to {:.4}° RMS against the \
+                         nominal model's {:.4}°",
+                        a.rms, b.rms
+                    )
+                }
+                _ => {
+                    reasons.push(VerdictReason {
+                        level: "WARN",
+                        finding: "nothing shows how the model predicts new data".into(),
+                        action: "set `folds` to 2 or more".into(),
+                    });
+                    format!(
+                        "no unseen poses were predicted (cross-validation needs `folds` of at least 2, got {})",
+                        config.folds
+                    )
+                }
+            }
+        };
+        if let Some(check) = check.filter(|c| !c.passed) {
+            let finding =
+                check.finding.clone().unwrap_or_else(|| "the residuals are not what the noise model says".into());
+            let action = check.action.clone().unwrap_or_default();
+            let widened = match check.widening {
+                Some(f) if f > 1.0 => format!("; the predicted error is widened {f:.1}× for what the misfit can do"),
+                _ => String::new(),
             };
-        }
-        match (before.held_out, after.held_out) {
-            (Some(b), Some(a)) => Verdict {
-                pass: a.rms < b.rms && a.rms <= config.pass_held_out_deg,
-                summary: format!(
-                    "on held-out poses the calibrated model's FDA agrees with vision to {:.4}° RMS against the \
-                     nominal model's {:.4}° (threshold {:.3}°)",
-                    a.rms, b.rms, config.pass_held_out_deg
+            reasons.push(VerdictReason {
+                level: "WARN",
+                finding: format!(
+                    "the model check fails (p = {:.2e} against a false-alarm rate of {}): {finding}{widened}",
+                    check.p_value, check.false_alarm_rate
                 ),
-            },
-            _ => Verdict {
-                pass: false,
-                summary: format!(
-                    "no unseen poses were predicted (cross-validation needs `folds` of at least 2, got {}): \
-                     nothing shows how the model predicts new data",
-                    config.folds
-                ),
-            },
+                action,
+            });
         }
+        if let Some(required) = config.required_accuracy_deg {
+            match predicted {
+                Some(p) if p.rms > required => reasons.push(VerdictReason {
+                    level: "FAIL",
+                    finding: format!(
+                        "the predicted orientation error, {:.4}° RMS, is more than the {required}° required",
+                        p.rms
+                    ),
+                    action: "add poses where the predicted-error map is worst (`spmcal plan`), or fix what the \
+                             model check names"
+                        .into(),
+                }),
+                Some(p) if p.interval_90[1] > required => reasons.push(VerdictReason {
+                    level: "WARN",
+                    finding: format!(
+                        "the predicted orientation error, {:.4}° RMS, may be more than the {required}° required \
+                         (90 % range up to {:.4}°)",
+                        p.rms, p.interval_90[1]
+                    ),
+                    action: "add poses where the predicted-error map is worst (`spmcal plan`)".into(),
+                }),
+                Some(_) => {}
+                None => reasons.push(VerdictReason {
+                    level: "WARN",
+                    finding: format!("there is no predicted orientation error to hold to the {required}° required"),
+                    action: "use a session whose poses determine the mechanism (see the identifiability)".into(),
+                }),
+            }
+        }
+        Verdict::from_reasons(summary, reasons)
     }
 }
 
 impl std::fmt::Display for Verdict {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}: {}", self.label(), self.summary)
+        write!(f, "{}: {}", self.label(), self.summary)?;
+        for r in &self.reasons {
+            write!(f, "\n  {}: {}", r.level, r.finding)?;
+            if !r.action.is_empty() {
+                write!(f, " — {}", r.action)?;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -318,6 +447,10 @@ pub struct CalibrationReport {
     pub warnings: Vec<String>,
     /// The error on unseen data, when cross-validated (`folds` ≥ 2).
     pub cross_validation: Option<CrossValidation>,
+    /// Whether the residuals are what the noise model says, and if not, the likely cause.
+    pub model_check: Option<ModelCheck>,
+    /// The predicted orientation error before the misfit widened it (when the model check failed).
+    pub predicted_error_unwidened_deg: Option<f64>,
     /// Nominal mechanism with its best-fit camera registration, FDA against vision per pose
     /// (poses the per-pose estimator can work on).
     pub before: ErrorStats,

@@ -59,6 +59,22 @@ pub enum EvalError {
     },
 }
 
+/// What an observation was, for the model check's structure tests: where in the camera's view,
+/// at which joint angles, when, and which marker.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Observed {
+    /// A point's measured position in the camera frame (m).
+    pub(crate) point: Option<Vector3<f64>>,
+    /// A pixel: the camera that saw it and its `(u, v)` (px).
+    pub(crate) pixel: Option<(usize, [f64; 2])>,
+    /// The joint readings (rad).
+    pub(crate) joints: Vector3<f64>,
+    /// The capture's time (s), in a recording.
+    pub(crate) time_s: Option<f64>,
+    /// The marker (marker level).
+    pub(crate) marker: Option<usize>,
+}
+
 /// Residuals of a parameterisation and the noise model that whitens them.
 pub(crate) trait Residuals {
     /// What the residuals imply about the measurement noise (feasible GLS): per-class covariances
@@ -111,6 +127,9 @@ pub(crate) trait Residuals {
     /// The group an observation belongs to for validation (a station or a pose): observations of
     /// one group are held out together.
     fn group(&self, j: usize) -> (bool, u64);
+
+    /// What observation `j` was (for the model check).
+    fn observed(&self, j: usize) -> Observed;
 
     /// Index into the evaluation's `orientations` of observation `j`'s pose.
     fn pose_of(&self, j: usize) -> usize;

@@ -426,17 +426,3 @@ pub(crate) fn predicted_marker_error<N>(
     predicted.by_region = by_region(&rotations, &values);
     Some(predicted)
 }
-
-/// The noise's expected squared norm (unit²) of each residual: `σ̂² tr(Σ_j)`, `Σ_j = (W_jᵀ W_j)⁻¹`
-/// the whitening's covariance and `σ̂²` the covariance's own scale (the weighted whitened
-/// residual variance per degree of freedom).
-pub(crate) fn noise_mean_squares<N>(outcome: &FitOutcome<N>, free: usize) -> Vec<f64> {
-    let scale = residual_scale(outcome, free);
-    outcome
-        .weighting
-        .whitening
-        .iter()
-        // A pixel's whitening has no third row: the pseudo-inverse is its 2-row covariance.
-        .map(|w| (w.transpose() * w).pseudo_inverse(1e-300).map_or(f64::NAN, |s| s.trace() * scale))
-        .collect()
-}

@@ -573,3 +573,52 @@ pub(crate) fn apparent_latency(c: &Calibration) -> Option<Figure> {
         points.len()
     )))
 }
+
+/// The evidence of a failed model check: the residuals against the feature of the structure that
+/// explains most (binned means ± 2 standard errors); `None` when the check passed.
+pub(crate) fn model_check(c: &Calibration) -> Option<Figure> {
+    let check = c.report.model_check.as_ref().filter(|m| !m.passed)?;
+    let [x_label, y_label] = check.figure_axes.clone()?;
+    let bins = check.figure_bins.clone();
+    if bins.is_empty() {
+        return None;
+    }
+    let (x_min, x_max) = bins.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v[0]), b.max(v[0])));
+    let pad = ((x_max - x_min) * 0.05).max(1e-9);
+    let (y_min, y_max) = bins
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v[1] - 2.0 * v[2]), b.max(v[1] + 2.0 * v[2])));
+    let y_pad = ((y_max - y_min) * 0.1).max(1e-9);
+    let (y_min, y_max) = (y_min.min(0.0) - y_pad, y_max.max(0.0) + y_pad);
+    let figure =
+        Figure::new("the residuals against what explains them", (WIDE, 280), (NARROW, 260), &|root, layout| {
+            let mut chart = ChartBuilder::on(root)
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(if layout.narrow { 52 } else { 64 })
+                .build_cartesian_2d((x_min - pad)..(x_max + pad), y_min..y_max)?;
+            chart
+                .configure_mesh()
+                .light_line_style(TRANSPARENT)
+                .label_style(font())
+                .axis_desc_style(font())
+                .x_labels(layout.x_labels())
+                .y_labels(6)
+                .x_label_formatter(&|x| tick(*x))
+                .y_label_formatter(&|y| tick(*y))
+                .x_desc(x_label.as_str())
+                .y_desc(y_label.as_str())
+                .draw()?;
+            chart.draw_series(LineSeries::new([(x_min - pad, 0.0), (x_max + pad, 0.0)], GREY.stroke_width(1)))?;
+            chart.draw_series(bins.iter().map(|b| {
+                PathElement::new([(b[0], b[1] - 2.0 * b[2]), (b[0], b[1] + 2.0 * b[2])], BLUE.stroke_width(2))
+            }))?;
+            chart.draw_series(bins.iter().map(|b| Circle::new((b[0], b[1]), 4, BLUE.filled())))?;
+            Ok(())
+        });
+    Some(figure.caption(format!(
+        "{}: each dot is the mean residual of a bin of observations, its bar ± 2 standard errors; a model that \
+         explains the data keeps them around zero.",
+        check.finding.as_deref().unwrap_or("the residuals")
+    )))
+}

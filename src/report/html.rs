@@ -33,6 +33,9 @@ impl Calibration {
         let report = &self.report;
         let mut html = head(report);
         html += &verdict(report);
+        if let Some(figure) = charts::model_check(self) {
+            html = html.trim_end_matches("</section>").to_string() + &figure.html() + "</section>";
+        }
         let figures = [
             charts::per_pose(self),
             charts::residuals(self),
@@ -120,6 +123,15 @@ fn verdict(report: &CalibrationReport) -> String {
         v.label(),
         escape(&format!("{}.", capitalised(&v.summary)))
     );
+    for r in &v.reasons {
+        let _ = write!(
+            html,
+            "<p class=\"warn\"><b>{}</b>: {}{}</p>",
+            r.level,
+            escape(&capitalised(&r.finding)),
+            if r.action.is_empty() { ".".to_string() } else { format!(". What to do: {}.", escape(&r.action)) }
+        );
+    }
     for w in &report.warnings {
         let _ = write!(html, "<p class=\"warn\"><b>Warning</b>: {}</p>", escape(w));
     }
@@ -170,23 +182,20 @@ fn camera(report: &CalibrationReport) -> String {
     )
 }
 
-/// The cross-validated error against what the noise and the predicted error make expected.
+/// The model check: whether the residuals are what the noise model says, each test's p-value, and
+/// for a failed check its likely cause.
 fn check(report: &CalibrationReport) -> String {
-    let Some((cv, expected)) = report.cross_validation.as_ref().and_then(|cv| Some((cv, cv.expected_rms?))) else {
-        return String::new();
-    };
-    let se = cv.calibrated_ms_std_error / (2.0 * cv.calibrated_rms.max(f64::MIN_POSITIVE));
-    format!(
-        "<p class=\"{}\">Cross-validated {:.4} ± {se:.4} {unit} RMS against {expected:.4} {unit} expected from the camera noise and the predicted error: {}.</p>",
-        if cv.consistent { "pass" } else { "warn" },
-        cv.calibrated_rms,
-        if cv.consistent {
-            "consistent"
-        } else {
-            "they disagree beyond their uncertainty: the noise model or the model is wrong"
-        },
-        unit = cv.unit
-    )
+    let Some(check) = report.model_check.as_ref() else { return String::new() };
+    let mut html = format!(
+        "<p class=\"{}\">Model check: {}.</p>",
+        if check.passed { "pass" } else { "warn" },
+        escape(&check.summary())
+    );
+    if let (Some(finding), Some(action)) = (&check.finding, &check.action) {
+        let _ =
+            write!(html, "<p class=\"warn\">Likely cause: {}. What to do: {}.</p>", escape(finding), escape(action));
+    }
+    html
 }
 
 /// The weakest directions of the identification, and those regularised.

@@ -186,15 +186,11 @@ fn predicted(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
             )?;
         }
     }
-    if let Some((cv, expected)) = r.cross_validation.as_ref().and_then(|cv| Some((cv, cv.expected_rms?))) {
-        let unit = cv.unit;
-        let se = cv.calibrated_ms_std_error / (2.0 * cv.calibrated_rms.max(f64::MIN_POSITIVE));
-        writeln!(
-            f,
-            "check: cross-validated {:.4} ± {se:.4} {unit} RMS, expected from the camera noise and the predicted error {expected:.4} {unit}: {}",
-            cv.calibrated_rms,
-            if cv.consistent { "consistent" } else { "DISAGREE (the noise model or the model is wrong)" }
-        )?;
+    if let Some(check) = &r.model_check {
+        writeln!(f, "model check: {}", check.summary())?;
+        if let (Some(finding), Some(action)) = (&check.finding, &check.action) {
+            writeln!(f, "  likely cause: {finding} — {action}")?;
+        }
     }
     Ok(())
 }

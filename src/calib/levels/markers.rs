@@ -285,17 +285,38 @@ impl Level for MarkerLevel<'_> {
             self.workspace.as_ref(),
             p,
             x,
-            cov,
+            r.predicted_covariance,
             &fda,
             eval.orientation_jacobians.as_deref(),
             &eval.orientations,
             &pose_ids,
         );
+        // Without the misfit's widening, when the model check widened it.
+        let predicted_error_unwidened_deg = match r.predicted_covariance == cov {
+            true => None,
+            false => predicted_error_for(
+                self.workspace.as_ref(),
+                p,
+                x,
+                cov,
+                &fda,
+                eval.orientation_jacobians.as_deref(),
+                &eval.orientations,
+                &pose_ids,
+            )
+            .0
+            .map(|e| e.rms),
+        };
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
         let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
-            predicted_marker_error(&r.calibrated, r.problem.unit_scale(), ms, cov, &observation_poses, |j| {
-                eval.orientations[r.problem.pose_of(j)]
-            })
+            predicted_marker_error(
+                &r.calibrated,
+                r.problem.unit_scale(),
+                ms,
+                r.predicted_covariance,
+                &observation_poses,
+                |j| eval.orientations[r.problem.pose_of(j)],
+            )
         });
         let camera_translation_std_error_m = index_of(p, |k| matches!(k, Kind::Translation { .. })).and_then(|i| {
             Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
@@ -358,6 +379,7 @@ impl Level for MarkerLevel<'_> {
             held_out_poses: 0,
             parameters_report,
             predicted_error_deg,
+            predicted_error_unwidened_deg,
             predicted_error_mm,
             residual_sigma_deg: Vec::new(),
             camera_translation_m: Some(camera.translation.into()),

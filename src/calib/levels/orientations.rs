@@ -157,12 +157,28 @@ impl Level for OrientationLevel {
             self.workspace.as_ref(),
             p,
             x,
-            cov,
+            r.predicted_covariance,
             &fda,
             eval.orientation_jacobians.as_deref(),
             &eval.orientations,
             &pose_ids,
         );
+        // Without the misfit's widening, when the model check widened it.
+        let predicted_error_unwidened_deg = match r.predicted_covariance == cov {
+            true => None,
+            false => predicted_error_for(
+                self.workspace.as_ref(),
+                p,
+                x,
+                cov,
+                &fda,
+                eval.orientation_jacobians.as_deref(),
+                &eval.orientations,
+                &pose_ids,
+            )
+            .0
+            .map(|e| e.rms),
+        };
         let residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
@@ -194,6 +210,7 @@ impl Level for OrientationLevel {
                 .map(|(r, _)| r)
                 .collect(),
             predicted_error_deg,
+            predicted_error_unwidened_deg,
             predicted_error_mm: None,
             residual_sigma_deg,
             camera_translation_m: centre.map(|c| c.position_m),
