@@ -3,6 +3,8 @@
 //! prediction covers where the model will be used — including where the session did not go and
 //! the model extrapolates — and the session's own coverage, to say when it does.
 
+use std::borrow::Cow;
+
 use nalgebra::{DMatrix, DVector, Rotation3, Unit, Vector3};
 
 use super::config::PredictionWorkspace;
@@ -52,17 +54,14 @@ impl PredictionWorkspace {
             .collect()
     }
 
-    /// The predicted orientation error of the calibrated mechanism (`p` at `x`, covariance `cov`,
-    /// the FDA's own columns `fda`) over this workspace: at each of its orientations the mechanism
-    /// reaches, the sensitivity `∂ω/∂x` at the joints its IK gives. `None` when too few are
-    /// reachable to fit the common rotations.
-    pub(crate) fn predicted_error(
+    /// The orientations of this workspace the calibrated mechanism (`p` at `x`) reaches, with
+    /// the sensitivity `∂ω/∂x` at the joints its IK gives; `None` when too few are reachable to
+    /// fit the common rotations.
+    fn sensitivities(
         &self,
         p: &Parameterisation,
         x: &DVector<f64>,
-        cov: &DMatrix<f64>,
-        fda: &[bool],
-    ) -> Option<PredictedError> {
+    ) -> Option<(Vec<DMatrix<f64>>, Vec<Rotation3<f64>>)> {
         let legs = p.legs(x);
         let spm = Spm::new(legs).ok()?;
         let frames = Frames::new(p, x);
@@ -73,47 +72,67 @@ impl PredictionWorkspace {
                 rotations.push(r);
             }
         }
-        if rotations.len() < 10 {
-            return None;
-        }
-        let ids: Vec<u64> = (0..rotations.len() as u64).collect();
-        predicted_orientation_error(&sens, &rotations, &ids, fda, cov)
+        (rotations.len() >= 10).then_some((sens, rotations))
     }
 }
 
-/// The predicted orientation error of a calibration (`p` at `x`, covariance `cov`, FDA columns
-/// `fda`): over `workspace` when the user named one, else over the session's poses (their
-/// sensitivities `sens`, `orientations` and `ids`); with a finding when the workspace reaches
-/// beyond the session's poses (by more than a degree), where the prediction is an extrapolation.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn predicted_error_for(
-    workspace: Option<&PredictionWorkspace>,
-    p: &Parameterisation,
-    x: &DVector<f64>,
-    cov: &DMatrix<f64>,
-    fda: &[bool],
-    sens: Option<&[DMatrix<f64>]>,
-    orientations: &[Rotation3<f64>],
-    ids: &[u64],
-) -> (Option<PredictedError>, Option<String>) {
-    let Some(w) = workspace else {
-        return (sens.and_then(|s| predicted_orientation_error(s, orientations, ids, fda, cov)), None);
-    };
-    let mut predicted = w.predicted_error(p, x, cov, fda);
-    if let Some(e) = predicted.as_mut() {
-        e.workspace = Some(*w);
+/// The poses a calibration's orientation error is predicted at: the workspace the user named, or
+/// else the session's own poses — their sensitivities worked out once, for every covariance the
+/// report predicts with (the plain and the widened).
+pub(crate) struct PredictionPoses<'a> {
+    sensitivities: Cow<'a, [DMatrix<f64>]>,
+    rotations: Cow<'a, [Rotation3<f64>]>,
+    ids: Cow<'a, [u64]>,
+    workspace: Option<PredictionWorkspace>,
+}
+
+impl<'a> PredictionPoses<'a> {
+    /// Over `workspace` when the user named one (at the calibrated mechanism, `p` at `x`), else
+    /// over the session's poses (their sensitivities `sens`, `orientations` and `ids`); `None`
+    /// when there is nothing to predict at. With a finding when the workspace reaches beyond the
+    /// session's poses (by more than a degree), where the prediction is an extrapolation.
+    pub(crate) fn of(
+        workspace: Option<&PredictionWorkspace>,
+        p: &Parameterisation,
+        x: &DVector<f64>,
+        sens: Option<&'a [DMatrix<f64>]>,
+        orientations: &'a [Rotation3<f64>],
+        ids: &'a [u64],
+    ) -> (Option<Self>, Option<String>) {
+        let Some(w) = workspace else {
+            let poses = sens.map(|s| PredictionPoses {
+                sensitivities: Cow::Borrowed(s),
+                rotations: Cow::Borrowed(orientations),
+                ids: Cow::Borrowed(ids),
+                workspace: None,
+            });
+            return (poses, None);
+        };
+        let poses = w.sensitivities(p, x).map(|(sens, rotations)| PredictionPoses {
+            ids: Cow::Owned((0..rotations.len() as u64).collect()),
+            sensitivities: Cow::Owned(sens),
+            rotations: Cow::Owned(rotations),
+            workspace: Some(*w),
+        });
+        let covered = PredictionWorkspace::covering(orientations);
+        let beyond = w.max_tilt_deg > covered.max_tilt_deg + 1.0 || w.max_yaw_deg > covered.max_yaw_deg + 1.0;
+        let finding = beyond.then(|| {
+            format!(
+                "the predicted error is for the workspace tilt ≤ {:.0}°, yaw ±{:.0}° (`workspace`), but the session's \
+                 poses reach tilt {:.1}°, yaw ±{:.1}°: beyond them the calibrated model extrapolates, and the \
+                 prediction includes it; poses out to the workspace's edge (`spmcal plan`) make it smaller",
+                w.max_tilt_deg, w.max_yaw_deg, covered.max_tilt_deg, covered.max_yaw_deg
+            )
+        });
+        (poses, finding)
     }
-    let covered = PredictionWorkspace::covering(orientations);
-    let beyond = w.max_tilt_deg > covered.max_tilt_deg + 1.0 || w.max_yaw_deg > covered.max_yaw_deg + 1.0;
-    let finding = beyond.then(|| {
-        format!(
-            "the predicted error is for the workspace tilt ≤ {:.0}°, yaw ±{:.0}° (`workspace`), but the session's poses \
-             reach tilt {:.1}°, yaw ±{:.1}°: beyond them the calibrated model extrapolates, and the prediction \
-             includes it; poses out to the workspace's edge (`spmcal plan`) make it smaller",
-            w.max_tilt_deg, w.max_yaw_deg, covered.max_tilt_deg, covered.max_yaw_deg
-        )
-    });
-    (predicted, finding)
+
+    /// The predicted orientation error at these poses under `cov` (the FDA's own columns `fda`).
+    pub(crate) fn predicted(&self, cov: &DMatrix<f64>, fda: &[bool]) -> Option<PredictedError> {
+        let mut e = predicted_orientation_error(&self.sensitivities, &self.rotations, &self.ids, fda, cov)?;
+        e.workspace = self.workspace;
+        Some(e)
+    }
 }
 
 /// The `k`-th element of the van der Corput sequence in `base` (in [0, 1)).

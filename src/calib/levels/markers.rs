@@ -21,7 +21,7 @@ use crate::calib::report::{
 use crate::calib::residuals::Residuals;
 use crate::calib::rig_terms;
 use crate::calib::uncertainty::{parameter_reports, predicted_marker_error, released, std_error};
-use crate::calib::workspace::predicted_error_for;
+use crate::calib::workspace::PredictionPoses;
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
 use crate::model::{
@@ -281,32 +281,19 @@ impl Level for MarkerLevel<'_> {
         }
         let fda: Vec<bool> = p.entries.iter().map(|e| !matches!(e.kind, Kind::Latency | Kind::ClockRate)).collect();
         let eval = &r.calibrated.evaluation;
-        let (predicted_error_deg, beyond_the_session) = predicted_error_for(
+        let (poses, beyond_the_session) = PredictionPoses::of(
             self.workspace.as_ref(),
             p,
             x,
-            r.predicted_covariance,
-            &fda,
             eval.orientation_jacobians.as_deref(),
             &eval.orientations,
             &pose_ids,
         );
+        let predicted = |c: &DMatrix<f64>| poses.as_ref().and_then(|poses| poses.predicted(c, &fda));
+        let predicted_error_deg = predicted(r.predicted_covariance);
         // Without the misfit's widening, when the model check widened it.
-        let predicted_error_unwidened_deg = match r.predicted_covariance == cov {
-            true => None,
-            false => predicted_error_for(
-                self.workspace.as_ref(),
-                p,
-                x,
-                cov,
-                &fda,
-                eval.orientation_jacobians.as_deref(),
-                &eval.orientations,
-                &pose_ids,
-            )
-            .0
-            .map(|e| e.rms),
-        };
+        let predicted_error_unwidened_deg =
+            (r.predicted_covariance != cov).then(|| predicted(cov)).flatten().map(|e| e.rms);
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
         let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
             predicted_marker_error(

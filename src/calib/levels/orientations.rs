@@ -2,7 +2,7 @@
 //! estimator (poses that see at least three markers) against the FDA, every `holdout_every`-th
 //! pose held out of the fit to check it; `t_CB` comes from the centre of rotation.
 
-use nalgebra::{DVector, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
 use crate::calib::agreement::degrees;
 use crate::calib::calibration::{CalibError, Fitted};
@@ -14,7 +14,7 @@ use crate::calib::registration;
 use crate::calib::report::ErrorStats;
 use crate::calib::residuals::Residuals;
 use crate::calib::uncertainty::parameter_reports;
-use crate::calib::workspace::predicted_error_for;
+use crate::calib::workspace::PredictionPoses;
 use crate::dataset::Session;
 use crate::model::{CameraModel, CameraRegistration, ParameterSource, Parameters, RobotModel};
 use crate::vision::SessionEstimate;
@@ -153,32 +153,19 @@ impl Level for OrientationLevel {
         let eval = &r.calibrated.evaluation;
         let pose_ids: Vec<u64> = r.problem.observations().iter().map(|o| o.pose).collect();
         let fda = vec![true; p.len()];
-        let (predicted_error_deg, beyond_the_session) = predicted_error_for(
+        let (poses, beyond_the_session) = PredictionPoses::of(
             self.workspace.as_ref(),
             p,
             x,
-            r.predicted_covariance,
-            &fda,
             eval.orientation_jacobians.as_deref(),
             &eval.orientations,
             &pose_ids,
         );
+        let predicted = |c: &DMatrix<f64>| poses.as_ref().and_then(|poses| poses.predicted(c, &fda));
+        let predicted_error_deg = predicted(r.predicted_covariance);
         // Without the misfit's widening, when the model check widened it.
-        let predicted_error_unwidened_deg = match r.predicted_covariance == cov {
-            true => None,
-            false => predicted_error_for(
-                self.workspace.as_ref(),
-                p,
-                x,
-                cov,
-                &fda,
-                eval.orientation_jacobians.as_deref(),
-                &eval.orientations,
-                &pose_ids,
-            )
-            .0
-            .map(|e| e.rms),
-        };
+        let predicted_error_unwidened_deg =
+            (r.predicted_covariance != cov).then(|| predicted(cov)).flatten().map(|e| e.rms);
         let residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
