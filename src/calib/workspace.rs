@@ -57,11 +57,7 @@ impl PredictionWorkspace {
     /// The orientations of this workspace the calibrated mechanism (`p` at `x`) reaches, with
     /// the sensitivity `∂ω/∂x` at the joints its IK gives; `None` when too few are reachable to
     /// fit the common rotations.
-    fn sensitivities(
-        &self,
-        p: &Parameterisation,
-        x: &DVector<f64>,
-    ) -> Option<(Vec<DMatrix<f64>>, Vec<Rotation3<f64>>)> {
+    fn poses(&self, p: &Parameterisation, x: &DVector<f64>) -> Option<PredictionPoses<'static>> {
         let legs = p.legs(x);
         let spm = Spm::new(legs).ok()?;
         let frames = Frames::new(p, x);
@@ -72,7 +68,12 @@ impl PredictionWorkspace {
                 rotations.push(r);
             }
         }
-        (rotations.len() >= 10).then_some((sens, rotations))
+        (rotations.len() >= 10).then(|| PredictionPoses {
+            ids: Cow::Owned((0..rotations.len() as u64).collect()),
+            sensitivities: Cow::Owned(sens),
+            rotations: Cow::Owned(rotations),
+            workspace: Some(*self),
+        })
     }
 }
 
@@ -108,12 +109,7 @@ impl<'a> PredictionPoses<'a> {
             });
             return (poses, None);
         };
-        let poses = w.sensitivities(p, x).map(|(sens, rotations)| PredictionPoses {
-            ids: Cow::Owned((0..rotations.len() as u64).collect()),
-            sensitivities: Cow::Owned(sens),
-            rotations: Cow::Owned(rotations),
-            workspace: Some(*w),
-        });
+        let poses = w.poses(p, x);
         let covered = PredictionWorkspace::covering(orientations);
         let beyond = w.max_tilt_deg > covered.max_tilt_deg + 1.0 || w.max_yaw_deg > covered.max_yaw_deg + 1.0;
         let finding = beyond.then(|| {
