@@ -202,6 +202,36 @@ type Xy<'a, 'b> = ChartContext<'b, SVGBackend<'a>, Cartesian2d<RangedCoordf64, R
 /// What draws a chart's series into its axes.
 type Series<'f, 'a> = dyn for<'b> Fn(&mut Xy<'a, 'b>) -> Result<(), Box<dyn Error>> + 'f;
 
+/// Linear axes over `x × y` with the charts' common mesh (no light lines, the report's font, six
+/// y labels), `y_area` the y label area's width (narrow, wide) and `x_ticks` the x labels' format.
+fn linear_axes<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    layout: &Layout,
+    (x, y): (std::ops::Range<f64>, std::ops::Range<f64>),
+    (x_desc, y_desc): (&str, &str),
+    (narrow_area, wide_area): (u32, u32),
+    x_ticks: fn(f64) -> String,
+) -> Result<ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>, Box<dyn Error>> {
+    let mut chart = ChartBuilder::on(root)
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(if layout.narrow { narrow_area } else { wide_area })
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .light_line_style(TRANSPARENT)
+        .label_style(font())
+        .axis_desc_style(font())
+        .x_labels(layout.x_labels())
+        .y_labels(6)
+        .x_label_formatter(&|v| x_ticks(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .draw()?;
+    Ok(chart)
+}
+
 /// The error chart's axes over `[0, x_max] × [0, y_max]`, then `series` drawn into them.
 fn errors_chart<'a>(
     root: &DrawingArea<SVGBackend<'a>, Shift>,
@@ -210,24 +240,9 @@ fn errors_chart<'a>(
     (x_max, y_max): (f64, f64),
     series: &Series<'_, 'a>,
 ) -> Result<(), Box<dyn Error>> {
-    let mut chart = ChartBuilder::on(root)
-        .margin(12)
-        .x_label_area_size(44)
-        .y_label_area_size(if layout.narrow { 48 } else { 60 })
-        .build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
     let x_ticks = if e.along == Along::Pose { whole } else { tick };
-    chart
-        .configure_mesh()
-        .light_line_style(TRANSPARENT)
-        .label_style(font())
-        .axis_desc_style(font())
-        .x_labels(layout.x_labels())
-        .y_labels(6)
-        .x_label_formatter(&|x| x_ticks(*x))
-        .y_label_formatter(&|y| tick(*y))
-        .x_desc(e.along.title())
-        .y_desc(format!("error ({})", e.unit))
-        .draw()?;
+    let y_desc = format!("error ({})", e.unit);
+    let mut chart = linear_axes(root, layout, (0.0..x_max, 0.0..y_max), (e.along.title(), &y_desc), (48, 60), x_ticks)?;
     series(&mut chart)
 }
 
@@ -529,23 +544,7 @@ pub(crate) fn apparent_latency(c: &Calibration) -> Option<Figure> {
         (WIDE, 300),
         (NARROW, 280),
         &|root, layout| {
-            let mut chart = ChartBuilder::on(root)
-                .margin(12)
-                .x_label_area_size(44)
-                .y_label_area_size(if layout.narrow { 52 } else { 64 })
-                .build_cartesian_2d(x0..x1, y0..y1)?;
-            chart
-                .configure_mesh()
-                .light_line_style(TRANSPARENT)
-                .label_style(font())
-                .axis_desc_style(font())
-                .x_labels(layout.x_labels())
-                .y_labels(6)
-                .x_label_formatter(&|x| tick(*x))
-                .y_label_formatter(&|y| tick(*y))
-                .x_desc(title)
-                .y_desc("latency (ms)")
-                .draw()?;
+            let mut chart = linear_axes(root, layout, (x0..x1, y0..y1), (title, "latency (ms)"), (52, 64), tick)?;
             let ends = [(first / scale, line(first)), (last / scale, line(last))];
             chart.draw_series(LineSeries::new(ends, ORANGE.stroke_width(2)))?;
             chart.draw_series(
@@ -592,23 +591,8 @@ pub(crate) fn model_check(c: &Calibration) -> Option<Figure> {
     let (y_min, y_max) = (y_min.min(0.0) - y_pad, y_max.max(0.0) + y_pad);
     let figure =
         Figure::new("the residuals against what explains them", (WIDE, 280), (NARROW, 260), &|root, layout| {
-            let mut chart = ChartBuilder::on(root)
-                .margin(12)
-                .x_label_area_size(44)
-                .y_label_area_size(if layout.narrow { 52 } else { 64 })
-                .build_cartesian_2d((x_min - pad)..(x_max + pad), y_min..y_max)?;
-            chart
-                .configure_mesh()
-                .light_line_style(TRANSPARENT)
-                .label_style(font())
-                .axis_desc_style(font())
-                .x_labels(layout.x_labels())
-                .y_labels(6)
-                .x_label_formatter(&|x| tick(*x))
-                .y_label_formatter(&|y| tick(*y))
-                .x_desc(x_label.as_str())
-                .y_desc(y_label.as_str())
-                .draw()?;
+            let ranges = ((x_min - pad)..(x_max + pad), y_min..y_max);
+            let mut chart = linear_axes(root, layout, ranges, (x_label.as_str(), y_label.as_str()), (52, 64), tick)?;
             chart.draw_series(LineSeries::new([(x_min - pad, 0.0), (x_max + pad, 0.0)], GREY.stroke_width(1)))?;
             chart.draw_series(bins.iter().map(|b| {
                 PathElement::new([(b[0], b[1] - 2.0 * b[2]), (b[0], b[1] + 2.0 * b[2])], BLUE.stroke_width(2))
