@@ -7,8 +7,8 @@ use std::path::Path;
 use std::process::Command;
 
 use spmcal::calib::{CalibConfig, Calibration, CameraModelSetting, Group, calibrate};
-use spmcal::math::so3;
 use spmcal::dataset::Session;
+use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
