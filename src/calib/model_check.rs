@@ -365,10 +365,11 @@ pub(crate) fn check<M: Residuals>(
     // Where the model puts each observation, not where it was measured: a feature read from the
     // measurement would carry its noise, which the residual carries too, and correlate with it.
     let residuals = &outcome.evaluation.residuals;
-    let observed: Vec<Observed> = (0..m)
-        .map(|j| {
-            let mut o = model.observed(j);
-            let r = residuals[j];
+    let observed: Vec<Observed> = model
+        .observed(&outcome.x)
+        .into_iter()
+        .zip(residuals)
+        .map(|(mut o, r)| {
             o.point = o.point.map(|p| p - r);
             o.pixel = o.pixel.map(|(c, [u, v])| (c, [u - r.x, v - r.y]));
             o
@@ -923,8 +924,8 @@ impl ModelCheck {
                          scales)"
                     ),
                     format!(
-                        "fit the joint scales (`joint_scales: fit`, or `auto` on poses that move each joint further), \
-                         and check {joint}'s encoder: its counts per revolution and gear ratio"
+                        "fit the joint scales (`joint_scales: fit`; `auto` holds a scale the session determines to \
+                         no better than 0.1 %), and check {joint}'s encoder: its counts per revolution and gear ratio"
                     ),
                 )
             }
