@@ -6,8 +6,9 @@
 use std::path::Path;
 use std::process::Command;
 
-use spmcal::calib::{CalibConfig, Calibration, CameraModelSetting, calibrate};
+use spmcal::calib::{CalibConfig, Calibration, CameraModelSetting, Group, calibrate};
 use spmcal::dataset::Session;
+use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
@@ -94,6 +95,92 @@ fn a_joint_reading_long_is_flagged_as_a_joint_scale() {
     assert!(!check.passed, "{}", check.summary());
     assert_eq!(check.cause, Some("joint angles"), "{}", check.summary());
     assert!(check.finding.as_deref().unwrap().contains("joint scales"));
+    // The joint named is the one that reads long, and its test failed on its own share.
+    let joint = check.tests.iter().find(|t| t.leg == Some(1)).unwrap();
+    assert!(joint.p_value < joint.alpha, "{}", check.summary());
+    assert!(check.finding.as_deref().unwrap().contains("joint 1's angle"), "{:?}", check.finding);
+    // With that evidence, the scales this session cannot determine are a warning, not a note.
+    assert!(report.warnings.iter().any(|w| w.contains("joint scale")), "{:?}", report.warnings);
+    assert!(!report.notes.iter().any(|n| n.contains("joint scale")), "{:?}", report.notes);
+}
+
+#[test]
+fn a_small_clean_session_notes_its_held_joint_scales_without_a_warning() {
+    let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).unwrap();
+    let (session, _) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();
+    let report = run(&session, &model, &CalibConfig::default()).report;
+    // Twenty poses cannot tell the scales from the offsets (±0.2 % at best): said, not alarmed.
+    assert!(report.model_check.as_ref().unwrap().passed);
+    assert!(report.notes.iter().any(|n| n.contains("joint scales of legs 1, 2 and 3")), "{:?}", report.notes);
+    assert!(!report.warnings.iter().any(|w| w.contains("joint scale")), "{:?}", report.warnings);
+    let text = report.to_string();
+    assert!(text.contains("note: the joint scales") && text.contains("(held: see the notes)"), "{text}");
+}
+
+#[test]
+fn the_simulated_sag_turns_the_platform_down_by_the_compliance_times_the_sine_of_its_tilt() {
+    let mut c = realistic("configs/simulate_agile_wrist.yaml");
+    c.poses = 30;
+    let (rigid, _) = simulate(&c, 7);
+    c.truth.sag_deg = 1.0;
+    let (sagged, _) = simulate(&c, 7);
+    let (a, b) = (rigid.truth.as_ref().unwrap(), sagged.truth.as_ref().unwrap());
+    let mut tilted = 0;
+    for (pose, sagging) in rigid.poses.iter().zip(&sagged.poses) {
+        // The joints read where they put the platform: the same readings.
+        assert_eq!(pose.joints, sagging.joints);
+        let (r, s) = (a.orientations[&pose.id], b.orientations[&pose.id]);
+        let tilt = |r: &nalgebra::Rotation3<f64>| (r * nalgebra::Vector3::z()).z.clamp(-1.0, 1.0).acos();
+        // Turned by 1° times sin(tilt), about the horizontal axis across the tilt: the tilt grows
+        // by just that (to 1e-9 rad: the rotation is exact, its angle small).
+        let expected = tilt(&r).sin() * 1f64.to_radians();
+        assert!((so3::geodesic_angle(&r, &s) - expected).abs() < 1e-9, "pose {}", pose.id);
+        assert!((tilt(&s) - tilt(&r) - expected).abs() < 1e-9, "pose {}", pose.id);
+        tilted += usize::from(expected > 1e-3);
+    }
+    assert!(tilted > 20, "the workspace's poses are tilted");
+}
+
+#[test]
+fn a_sagging_platform_is_flagged_as_a_sag_with_its_cause_in_words() {
+    let mut c = realistic("configs/simulate_agile_wrist.yaml");
+    // 1° per unit of arm: 0.5° at 30° of tilt; the study: 3.5 times the error of a rigid one,
+    // caught in 90 % of sessions, named every time.
+    (c.poses, c.truth.sag_deg) = (200, 1.0);
+    let (session, model) = simulate(&c, 36_100);
+    let report = run(&session, &model, &CalibConfig::default()).report;
+    let check = report.model_check.as_ref().unwrap();
+    assert!(!check.passed, "{}", check.summary());
+    assert_eq!(check.cause, Some("platform sag"), "{}", check.summary());
+    let finding = check.finding.as_deref().unwrap();
+    assert!(finding.contains("sags under gravity") && finding.contains("no term"), "{finding}");
+    assert!(check.action.as_deref().unwrap().contains("limit the workspace's tilt"));
+    assert_eq!(check.figure_axes.as_ref().unwrap()[0], "platform's tilt (°)");
+    assert_eq!(report.verdict.label(), "WARN");
+    // The same mechanism, rigid: passes.
+    c.truth.sag_deg = 0.0;
+    let (rigid, _) = simulate(&c, 36_100);
+    let check = run(&rigid, &model, &CalibConfig::default()).report.model_check.unwrap();
+    assert!(check.passed, "{}", check.summary());
+}
+
+#[test]
+fn a_camera_clock_running_fast_with_its_rate_frozen_is_flagged_as_time() {
+    let mut c = realistic("configs/simulate_agile_wrist_free_motion.yaml");
+    let r = c.recording.as_mut().unwrap();
+    // Two minutes at 250 ppm: 30 ms behind at the end (the study's ten minutes at 50 ppm, the
+    // same; caught there with z ≈ 23).
+    (r.duration_s, r.clock_rate_ppm) = (120.0, 250.0);
+    let (session, model) = simulate(&c, 36_300);
+    let frozen = CalibConfig { freeze: vec![Group::ClockRate], ..CalibConfig::default() };
+    let report = run(&session, &model, &frozen).report;
+    let check = report.model_check.as_ref().unwrap();
+    assert!(!check.passed && check.p_value < 1e-6, "{}", check.summary());
+    assert_eq!(check.cause, Some("time"), "{}", check.summary());
+    assert!(check.finding.as_deref().unwrap().contains("clock runs at another rate"));
+    // The defaults fit the rate: the check passes.
+    let fitted = run(&session, &model, &CalibConfig::default()).report;
+    assert!(fitted.model_check.as_ref().unwrap().passed, "{}", fitted.model_check.unwrap().summary());
 }
 
 #[test]

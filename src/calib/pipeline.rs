@@ -20,6 +20,7 @@ use super::fit::{FitOutcome, FitSettings, IterationLog, fit};
 use super::identify::Direction;
 use super::joint_scales;
 use super::level::{Level, LevelResults, MIN_MOTION_DEG, Origin, check_enough};
+use super::model_check::Structure;
 use super::parameterisation::Parameterisation;
 use super::report::{CalibrationReport, FlaggedObservation, Verdict};
 use super::residuals::Residuals;
@@ -369,9 +370,11 @@ fn run<L: Level>(
     let cross_validation =
         cross_validate(&problem, [&nominal, &calibrated], [&determined, &registration], prior.as_ref(), config.folds);
     clock.lap("cross-validation", 0);
-    // Scales the session cannot tell are a warning; ones that show no error the report's lines only.
+    // Scales the session cannot tell are a note (a warning when the model check finds the residuals
+    // following the joints' angles, below); ones that show no error the report's lines only.
     undetermined.sort_by_key(|u| u.0);
-    let mut warnings: Vec<String> = camera_warnings.chain(joint_scales::undetermined_warning(&undetermined)).collect();
+    let held_scales_message = joint_scales::undetermined_warning(&undetermined);
+    let mut warnings: Vec<String> = camera_warnings.collect();
     if config.folds == 0 {
         // A legitimate quick run, but the one check of unseen poses is gone: say so.
         warnings.push(
@@ -442,6 +445,7 @@ fn run<L: Level>(
         excluded,
         verdict: Verdict::of(None, &part.before, &part.after, None, None, config),
         warnings: part.notes.into_iter().chain(warnings).chain(part.findings).collect(),
+        notes: Vec::new(),
         cross_validation,
         model_check: checked.map(|(c, _)| c),
         predicted_error_unwidened_deg: part.predicted_error_unwidened_deg,
@@ -475,11 +479,19 @@ fn run<L: Level>(
         check.name_markers(&names);
         let camera = report.markers.as_ref().map(|m| m.camera_model.model.name());
         check.diagnose(camera, unit == "px");
+        // Held scales are an alarm only when the residuals show one off: on every small clean
+        // session they would ring.
+        if let Some(message) = held_scales_message.clone().filter(|_| check.rejects(Structure::Joints)) {
+            report.warnings.push(message);
+        }
         if let (false, Some(before), Some(after)) =
             (check.passed, report.predicted_error_unwidened_deg, report.predicted_error_deg.as_ref())
         {
             check.widening = Some(after.rms / before.max(f64::MIN_POSITIVE));
         }
+    }
+    if let Some(message) = held_scales_message.filter(|m| !report.warnings.contains(m)) {
+        report.notes.push(message);
     }
     report.verdict = Verdict::of(
         report.cross_validation.as_ref(),

@@ -445,6 +445,10 @@ pub struct CalibrationReport {
     pub verdict: Verdict,
     /// Plain-language warnings: markers seen at too few poses, a calibration not clearly better.
     pub warnings: Vec<String>,
+    /// What the session could not do that is no sign of trouble: joint scales it cannot tell from
+    /// the offsets, held at their start (a warning instead when the model check finds the residuals
+    /// following the joints' angles).
+    pub notes: Vec<String>,
     /// The error on unseen data, when cross-validated (`folds` ≥ 2).
     pub cross_validation: Option<CrossValidation>,
     /// Whether the residuals are what the noise model says, and if not, the likely cause.
@@ -563,6 +567,8 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         at_bound: Vec<&'a str>,
         #[serde(skip_serializing_if = "Vec::is_empty")]
         warnings: Vec<&'a str>,
+        #[serde(skip_serializing_if = "Vec::is_empty")]
+        notes: Vec<&'a str>,
     }
     // A pixel session's marker errors are reprojection errors (px).
     let pixels = report.unit == "px";
@@ -607,6 +613,7 @@ pub(crate) fn fit_header(report: &CalibrationReport) -> serde_yaml::Value {
         verdict: report.verdict.label(),
         at_bound: report.at_bound.iter().map(String::as_str).collect(),
         warnings: report.warnings.iter().map(String::as_str).collect(),
+        notes: report.notes.iter().map(String::as_str).collect(),
     };
     serde_yaml::to_value(header).expect("the header serialises")
 }

@@ -135,6 +135,9 @@ fn verdict(report: &CalibrationReport) -> String {
     for w in &report.warnings {
         let _ = write!(html, "<p class=\"warn\"><b>Warning</b>: {}</p>", escape(w));
     }
+    for n in &report.notes {
+        let _ = write!(html, "<p class=\"note\"><b>Note</b>: {}</p>", escape(n));
+    }
     html += &predicted(report);
     html += &camera(report);
     html += &check(report);

@@ -216,7 +216,7 @@ pub(crate) fn joint_scales(calibration: &Calibration) -> Option<Table> {
             (None, Some(why)) if why.starts_with("not distinguishable") => {
                 format!("held: {}", why.split(" (").next().unwrap_or(why))
             }
-            (None, _) => "held (see warnings)".to_string(),
+            (None, _) => format!("held (see {})", super::text::held_scales_list(&calibration.report)),
         };
         table.row([s.leg.to_string(), format!("{:.6}", s.scale), format!("{:+.0}", s.change_ppm), se]);
     }

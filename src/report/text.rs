@@ -8,6 +8,12 @@ use crate::math::stats::Stats;
 /// How many excluded or flagged items a text report lists before "… and N more".
 const LISTED: usize = 10;
 
+/// Where the report says why the joint scales it could not determine were held: its notes, or its
+/// warnings when the model check found a scale off.
+pub(crate) fn held_scales_list(r: &CalibrationReport) -> &'static str {
+    if r.notes.iter().any(|n| n.contains("joint scale")) { "notes" } else { "warnings" }
+}
+
 fn error_line(f: &mut fmt::Formatter<'_>, label: &str, e: &Stats) -> fmt::Result {
     writeln!(f, "  {label:<26} {:8.4} {:8.4} {:8.4}", e.rms, e.median, e.max)
 }
@@ -45,6 +51,9 @@ impl fmt::Display for CalibrationReport {
         writeln!(f, "verdict: {}", r.verdict)?;
         for w in &r.warnings {
             writeln!(f, "WARNING: {w}")?;
+        }
+        for n in &r.notes {
+            writeln!(f, "note: {n}")?;
         }
         match &r.markers {
             Some(m) => {
@@ -106,7 +115,7 @@ impl fmt::Display for CalibrationReport {
                 (None, Some(why)) if why.starts_with("not distinguishable") => {
                     writeln!(f, "  {name:<26} {:.6} (held: {why})", s.scale)?
                 }
-                (None, _) => writeln!(f, "  {name:<26} {:.6} (held: see the warnings)", s.scale)?,
+                (None, _) => writeln!(f, "  {name:<26} {:.6} (held: see the {})", s.scale, held_scales_list(r))?,
             }
         }
         if !r.not_significant.is_empty() {

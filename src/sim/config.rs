@@ -120,7 +120,7 @@ pub(crate) struct PlanRow {
     pub(crate) joints: Vector3<f64>,
 }
 
-/// Standard deviations of the true geometry around the nominal model.
+/// Standard deviations of the true geometry around the nominal model, and its compliance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TruthSpread {
@@ -136,6 +136,11 @@ pub struct TruthSpread {
     pub camera_rotation_deg: f64,
     /// Misplacement of each marker on the MP, per axis (m): markers are glued by hand.
     pub marker_position_m: f64,
+    /// Not a spread: the platform's sag under its weight, degrees per unit of the gravity torque's
+    /// arm (the sine of the platform's tilt from level; its centre of mass on its axis). The MP
+    /// turns that much further down than the joints put it, about the horizontal axis across its
+    /// tilt: at 30° of tilt, half of it. 0 (a rigid mechanism) by default.
+    pub sag_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -300,6 +305,7 @@ impl Default for TruthSpread {
             camera_position_m: 0.01,
             camera_rotation_deg: 1.0,
             marker_position_m: 0.003,
+            sag_deg: 0.0,
         }
     }
 }
@@ -419,6 +425,12 @@ impl SimConfig {
                 self.workspace.min_conditioning
             );
             return Err(("workspace.min_conditioning".into(), reason));
+        }
+        // A degree's sag at 90° of tilt is already a weak mechanism; ten would break the small
+        // rotation the simulator applies.
+        if !(self.truth.sag_deg.is_finite() && self.truth.sag_deg.abs() <= 10.0) {
+            let reason = format!("`truth.sag_deg` must be within ±10° (got {})", self.truth.sag_deg);
+            return Err(("truth.sag_deg".into(), reason));
         }
         if self.poses == 0 || self.poses > MAX_POSES {
             let reason = format!("`poses` (or `--poses`) must be from 1 to {MAX_POSES} (got {})", self.poses);

@@ -506,7 +506,7 @@ impl Simulator<'_> {
                         vec![(self.record(poses.len() as u64, &r, &joints, &self.all_markers()), r)]
                     };
                     for (pose, r) in captures {
-                        truth.insert(pose.id, r);
+                        truth.insert(pose.id, self.sagged(&r));
                         poses.push(pose);
                     }
                     progress(stations);
@@ -836,8 +836,21 @@ impl Simulator<'_> {
             .collect()
     }
 
-    /// Encoder readings and camera measurements of the markers `which` at a pose.
+    /// Where the platform is when the joints put it at `r`: sagged under its weight by
+    /// `truth.sag_deg` per unit of the gravity torque's arm `n × (−z)` (`n` its axis, `z` up).
+    fn sagged(&self, r: &Rotation3<f64>) -> Rotation3<f64> {
+        let compliance = self.config.truth.sag_deg.to_radians();
+        if compliance == 0.0 {
+            return *r;
+        }
+        let arm = (r * Vector3::z()).cross(&-Vector3::z());
+        so3::exp(&(arm * compliance)) * r
+    }
+
+    /// Encoder readings and camera measurements of the markers `which` at a pose (the joints put
+    /// the platform at `r`; the camera sees it [`Simulator::sagged`]).
     fn record(&mut self, id: u64, r: &Rotation3<f64>, joints: &Vector3<f64>, which: &[usize]) -> SessionPose {
+        let r = &self.sagged(r);
         let readings = self.read_encoders(joints);
         let (markers, pixels) = if self.pixels.is_some() {
             self.see_pixels(r, joints, which)
