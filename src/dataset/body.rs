@@ -121,8 +121,8 @@ pub(crate) fn read_body_poses(path: &Path) -> Result<Vec<BodyRow>, FileError> {
     Ok(out)
 }
 
-/// Read a recording's `poses.csv`: time strictly increasing (one body pose per tracker frame),
-/// at least [`super::streams::MIN_FRAMES`] of them.
+/// Read a recording's `poses.csv`: time strictly increasing (one body pose per tracker frame;
+/// how many a recording needs, `Streams::of_body` checks).
 ///
 /// # Errors
 /// A [`FileError`] naming the line and column of the first problem.
@@ -136,22 +136,7 @@ pub(crate) fn read_body_captures(path: &Path) -> Result<Vec<BodyCapture>, FileEr
         }
         Ok(BodyCapture { time_s, pose: BodyPose::of_row(row, 1)? })
     })?;
-    check_frames(path, out.len())?;
     Ok(out)
-}
-
-/// A recording needs body poses at [`super::streams::MIN_FRAMES`] times at least.
-pub(crate) fn check_frames(path: &Path, frames: usize) -> Result<(), FileError> {
-    let min = super::streams::MIN_FRAMES;
-    if frames >= min {
-        return Ok(());
-    }
-    Err(FileError::new(
-        path,
-        format!(
-            "holds {frames} body pose(s): almost nothing to calibrate from — a recording needs the body at {min} times at least (a calibration many more: each gives 6 numbers, against some 30 parameters)"
-        ),
-    ))
 }
 
 /// A static session's `poses.csv` text, full precision.

@@ -19,7 +19,7 @@ use nalgebra::Vector3;
 
 use std::fmt::Write as _;
 
-use super::body::{BodyCapture, check_frames, read_body_captures};
+use super::body::{BodyCapture, read_body_captures};
 use super::markers::MarkerLookup;
 use super::pixels::{PixelRow, SeenPixel, read_timed_pixels, triangulate};
 use crate::io::files::{FileError, number, push_numbers};
@@ -449,6 +449,20 @@ impl Streams {
         let (a, b) = ((time_s - VELOCITY_WINDOW_S).max(first), (time_s + VELOCITY_WINDOW_S).min(last));
         Some((self.joints_at(b)? - self.joints_at(a)?) / (b - a))
     }
+}
+
+/// A recording needs body poses at [`MIN_FRAMES`] times at least.
+fn check_frames(path: &Path, frames: usize) -> Result<(), FileError> {
+    let min = MIN_FRAMES;
+    if frames >= min {
+        return Ok(());
+    }
+    Err(FileError::new(
+        path,
+        format!(
+            "holds {frames} body pose(s): almost nothing to calibrate from — a recording needs the body at {min} times at least (a calibration many more: each gives 6 numbers, against some 30 parameters)"
+        ),
+    ))
 }
 
 /// `encoders.csv` text, with full precision.
