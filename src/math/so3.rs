@@ -103,8 +103,21 @@ pub(crate) fn carry(a1: &Vector3<f64>, b1: &Vector3<f64>, a2: &Vector3<f64>, b2:
 
 /// The proper rotation nearest to `m` in the Frobenius norm (the polar factor by Higham's
 /// iteration when `det m` is clearly positive, else the SVD with its sign correction), or `None`
-/// when `m` is rank-deficient (no unique nearest rotation).
+/// when `m` is rank-deficient (no unique nearest rotation). Public to the crate's own studies and
+/// tests only (`internals`): the API keeps the conversions a user needs.
+#[cfg(feature = "internals")]
 pub fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
+    nearest(m)
+}
+
+/// See the `internals` twin above.
+#[cfg(not(feature = "internals"))]
+#[cfg_attr(not(feature = "full"), allow(dead_code))]
+pub(crate) fn nearest_rotation(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
+    nearest(m)
+}
+
+fn nearest(m: &Matrix3<f64>) -> Option<Rotation3<f64>> {
     // With det m > 8ε‖m‖³ (so σ_min > 8ε σ_max: σ1σ2σ3 ≤ σ_max²σ_min) the answer is the orthogonal
     // polar factor, which Higham's iteration finds about six times faster than the SVD (93 ns
     // against 548 ns, docs/benchmarks.md).
