@@ -188,6 +188,8 @@ fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
         name: "m5".into(),
         position: Vector3::new(0.01, 0.02, 0.03),
         std_error: None,
+        rotation: None,
+        rotation_std_error: None,
     });
     let good = params.to_yaml();
     let path = dir.path().join("p.yaml");

@@ -361,6 +361,7 @@ impl Session {
                 marker_lines: vec![0; marker_names.len()],
                 station: None,
                 pixels: Vec::new(),
+                body: None,
             });
         }
         let session =
@@ -1118,6 +1119,7 @@ fn _marker_model<'py>(
             line: 0,
             station: None,
             time_s: None,
+            rotation: false,
         })
         .collect();
     let noise = StereoNoise {
@@ -1128,6 +1130,10 @@ fn _marker_model<'py>(
         depth_std_error_m: 0.0,
         pixel_px: Vec::new(),
         pixel_std_error_px: Vec::new(),
+        body_position_m: None,
+        body_position_std_error_m: None,
+        body_orientation_rad: None,
+        body_orientation_std_error_rad: None,
     };
     let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;

@@ -45,13 +45,15 @@ impl MarkerErrors {
         // Pixels (px) as they are, points in millimetres.
         let pixels = observations.first().is_some_and(|o| o.camera.is_some());
         let scale = if pixels { 1.0 } else { 1e3 };
-        let mm: Vec<f64> = residuals.iter().map(|r| r.norm() * scale).collect();
+        // A rigid body's orientations (rad) are not among the positions' errors.
+        let positions = observations.iter().zip(residuals).filter(|(o, _)| !o.rotation);
+        let mm: Vec<f64> = positions.clone().map(|(_, r)| r.norm() * scale).collect();
         let per_marker = names
             .iter()
             .enumerate()
             .map(|(k, name)| {
                 let of_k: Vec<f64> =
-                    observations.iter().zip(&mm).filter(|(o, _)| o.marker == k).map(|(_, d)| *d).collect();
+                    positions.clone().filter(|(o, _)| o.marker == k).map(|(_, r)| r.norm() * scale).collect();
                 (name.clone(), of_k.len(), rms(of_k.iter().copied()))
             })
             .collect();

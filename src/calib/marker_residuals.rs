@@ -12,6 +12,16 @@
 //! `dr = −K dt` for `t_CB`, `dr = −K R_CB R dp_k` for the marker and `dr = −(∂K/∂κ) y dκ` for a
 //! camera-model term `κ`, `y = R_CB R p_k + t_CB`.
 //!
+//! A rigid body (motion capture) gives per capture its origin `o` and orientation `Q` (body →
+//! tracker, the tracker's frame standing for C). Its origin is a point of the MP like a marker
+//! (`p_0`, fitted, the body's name for the marker's); its orientation a rotation residual
+//! `r = log(Q A R(θ)ᵀ R_CBᵀ)` (radians, as the orientation level's), with `A` (P → body frame,
+//! the transpose of the body frame's rotation on the MP) fitted: the reference rotation's entries
+//! stand for it. Derivatives as at the orientation level (`J_l` the left Jacobian):
+//! `dr = −J_l⁻¹(r) M R_CB dω` for the mechanism and the clock, `dr = −J_l⁻¹(r) M J_l(c) dc` for
+//! `R_CB`, `dr = J_l⁻¹(r) Q J_l(a) da` for `A` (`M = Q A Rᵀ R_CBᵀ`). A tracker's noise has no
+//! line of sight: a body's positions share one σ (m), its orientations another (rad).
+//!
 //! Noise: a stereo camera triangulates depth worse than it measures across the line of sight. A
 //! pixel subtends `d / f`, so the lateral error grows with the distance `d`; the depth error
 //! grows with its square (`∝ d² / (f · baseline)`). The covariance of an observation along the
@@ -50,6 +60,9 @@ pub struct MarkerObservation {
     /// The capture's time on the camera's clock (s), when recorded: with a free-motion
     /// recording's streams, the joints are interpolated at this time less the latency.
     pub time_s: Option<f64>,
+    /// A rigid body's orientation: `measured` is then the rotation vector of the body frame's
+    /// measured orientation (body → tracker, rad), not a position (`marker` is the body's 0).
+    pub rotation: bool,
 }
 
 impl MarkerObservation {
@@ -62,7 +75,11 @@ impl MarkerObservation {
 
     fn collect(session: &Session, spm: &Spm, pixels: bool) -> (Vec<MarkerObservation>, Vec<(u64, FdaError)>) {
         let (mut kept, mut failed) = (Vec::new(), Vec::new());
-        let seen = |p: &crate::dataset::SessionPose| if pixels { p.pixels.len() } else { p.seen() };
+        let seen = |p: &crate::dataset::SessionPose| match (pixels, p.body) {
+            (true, _) => p.pixels.len(),
+            (false, Some(_)) => 2,
+            (false, None) => p.seen(),
+        };
         for pose in session.poses.iter().filter(|p| seen(p) > 0) {
             if let Err(e) = spm.forward(&pose.joints) {
                 failed.push((pose.id, e));
@@ -77,8 +94,14 @@ impl MarkerObservation {
                 line,
                 station: pose.station,
                 time_s: pose.time_s,
+                rotation: false,
             };
-            if pixels {
+            if let Some(body) = &pose.body {
+                // The body's origin as the point of marker 0, then its orientation.
+                kept.push(observation(0, body.position, None, body.line));
+                let rotation = so3::log(&body.rotation);
+                kept.push(MarkerObservation { rotation: true, ..observation(0, rotation, None, body.line) });
+            } else if pixels {
                 kept.extend(pose.pixels.iter().map(|seen| {
                     let measured = Vector3::new(seen.pixel.x, seen.pixel.y, 0.0);
                     observation(seen.marker, measured, Some(seen.camera), seen.line)
@@ -104,7 +127,8 @@ pub(crate) fn per_pose_rms(
     scale: f64,
 ) -> Vec<(u64, f64)> {
     let mut poses: Vec<(u64, f64, usize)> = Vec::new();
-    for (o, r) in observations.iter().zip(residuals) {
+    // A body's orientations are in radians: the positions say the size in `scale`'s unit.
+    for (o, r) in observations.iter().zip(residuals).filter(|(o, _)| !o.rotation) {
         let squared = (r.norm() * scale).powi(2);
         match poses.last_mut() {
             Some((pose, sum, n)) if *pose == o.pose => {
@@ -137,6 +161,19 @@ pub struct StereoNoise {
     /// Their standard errors (px).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub pixel_std_error_px: Vec<f64>,
+    /// A rigid body's position noise, σ per axis (m; `None` for markers): a tracker's has no
+    /// line of sight.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_position_m: Option<f64>,
+    /// Its standard error (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_position_std_error_m: Option<f64>,
+    /// A rigid body's orientation noise, σ per axis of the rotation vector (rad).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_orientation_rad: Option<f64>,
+    /// Its standard error (rad).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body_orientation_std_error_rad: Option<f64>,
 }
 
 /// A pose's joints and their rates of change with the camera latency and with the clock's rate
@@ -148,6 +185,9 @@ const SIGMA_FLOOR_M: f64 = 1e-7;
 
 /// The same for a pixel (a thousandth of a pixel).
 const PIXEL_SIGMA_FLOOR_PX: f64 = 1e-3;
+
+/// The same for a body's orientation (0.1 µrad).
+const ROTATION_SIGMA_FLOOR_RAD: f64 = 1e-7;
 
 /// The marker-level model over a set of observations.
 #[derive(Debug)]
@@ -173,6 +213,8 @@ pub struct MarkerResiduals<'a> {
     /// Per observation, the factor its noise is inflated by (captures taken while the joystick
     /// moved too fast); empty: none.
     inflation: Vec<f64>,
+    /// Whether the observations are a rigid body's (positions and orientations).
+    body: bool,
 }
 
 impl Clone for MarkerResiduals<'_> {
@@ -206,9 +248,10 @@ impl<'a> MarkerResiduals<'a> {
             pose_of.push(poses.len() - 1);
         }
         let mut distances: Vec<f64> =
-            observations.iter().filter(|o| o.camera.is_none()).map(|o| o.measured.norm()).collect();
+            observations.iter().filter(|o| o.camera.is_none() && !o.rotation).map(|o| o.measured.norm()).collect();
         distances.sort_by(f64::total_cmp);
         let reference_distance = distances.get(distances.len() / 2).copied().unwrap_or(1.0).max(1e-3);
+        let body = observations.iter().any(|o| o.rotation);
         MarkerResiduals {
             p,
             observations,
@@ -219,6 +262,7 @@ impl<'a> MarkerResiduals<'a> {
             spare: Default::default(),
             streams: None,
             inflation: Vec::new(),
+            body,
         }
     }
 
@@ -299,8 +343,16 @@ impl<'a> MarkerResiduals<'a> {
         let cameras = self.p.rig0.as_ref().map_or(0, |r| r.cameras.len());
         let (mut pixel, mut pixel_total, mut pixel_count) =
             (vec![0.0; cameras], vec![0.0; cameras], vec![0usize; cameras]);
+        // A body's: Σ w |r|² and Σ w of its positions, then of its orientations.
+        let mut body = [[0.0; 2]; 2];
         for (j, r) in residuals.iter().enumerate() {
             let r = r / self.inflation(j);
+            if self.body {
+                let sums = &mut body[usize::from(self.observations[j].rotation)];
+                sums[0] += weights[j] * r.norm_squared();
+                sums[1] += weights[j];
+                continue;
+            }
             if let Some(c) = self.observations[j].camera {
                 pixel[c] += weights[j] * r.norm_squared();
                 pixel_total[c] += weights[j];
@@ -317,6 +369,7 @@ impl<'a> MarkerResiduals<'a> {
         }
         // Degrees of freedom: 3 per point and 2 per pixel, less one per parameter (shared pro rata).
         let rows = (3 * points + 2 * pixel_count.iter().sum::<usize>()) as f64;
+        let rows = if self.body { 3.0 * residuals.len() as f64 } else { rows };
         let dof = (1.0 - self.p.len() as f64 / rows.max(1.0)).max(0.1);
         let n = points as f64;
         let total = total.max(f64::MIN_POSITIVE) * dof;
@@ -334,6 +387,41 @@ impl<'a> MarkerResiduals<'a> {
             depth_std_error_m: depth_m / (2.0 * n).max(1.0).sqrt(),
             pixel_px,
             pixel_std_error_px,
+            ..self.body_noise(&body, dof)
+        }
+    }
+
+    /// A rigid body's σ's (position, orientation) from the sums `[Σ w |r|², Σ w]` of its positions
+    /// and orientations, with `dof` the share of the rows left by the parameters: `σ² = Σ w |r|² /
+    /// (3 Σ w · dof)` per axis; standard errors `σ / √(2 · 3n · dof)` (n rows of 3), as a
+    /// variance estimated from `3n·dof` squares has. Nothing for markers.
+    fn body_noise(&self, sums: &[[f64; 2]; 2], dof: f64) -> StereoNoise {
+        let none = StereoNoise {
+            reference_distance_m: self.reference_distance,
+            lateral_m: 0.0,
+            lateral_std_error_m: 0.0,
+            depth_m: 0.0,
+            depth_std_error_m: 0.0,
+            pixel_px: Vec::new(),
+            pixel_std_error_px: Vec::new(),
+            body_position_m: None,
+            body_position_std_error_m: None,
+            body_orientation_rad: None,
+            body_orientation_std_error_rad: None,
+        };
+        if !self.body {
+            return none;
+        }
+        let count = |rotation: bool| self.observations.iter().filter(|o| o.rotation == rotation).count() as f64;
+        let sigma = |[sum, total]: [f64; 2]| (sum / (3.0 * total.max(f64::MIN_POSITIVE) * dof)).sqrt();
+        let (position, orientation) = (sigma(sums[0]), sigma(sums[1]));
+        let error = |s: f64, n: f64| s / (6.0 * n * dof).max(1.0).sqrt();
+        StereoNoise {
+            body_position_m: Some(position),
+            body_position_std_error_m: Some(error(position, count(false))),
+            body_orientation_rad: Some(orientation),
+            body_orientation_std_error_rad: Some(error(orientation, count(true))),
+            ..none
         }
     }
 
@@ -344,6 +432,13 @@ impl<'a> MarkerResiduals<'a> {
 
     /// `Σ_j^{-1/2}` of observation `j` under `noise`.
     pub fn whitening_of(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
+        if self.body {
+            let sigma = match self.observations[j].rotation {
+                true => noise.body_orientation_rad.unwrap_or(1.0).max(ROTATION_SIGMA_FLOOR_RAD),
+                false => noise.body_position_m.unwrap_or(1.0).max(SIGMA_FLOOR_M),
+            };
+            return Matrix3::identity() / (sigma * self.inflation(j));
+        }
         if let Some(c) = self.observations[j].camera {
             let sigma = noise.pixel_px.get(c).copied().unwrap_or(1.0).max(PIXEL_SIGMA_FLOOR_PX);
             return Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) / (sigma * self.inflation(j));
@@ -408,6 +503,8 @@ impl Residuals for MarkerResiduals<'_> {
         let mut model = MarkerResiduals::of(self.p, std::borrow::Cow::Owned(observations));
         model.streams = self.streams;
         model.columns.clone_from(&self.columns);
+        // A subset of a body's positions alone is still a body's.
+        model.body = self.body;
         if !self.inflation.is_empty() {
             model.inflation = rows.iter().map(|&j| self.inflation[j]).collect();
         }
@@ -426,7 +523,7 @@ impl Residuals for MarkerResiduals<'_> {
     fn observed(&self, j: usize) -> super::residuals::Observed {
         let o = &self.observations[j];
         super::residuals::Observed {
-            point: o.camera.is_none().then_some(o.measured),
+            point: (o.camera.is_none() && !o.rotation).then_some(o.measured),
             pixel: o.camera.map(|c| (c, [o.measured.x, o.measured.y])),
             joints: o.joints,
             time_s: o.time_s,
@@ -469,11 +566,16 @@ impl Residuals for MarkerResiduals<'_> {
             orientations.push(r);
         }
         let rig = p.rig(x);
+        let body_frame = p.reference(x);
         let residuals = self
             .observations
             .iter()
             .zip(&self.pose_of)
             .map(|(o, &pose)| {
+                if o.rotation {
+                    let m = so3::exp(&o.measured) * body_frame * orientations[pose].inverse() * camera.inverse();
+                    return Ok(so3::log(&m));
+                }
                 let y = camera * (orientations[pose] * markers[o.marker]) + translation;
                 Ok(o.measured - observe(o, &y, &camera_model, rig.as_ref())?.0)
             })
@@ -521,6 +623,15 @@ impl Residuals for MarkerResiduals<'_> {
         if self.pixels() { 1.0 } else { 1e3 }
     }
 
+    /// A body's positions alone (its orientations are in radians, reported on their own).
+    fn report_rms(&self, residuals: &[Vector3<f64>]) -> f64 {
+        if !self.body || residuals.len() != self.observations.len() {
+            return super::residuals::rms(residuals) * self.unit_scale();
+        }
+        let positions = residuals.iter().zip(self.observations.iter()).filter(|(_, o)| !o.rotation);
+        crate::math::stats::rms(positions.map(|(r, _)| r.norm())) * self.unit_scale()
+    }
+
     fn unit(&self) -> &'static str {
         if self.pixels() { "px" } else { "mm" }
     }
@@ -554,8 +665,31 @@ impl MarkerResiduals<'_> {
             }
             _ => DMatrix::zeros(shape.0, shape.1),
         };
+        let ja = so3::left_jacobian(&p.registration_vectors(x).1);
+        let body_frame = p.reference(x);
         for (j, o) in self.observations.iter().enumerate() {
             let pose = self.pose_of[j];
+            if o.rotation {
+                let measured = so3::exp(&o.measured);
+                let m = measured * body_frame * orientations[pose].inverse() * camera.inverse();
+                let jl_inv = so3::left_jacobian_inverse(&so3::log(&m));
+                let (mech, m_c) = (-(jl_inv * m.matrix() * camera.matrix()), -(jl_inv * m.matrix() * jc));
+                let reference = jl_inv * measured.matrix() * ja;
+                let mut block = jac.fixed_rows_mut::<3>(3 * j);
+                if mechanism {
+                    block.gemm(1.0, &mech, &sensitivities[pose], 0.0);
+                }
+                for (i, e) in p.entries.iter().enumerate().filter(|(i, _)| self.column_needed(*i)) {
+                    let column: Vector3<f64> = match e.kind {
+                        Kind::Camera { k: axis } => m_c.column(axis).into(),
+                        Kind::Reference { k: axis } => reference.column(axis).into(),
+                        Kind::Latency | Kind::ClockRate if !mechanism => mech * sensitivities[pose].column(i),
+                        _ => continue,
+                    };
+                    block.set_column(i, &column);
+                }
+                continue;
+            }
             let rp = orientations[pose] * markers[o.marker];
             let y = camera * rp + translation;
             // Evaluated before: the observation projects.

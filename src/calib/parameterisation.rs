@@ -305,6 +305,18 @@ impl Parameterisation {
         p.with_camera_model(camera_model, bounds.camera_term)
     }
 
+    /// The same parameterisation with a rigid body's frame (named `body`) as parameters: its
+    /// rotation `A = exp(a) A⁰` (P → body frame) stands in the reference rotation's entries, its
+    /// origin is the marker-level's marker 0.
+    pub(crate) fn with_body_frame(mut self, a0: Rotation3<f64>, body: &str) -> Self {
+        self.reference0 = a0;
+        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+            let entry = Entry { kind: Kind::Reference { k }, name: format!("{body}.rotation_{axis}"), bound: None };
+            self.entries.push(entry);
+        }
+        self
+    }
+
     /// The same parameterisation with the camera latency as a parameter, started at `start` and
     /// bounded by `bound` either side of zero (s).
     pub fn with_latency(mut self, start: f64, bound: f64) -> Self {

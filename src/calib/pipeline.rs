@@ -76,6 +76,10 @@ pub fn calibrate(
     };
     let calibration = match config.fit {
         FitLevel::Markers => calibrate_markers(session, robot, config, left_out, on_iteration),
+        FitLevel::Orientations if session.body.is_some() => Err(CalibError::Config {
+            key: "fit".into(),
+            reason: "a rigid body's poses are fitted at the marker level (`fit: markers`): its position and orientation are each observations there".into(),
+        }),
         FitLevel::Orientations => run(
             levels::OrientationLevel::prepare(session, robot, config)?,
             session,
@@ -143,6 +147,10 @@ fn choose_camera_model(
     // model to choose (K = I).
     if session.rig.is_some() {
         let why = "a session seen through its pixels refines the camera rig itself, so no camera model";
+        return Some((CameraModelChoice::without_choice(CameraModelKind::Rigid, why), 0));
+    }
+    if session.body.is_some() {
+        let why = "a rigid body's poses come from a tracker, which has no line of sight: no camera model";
         return Some((CameraModelChoice::without_choice(CameraModelKind::Rigid, why), 0));
     }
     if config.freeze.contains(&Group::CameraModel) {

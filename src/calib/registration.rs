@@ -128,3 +128,51 @@ pub(crate) fn from_pixels(
         .count();
     (2 * in_front > observations.len()).then_some(registration)
 }
+
+/// Where a rigid body's fit starts: `(R_CB, t_CB)`, `A` (P → body frame) and the body's origin in
+/// P, from its observations (each pose's position then orientation, as
+/// [`MarkerObservation::of_session`] makes them) and the nominal model's orientation of each.
+/// The measured orientation is `Q_j = R_CB R_j Aᵀ`: the relative rotations `Q_j Q_0ᵀ =
+/// R_CB (R_j R_0ᵀ) R_CBᵀ` give `R_CB` as [`from_rotations`] does, then `A` is the chordal mean of
+/// `Q_jᵀ R_CB R_j`; the origin `o_j = R_CB R_j b + t_CB` is linear in `(b, t_CB)`, solved by least
+/// squares. `None` when the rotations turn about one axis only, or the positions leave `(b, t)`
+/// undetermined.
+pub(crate) fn from_body(
+    observations: &[MarkerObservation],
+    nominal: &[Rotation3<f64>],
+) -> Option<(CameraRegistration, Rotation3<f64>, Vector3<f64>)> {
+    let rotations: Vec<(Rotation3<f64>, Rotation3<f64>)> = observations
+        .iter()
+        .zip(nominal)
+        .filter(|(o, _)| o.rotation)
+        .map(|(o, r)| (so3::exp(&o.measured), *r))
+        .collect();
+    let (q0, _) = *rotations.first()?;
+    let relative: Vec<Observation> = rotations
+        .iter()
+        .enumerate()
+        .map(|(k, (q, _))| Observation {
+            pose: k as u64,
+            joints: Vector3::zeros(),
+            measured: q * q0.inverse(),
+            markers: 0,
+        })
+        .collect();
+    let predicted: Vec<Rotation3<f64>> = rotations.iter().map(|(_, r)| *r).collect();
+    let (camera, _) = from_rotations(&relative, &predicted, 0)?;
+    let sum: Matrix3<f64> = rotations.iter().map(|(q, r)| (q.inverse() * camera * r).into_inner()).sum();
+    let body = so3::nearest_rotation(&sum)?;
+    // Normal equations of o = [R_CB R_j, I] (b, t).
+    let (mut normal, mut rhs) = (nalgebra::Matrix6::<f64>::zeros(), nalgebra::Vector6::<f64>::zeros());
+    for (o, r) in observations.iter().zip(nominal).filter(|(o, _)| !o.rotation) {
+        let mut a = nalgebra::Matrix3x6::<f64>::zeros();
+        a.fixed_view_mut::<3, 3>(0, 0).copy_from((camera * r).matrix());
+        a.fixed_view_mut::<3, 3>(0, 3).copy_from(&Matrix3::identity());
+        normal += a.transpose() * a;
+        rhs += a.transpose() * o.measured;
+    }
+    let solution = normal.cholesky()?.solve(&rhs);
+    let origin = Vector3::new(solution[0], solution[1], solution[2]);
+    let translation = Vector3::new(solution[3], solution[4], solution[5]);
+    Some((CameraRegistration { rotation: camera, translation }, body, origin))
+}

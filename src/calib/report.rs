@@ -261,6 +261,13 @@ pub struct MarkerReport {
     pub change_mm: [f64; 3],
     /// Standard errors, mm (`None` when held at the model's value).
     pub std_error_mm: Option<[f64; 3]>,
+    /// A rigid body's frame: its fitted orientation on the MP, body frame → P, `qw,qx,qy,qz`
+    /// (`None` for a marker).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotation_wxyz: Option<[f64; 4]>,
+    /// Its standard errors (deg, per axis of a small turn of the body frame, in its axes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rotation_std_error_deg: Option<[f64; 3]>,
 }
 
 /// The camera's latency behind the encoders, for a free-motion recording: at the encoders' time

@@ -649,3 +649,88 @@ fn the_analytic_jacobian_of_a_pixel_session_matches_central_differences() {
         }
     }
 }
+
+// A rigid body (motion capture): its origin a point of the MP, its orientation a rotation.
+
+/// A simulated session of a rigid body with `poses` static poses (or a recording of `seconds`),
+/// and a parameterisation near its truth: the body frame's start off by a few millimetres and
+/// degrees, so that every term of its Jacobian is exercised.
+fn body_session(recording: Option<f64>) -> (Session, RobotModel, Parameterisation) {
+    let path = if recording.is_some() {
+        "configs/simulate_agile_wrist_free_motion.yaml"
+    } else {
+        "configs/simulate_agile_wrist.yaml"
+    };
+    let mut config = SimConfig::read(Path::new(path)).unwrap();
+    (config.poses, config.seed) = (15, 5);
+    if let (Some(r), Some(seconds)) = (config.recording.as_mut(), recording) {
+        r.duration_s = seconds;
+    }
+    let body = crate::sim::RigidBodySettings::default();
+    config.camera.rigid_body = Some(body.clone());
+    let model = RobotModel::load(&config.model).unwrap();
+    let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
+    let truth = session.truth.as_ref().unwrap();
+    let frame = so3::exp(&Vector3::from(body.rotation_deg).map(f64::to_radians));
+    let p = Parameterisation::for_markers(
+        *model.spm.geometry(),
+        &truth.parameters.camera.unwrap(),
+        &[Vector3::from(body.origin_m) + Vector3::new(0.002, -0.001, 0.003)],
+        &[body.name.clone()],
+        CameraModel::rigid(),
+        &CalibConfig::default().bounds,
+    )
+    .with_body_frame(so3::exp(&Vector3::new(0.02, -0.01, 0.03)) * frame.inverse(), &body.name);
+    (session, model, p)
+}
+
+#[test]
+fn the_analytic_jacobian_of_a_rigid_body_matches_central_differences() {
+    let (session, model, p) = body_session(None);
+    assert!(session.body.is_some() && session.markers.is_empty());
+    let (observations, _) = MarkerObservation::of_session(&session, &model.spm);
+    // A position and an orientation per pose.
+    assert_eq!(observations.len(), 2 * session.poses.len());
+    assert_eq!(observations.iter().filter(|o| o.rotation).count(), session.poses.len());
+    check_jacobian(&session, &model, &p, "rigid body");
+}
+
+#[test]
+fn a_rigid_body_recording_s_clock_columns_match_central_differences() {
+    let (session, model, p) = body_session(Some(10.0));
+    let (recording, _) = session.at_clock(0.04, 300.0);
+    let p = p.with_latency(0.04, 0.2).with_clock_rate(300.0, 500.0, 10.0);
+    // Frames at least 20 ms inside the stream at either end, so that ±10 ms keeps them in.
+    let (observations, _) = MarkerObservation::of_session(&recording, &model.spm);
+    let (first, last) = (observations[0].time_s.unwrap(), observations[observations.len() - 1].time_s.unwrap());
+    let observations: Vec<_> =
+        observations.into_iter().filter(|o| o.time_s.is_some_and(|t| t > first + 0.02 && t < last - 0.02)).collect();
+    assert!(observations.iter().any(|o| o.rotation));
+    let m = MarkerResiduals::new(&p, &observations).with_streams(recording.streams.as_ref().unwrap());
+    let x = p.start() + DVector::from_fn(p.len(), |i, _| 1e-3 * ((i * 5 + 1) as f64).sin());
+    let at = m.evaluate(&x, None, true).unwrap();
+    let jac = at.jacobian.unwrap();
+    for (i, entry) in p.entries.iter().enumerate() {
+        // The clock's columns use the joint velocity over ±10 ms (`VELOCITY_WINDOW_S`): central
+        // differences over the same window agree up to the motion's curvature (under 1 %); every
+        // other column to 1e-8, as `check_jacobian`'s.
+        let clock = matches!(entry.kind, Kind::Latency | Kind::ClockRate);
+        let h = if clock { 0.01 } else { 1e-6 };
+        let (mut plus, mut minus) = (x.clone(), x.clone());
+        plus[i] += h;
+        minus[i] -= h;
+        let rp = m.evaluate(&plus, Some(&at.orientations), false).unwrap().residuals;
+        let rm = m.evaluate(&minus, Some(&at.orientations), false).unwrap().residuals;
+        for j in 0..observations.len() {
+            let numeric = (rp[j] - rm[j]) / (2.0 * h);
+            let analytic: Vector3<f64> = jac.fixed_view::<3, 1>(3 * j, i).into();
+            let tolerance = if clock { 0.01 * analytic.norm() + 1e-6 } else { 1e-8 };
+            assert!(
+                (numeric - analytic).norm() <= tolerance,
+                "{} (rotation {}): numeric {numeric:?}, analytic {analytic:?}",
+                entry.name,
+                observations[j].rotation
+            );
+        }
+    }
+}

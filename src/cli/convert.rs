@@ -52,6 +52,8 @@ struct Converted {
     joint_states: usize,
     /// Marker points.
     markers: usize,
+    /// A rigid body's poses (a session of a body: `markers` is then 0).
+    body_poses: usize,
 }
 
 pub(crate) fn run(args: ConvertArgs) -> Result<()> {
@@ -108,12 +110,14 @@ pub(crate) fn run(args: ConvertArgs) -> Result<()> {
             poses: session.poses.len(),
             joint_states: s.encoder_count(),
             markers: s.capture_count(),
+            body_poses: s.body_poses().count(),
         },
         None => Converted {
             kind: "static",
             poses: session.poses.len(),
             joint_states: 0,
             markers: session.poses.iter().map(|p| p.seen()).sum(),
+            body_poses: session.poses.iter().filter(|p| p.body.is_some()).count(),
         },
     };
     if args.json {
@@ -123,11 +127,15 @@ pub(crate) fn run(args: ConvertArgs) -> Result<()> {
             .to_json()
             + "\n"))
     } else {
+        let seen = match &session.body {
+            Some(body) => format!("{} poses of the body `{body}`", converted.body_poses),
+            None => format!("{} marker points", converted.markers),
+        };
         let what = match converted.kind {
-            "static" => format!("a static session of {} poses ({} marker points)", converted.poses, converted.markers),
+            "static" => format!("a static session of {} poses ({seen})", converted.poses),
             _ => format!(
-                "a free-motion recording ({} joint states, {} marker points in {} camera frames)",
-                converted.joint_states, converted.markers, converted.poses
+                "a free-motion recording ({} joint states, {seen} in {} camera frames)",
+                converted.joint_states, converted.poses
             ),
         };
         out(&format!("{}: {what}\nwrote {}\n", input.display(), output.display()))

@@ -1,6 +1,7 @@
 //! Session files: loading, validation, writing (formats in docs/formats.md).
 
 mod bag;
+mod body;
 mod joints;
 mod markers;
 mod open;
@@ -9,6 +10,8 @@ mod pixels;
 mod session;
 mod streams;
 
+pub(crate) use body::BodyCapture;
+pub use body::BodyPose;
 pub use joints::JointReading;
 pub use orientations::OrientationRecord;
 pub use pixels::SeenPixel;

@@ -32,6 +32,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use super::body::{BodyPose, BodyRow, body_captures_csv, body_poses_csv, read_body_poses};
 use super::joints::{JointReading, StationSpans, read_joints, write_joints};
 use super::markers::{MarkerRow, read_markers, write_markers};
 use super::orientations::{OrientationRecord, read_orientations, write_orientations};
@@ -69,12 +70,20 @@ pub struct SessionPose {
     /// What each camera of the session's rig saw at this pose, pixel by pixel (empty for a
     /// session of points); `markers` then holds the points the rig triangulates from them.
     pub pixels: Vec<SeenPixel>,
+    /// The pose of the session's rigid body (`Session::body`) the tracker reported here, with
+    /// its line of `poses.csv`; `None` for a session of markers, or when the body was not seen.
+    pub body: Option<BodyPose>,
 }
 
 impl SessionPose {
     /// How many markers the camera saw.
     pub fn seen(&self) -> usize {
         self.markers.iter().filter(|m| m.is_some()).count()
+    }
+
+    /// Whether what was seen here fixes the MP's orientation: the body's pose, or three markers.
+    pub(crate) fn fixes_orientation(&self) -> bool {
+        self.body.is_some() || self.seen() >= MIN_MARKERS
     }
 }
 
@@ -100,8 +109,12 @@ pub struct Session {
     /// The model: a shipped model's name or the URDF's path, resolved against the session folder
     /// or taken from `--model`.
     pub model: PathBuf,
-    /// Marker names, in the order of `SessionPose::markers`.
+    /// Marker names, in the order of `SessionPose::markers` (empty for a session of a rigid body).
     pub markers: Vec<String>,
+    /// The rigid body the tracker reported, by name (`session.yaml`'s `body`), for a session of
+    /// a body's poses (`SessionPose::body`, a recording's `Streams::body_poses`) instead of
+    /// markers; `None` for a session of markers.
+    pub body: Option<String>,
     /// The pose the vision estimator measures rotations from.
     pub reference_pose: u64,
     /// The poses, in file order.
@@ -156,6 +169,7 @@ impl fmt::Display for Warning {
 /// What a static session observed: `markers.csv`'s points, or `pixels.csv`'s pixels seen by a rig.
 enum Observations<'a> {
     Points(Vec<MarkerRow>),
+    Body(Vec<BodyRow>),
     Pixels(Vec<PixelRow<u64>>, &'a Rig),
 }
 
@@ -179,7 +193,10 @@ struct SessionFile {
     name: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     model: Option<PathBuf>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     markers: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    body: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     reference_pose: Option<u64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -208,6 +225,9 @@ impl Session {
             let merged = pose.station.and_then(|s| at.get(&s)).map(|&k| &mut poses[k]);
             match merged {
                 Some(into) => {
+                    if into.body.is_none() {
+                        into.body = pose.body;
+                    }
                     for (k, m) in pose.markers.iter().enumerate() {
                         if into.markers[k].is_none() && m.is_some() {
                             into.markers[k] = *m;
@@ -224,7 +244,7 @@ impl Session {
                 }
             }
         }
-        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
+        let reference_pose = poses.iter().find(|p| p.fixes_orientation()).unwrap_or(&poses[0]).id;
         let truth = self.truth.as_ref().map(|t| Truth {
             parameters: t.parameters.clone(),
             orientations: poses.iter().filter_map(|p| t.orientations.get(&p.id).map(|r| (p.id, *r))).collect(),
@@ -242,7 +262,10 @@ impl Session {
         let yaml_path = dir.join("session.yaml");
         let (file, keys) = crate::io::yaml::read::<SessionFile>(&yaml_path)?;
         let at = |key: &str, reason: String| keys.error(&yaml_path, key, reason);
-        check_marker_names(&file.markers).map_err(|(key, reason)| at(&key, reason))?;
+        match &file.body {
+            Some(body) => check_body_name(body, &file.markers).map_err(|reason| at("body", reason))?,
+            None => check_marker_names(&file.markers).map_err(|(key, reason)| at(&key, reason))?,
+        }
         let reference_pose = file.reference_pose;
         let model = match (model, &file.model) {
             (Some(m), _) => m.to_path_buf(),
@@ -250,6 +273,17 @@ impl Session {
             (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
         };
         let layout = session_kind(dir)?;
+        match (layout.body, &file.body) {
+            (false, Some(body)) => {
+                let reason = format!("names the body `{body}`, but the folder holds no poses.csv (its poses)");
+                return Err(at("body", reason));
+            }
+            (true, None) => {
+                let reason = "the folder holds poses.csv (a rigid body's poses), but session.yaml lists markers: name the body instead (`body: <name>`)";
+                return Err(at("markers", reason.into()));
+            }
+            _ => {}
+        }
         // The rig first: the pixel rows name its cameras.
         let rig = match layout.pixels {
             true => Some(read_camchain(&dir.join("cameras.yaml"))?),
@@ -261,6 +295,7 @@ impl Session {
             description: file.description,
             model,
             markers: file.markers,
+            body: file.body,
             reference_pose: 0,
             poses: Vec::new(),
             truth: None,
@@ -285,6 +320,7 @@ impl Session {
         let limits = StreamLimits::default();
         let (streams, unmet) = match &rig {
             Some(rig) => Streams::read_pixels(&dir, &self.markers, rig, &limits)?,
+            None if self.body.is_some() => (Streams::read_body(&dir, &limits)?, Vec::new()),
             None => (Streams::read(&dir, &self.markers, &limits)?, Vec::new()),
         };
         let frames: Vec<f64> = streams.frames().map(|f| f.time_s).collect();
@@ -311,10 +347,16 @@ impl Session {
     ) -> Result<(Session, Vec<Warning>), FileError> {
         let dir = self.folder.clone().unwrap_or_default();
         let joints_path = dir.join("joints.csv");
-        let observations_path = dir.join(if rig.is_some() { "pixels.csv" } else { "markers.csv" });
+        let observations_path = dir.join(match (&rig, &self.body) {
+            (Some(_), _) => "pixels.csv",
+            (None, Some(_)) => "poses.csv",
+            (None, None) => "markers.csv",
+        });
         let names = &self.markers;
+        let body = self.body.is_some();
         let read_observations = || match &rig {
             Some(rig) => read_pose_pixels(&observations_path, names, rig).map(|rows| Observations::Pixels(rows, rig)),
+            None if body => read_body_poses(&observations_path).map(Observations::Body),
             None => read_markers(&observations_path, names).map(Observations::Points),
         };
         // The files are independent: the biggest is read on a second core.
@@ -332,6 +374,11 @@ impl Session {
                 let mut poses = assemble_poses(&readings, &[], names.len(), &observations_path)?;
                 attach_pixels(&mut poses, &rows, &observations_path)?;
                 warnings.extend(triangulate_poses(&mut poses, rig, names, &observations_path));
+                poses
+            }
+            Observations::Body(rows) => {
+                let mut poses = assemble_poses(&readings, &[], 0, &observations_path)?;
+                attach_bodies(&mut poses, &rows, &observations_path)?;
                 poses
             }
         };
@@ -365,20 +412,8 @@ impl Session {
     ) -> Result<Session, FileError> {
         let at = |row: usize, reason: String| FileError::new(Path::new(name), reason).at_line(row + 1);
         check_marker_names(&markers).map_err(|(_, reason)| FileError::new(Path::new(name), reason))?;
-        if poses.is_empty() {
-            return Err(FileError::new(Path::new(name), "empty session: no poses"));
-        }
-        let mut ids = std::collections::HashSet::new();
+        check_poses_in_memory(name, &poses)?;
         for (row, p) in poses.iter().enumerate() {
-            if !ids.insert(p.id) {
-                return Err(at(row, format!("pose {} appears twice", p.id)));
-            }
-            if !p.joints.iter().all(|j| j.is_finite()) {
-                return Err(at(row, format!("pose {}: joint readings {:?} are not finite", p.id, p.joints.as_slice())));
-            }
-            if let Some(reason) = p.joints.iter().find_map(|j| super::joints::degrees_reason(*j)) {
-                return Err(at(row, format!("pose {}: {reason}", p.id)));
-            }
             if p.markers.len() != markers.len() {
                 let reason =
                     format!("pose {}: {} marker slots for {} marker names", p.id, p.markers.len(), markers.len());
@@ -390,19 +425,54 @@ impl Session {
                 return Err(at(row, format!("pose {}: a marker coordinate: {reason}", p.id)));
             }
         }
-        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
-        Ok(Session {
+        Ok(Session::in_memory(name, model, markers, None, poses))
+    }
+
+    /// A static session of a rigid body's poses already in memory (named `name`, read with the
+    /// URDF `model`, the body named `body`): what a bag's reader makes of a body's resting poses,
+    /// checked as a session folder is — distinct pose ids, finite joints within a turn, each
+    /// pose's body as [`BodyPose`]'s constructor made it, no markers; the reference pose the
+    /// first where the body was seen.
+    ///
+    /// # Errors
+    /// A [`FileError`] on `name`, at the pose's row (from 1), saying what is wrong.
+    // The bag reader's (branch `bags`) constructor of a body's resting poses, as `from_poses` is
+    // for markers.
+    #[allow(dead_code)]
+    pub(crate) fn of_body(name: &str, model: &Path, body: &str, poses: Vec<SessionPose>) -> Result<Session, FileError> {
+        let at = |row: usize, reason: String| FileError::new(Path::new(name), reason).at_line(row + 1);
+        check_body_name(body, &[]).map_err(|reason| FileError::new(Path::new(name), reason))?;
+        check_poses_in_memory(name, &poses)?;
+        if let Some((row, p)) = poses.iter().enumerate().find(|(_, p)| !p.markers.is_empty()) {
+            return Err(at(row, format!("pose {}: markers in a session of a rigid body", p.id)));
+        }
+        if poses.iter().all(|p| p.body.is_none()) {
+            return Err(FileError::new(Path::new(name), format!("the body `{body}` is seen at no pose")));
+        }
+        Ok(Session::in_memory(name, model, Vec::new(), Some(body.to_string()), poses))
+    }
+
+    fn in_memory(
+        name: &str,
+        model: &Path,
+        markers: Vec<String>,
+        body: Option<String>,
+        poses: Vec<SessionPose>,
+    ) -> Session {
+        let reference_pose = poses.iter().find(|p| p.fixes_orientation()).unwrap_or(&poses[0]).id;
+        Session {
             rig: None,
             name: name.to_string(),
             description: None,
             model: model.to_path_buf(),
             markers,
+            body,
             reference_pose,
             poses,
             truth: None,
             streams: None,
             folder: None,
-        })
+        }
     }
 
     /// The session as a perfect camera would have reported it: every marker position (the poses'
@@ -501,6 +571,7 @@ impl Session {
                 line: frame.line(),
                 marker_lines: vec![0; m],
                 station: None,
+                body: frame.body.map(|b| b.pose),
             };
             for c in frame.captures {
                 pose.markers[c.marker] = Some(c.position);
@@ -508,7 +579,7 @@ impl Session {
             }
             poses.push(pose);
         }
-        let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).or(poses.first()).map_or(0, |p| p.id);
+        let reference_pose = poses.iter().find(|p| p.fixes_orientation()).or(poses.first()).map_or(0, |p| p.id);
         (Session { poses, reference_pose, ..self.clone() }, warnings)
     }
 
@@ -564,6 +635,10 @@ impl Session {
                     let text = timed_pixels_csv(&streams.pixels, &self.markers, rig);
                     written.extend(self.write_rig(dir, rig, &text)?);
                 }
+                None if self.body.is_some() => {
+                    write_atomic(&dir.join("poses.csv"), body_captures_csv(&streams.bodies).as_bytes())?;
+                    written.push("poses.csv");
+                }
                 None => {
                     let text = captures_csv(&streams.captures, &self.markers);
                     write_atomic(&dir.join("captures.csv"), text.as_bytes())?;
@@ -594,6 +669,7 @@ impl Session {
             name: self.name.clone(),
             model: Some(crate::model::reference_from(dir, &self.model)),
             markers: self.markers.clone(),
+            body: self.body.clone(),
             reference_pose: self.streams.is_none().then_some(self.reference_pose),
             description: self.description.clone(),
         };
@@ -613,6 +689,12 @@ impl Session {
             .collect();
         write_joints(&dir.join("joints.csv"), &readings)?;
         let mut written = vec!["joints.csv"];
+        if self.body.is_some() {
+            let rows = self.poses.iter().filter_map(|p| p.body.as_ref().map(|b| (p.id, b)));
+            write_atomic(&dir.join("poses.csv"), body_poses_csv(rows).as_bytes())?;
+            written.push("poses.csv");
+            return Ok(written);
+        }
         if let Some(rig) = self.rig.as_deref() {
             let rows = self.poses.iter().flat_map(|p| p.pixels.iter().map(move |px| (p.id, px)));
             written.extend(self.write_rig(dir, rig, &pose_pixels_csv(rows, &self.markers, rig))?);
@@ -742,6 +824,9 @@ fn check_stations(poses: &[SessionPose], path: &Path) -> Result<(), FileError> {
 /// The first pose whose markers fix an orientation (at least three, no two coincident, not on a
 /// line: [`constellation::check`]), else the first that sees three, else the first.
 fn default_reference(poses: &[SessionPose]) -> u64 {
+    if let Some(p) = poses.iter().find(|p| p.body.is_some()) {
+        return p.id;
+    }
     let fixes = |p: &&SessionPose| {
         let points: Vec<_> = p.markers.iter().flatten().copied().collect();
         constellation::check(&points, MARKER_NOISE_M).is_ok()
@@ -817,7 +902,7 @@ fn check_station_markers(
 /// points, a session without a truth over one with), so that the folder holds one session, not
 /// two that disagree.
 fn remove_stale(dir: &Path, written: &[&str]) -> Result<(), FileError> {
-    let files: [&[&str]; 4] = [&STATIC_FILES, &RECORDING_FILES, &PIXEL_FILES, &TRUTH_FILES];
+    let files: [&[&str]; 5] = [&STATIC_FILES, &RECORDING_FILES, &PIXEL_FILES, &BODY_FILES, &TRUTH_FILES];
     for name in files.iter().copied().flatten().filter(|f| !written.contains(f)) {
         let path = dir.join(name);
         match std::fs::remove_file(&path) {
@@ -861,6 +946,43 @@ fn check_marker_names(names: &[String]) -> Result<(), (String, String)> {
     Ok(())
 }
 
+/// The poses of a session made in memory (`name`): at least one, distinct ids, finite joints
+/// within a turn (degrees are refused).
+fn check_poses_in_memory(name: &str, poses: &[SessionPose]) -> Result<(), FileError> {
+    let at = |row: usize, reason: String| FileError::new(Path::new(name), reason).at_line(row + 1);
+    if poses.is_empty() {
+        return Err(FileError::new(Path::new(name), "empty session: no poses"));
+    }
+    let mut ids = std::collections::HashSet::new();
+    for (row, p) in poses.iter().enumerate() {
+        if !ids.insert(p.id) {
+            return Err(at(row, format!("pose {} appears twice", p.id)));
+        }
+        if !p.joints.iter().all(|j| j.is_finite()) {
+            return Err(at(row, format!("pose {}: joint readings {:?} are not finite", p.id, p.joints.as_slice())));
+        }
+        if let Some(reason) = p.joints.iter().find_map(|j| super::joints::degrees_reason(*j)) {
+            return Err(at(row, format!("pose {}: {reason}", p.id)));
+        }
+    }
+    Ok(())
+}
+
+/// A body's name: not empty, and no markers listed beside it (a session is of markers or of a
+/// rigid body).
+fn check_body_name(body: &str, markers: &[String]) -> Result<(), String> {
+    if body.trim().is_empty() {
+        return Err("the body's name is empty".into());
+    }
+    if !markers.is_empty() {
+        return Err(format!(
+            "names the body `{body}` and lists {} markers: a session's observations are a rigid body's poses (poses.csv) or markers, not both",
+            markers.len()
+        ));
+    }
+    Ok(())
+}
+
 /// What a session folder holds: a static (or sequential) session or a free-motion recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Kind {
@@ -876,11 +998,14 @@ enum Kind {
 struct Layout {
     kind: Kind,
     pixels: bool,
+    /// A rigid body's poses (`poses.csv`) in place of markers.
+    body: bool,
 }
 
 const STATIC_FILES: [&str; 2] = ["joints.csv", "markers.csv"];
 const RECORDING_FILES: [&str; 2] = ["encoders.csv", "captures.csv"];
 const PIXEL_FILES: [&str; 2] = ["pixels.csv", "cameras.yaml"];
+const BODY_FILES: [&str; 1] = ["poses.csv"];
 const TRUTH_FILES: [&str; 3] = ["truth.yaml", "truth_orientations.csv", "truth_cameras.yaml"];
 
 /// Which kind of session `dir` holds, of points or of pixels. A folder with files of both kinds,
@@ -907,6 +1032,15 @@ fn session_kind(dir: &Path) -> Result<Layout, FileError> {
         _ => Kind::Static,
     };
     let points: Vec<&str> = ["markers.csv", "captures.csv"].into_iter().filter(|f| dir.join(f).exists()).collect();
+    let body = dir.join("poses.csv").exists();
+    if let Some(other) = points.iter().chain(&pixels).next().filter(|_| body) {
+        return Err(FileError::new(
+            dir,
+            format!(
+                "holds a rigid body's poses (poses.csv) and marker observations ({other}): a session's observations are one or the other, and which are meant here cannot be told; move the other out"
+            ),
+        ));
+    }
     match (pixels.contains(&"pixels.csv"), pixels.contains(&"cameras.yaml")) {
         (true, _) if !points.is_empty() => Err(FileError::new(
             dir,
@@ -923,7 +1057,7 @@ fn session_kind(dir: &Path) -> Result<Layout, FileError> {
             dir,
             "holds cameras.yaml but no pixels.csv: a rig is read for the pixels its cameras saw; give pixels.csv, or move cameras.yaml out",
         )),
-        (has_pixels, _) => Ok(Layout { kind, pixels: has_pixels }),
+        (has_pixels, _) => Ok(Layout { kind, pixels: has_pixels, body }),
     }
 }
 
@@ -960,6 +1094,7 @@ fn assemble_poses(
             line: r.line,
             marker_lines: vec![0; markers],
             station: r.station,
+            body: None,
         })
         .collect();
     let index: foldhash::HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
@@ -973,6 +1108,21 @@ fn assemble_poses(
         poses[*k].marker_lines[row.marker] = row.line;
     }
     Ok(poses)
+}
+
+/// Give each pose of `poses` its body pose of `poses.csv` (at `path`); a row of a pose
+/// `joints.csv` does not have is an error.
+fn attach_bodies(poses: &mut [SessionPose], rows: &[BodyRow], path: &Path) -> Result<(), FileError> {
+    let index: foldhash::HashMap<u64, usize> = poses.iter().enumerate().map(|(k, p)| (p.id, k)).collect();
+    for row in rows {
+        let k = index.get(&row.pose).ok_or_else(|| {
+            FileError::new(path, format!("the body's pose at pose {}, which joints.csv does not have", row.pose))
+                .at_line(row.body.line)
+                .in_column("pose")
+        })?;
+        poses[*k].body = Some(row.body);
+    }
+    Ok(())
 }
 
 /// Give each pose of `poses` its rows of `pixels.csv` (at `path`); rows of a pose `joints.csv`

@@ -19,6 +19,7 @@ use nalgebra::Vector3;
 
 use std::fmt::Write as _;
 
+use super::body::{BodyCapture, check_frames, read_body_captures};
 use super::markers::MarkerLookup;
 use super::pixels::{PixelRow, SeenPixel, read_timed_pixels, triangulate};
 use crate::io::files::{FileError, number, push_numbers};
@@ -119,6 +120,9 @@ pub struct Streams {
     /// For a recording read from a bag, its marker topics as a warning names them (`line` of a
     /// capture is then its message's index on its topic).
     pub(crate) bag_topics: Option<String>,
+    /// A rigid body's poses, time strictly increasing, for a recording of a body (`poses.csv`;
+    /// `captures` and `pixels` are then empty).
+    pub(crate) bodies: Vec<BodyCapture>,
 }
 
 /// One camera frame of a recording: the captures and pixels that share its time.
@@ -130,12 +134,15 @@ pub(crate) struct Frame<'a> {
     pub(crate) captures: &'a [Capture],
     /// Its pixels.
     pub(crate) pixels: &'a [PixelRow<f64>],
+    /// The body's pose, in a recording of a rigid body.
+    pub(crate) body: Option<&'a BodyCapture>,
 }
 
 impl Frame<'_> {
     /// The line of its first row (of `pixels.csv` when it has pixels).
     pub(crate) fn line(&self) -> usize {
-        self.pixels.first().map(|p| p.seen.line).or(self.captures.first().map(|c| c.line)).unwrap_or(0)
+        let body = self.body.map(|b| b.pose.line);
+        self.pixels.first().map(|p| p.seen.line).or(self.captures.first().map(|c| c.line)).or(body).unwrap_or(0)
     }
 }
 
@@ -252,7 +259,7 @@ impl Streams {
             .at_line(c.line)
             .in_column("time_s"));
         }
-        Ok(Streams { captures_path, encoders, captures, pixels: Vec::new(), bag_topics: None })
+        Ok(Streams { captures_path, encoders, captures, pixels: Vec::new(), bag_topics: None, bodies: Vec::new() })
     }
 
     /// Read the recording seen through its pixels in `dir` — `encoders.csv`, `pixels.csv` with the
@@ -313,13 +320,15 @@ impl Streams {
             }));
             unmet.extend(t.unmet.into_iter().map(|(marker, line, cameras)| (time_s, marker, line, cameras)));
         }
-        (Streams { captures_path, encoders, captures, pixels, bag_topics: None }, unmet)
+        (Streams { captures_path, encoders, captures, pixels, bag_topics: None, bodies: Vec::new() }, unmet)
     }
 
-    /// The camera frames, in time order: the captures and pixels of each distinct time.
+    /// The camera frames, in time order: the captures and pixels of each distinct time (a body
+    /// recording's frames: one per body pose).
     pub(crate) fn frames(&self) -> impl Iterator<Item = Frame<'_>> {
         let (mut captures, mut pixels) = (&self.captures[..], &self.pixels[..]);
-        std::iter::from_fn(move || {
+        let bodies = self.bodies.iter().map(|b| Frame { time_s: b.time_s, captures: &[], pixels: &[], body: Some(b) });
+        let points = std::iter::from_fn(move || {
             let time_s = match (captures.first(), pixels.first()) {
                 (Some(c), Some(p)) => c.time_s.min(p.at),
                 (Some(c), None) => c.time_s,
@@ -328,15 +337,71 @@ impl Streams {
             };
             let nc = captures.iter().take_while(|c| c.time_s == time_s).count();
             let np = pixels.iter().take_while(|p| p.at == time_s).count();
-            let frame = Frame { time_s, captures: &captures[..nc], pixels: &pixels[..np] };
+            let frame = Frame { time_s, captures: &captures[..nc], pixels: &pixels[..np], body: None };
             (captures, pixels) = (&captures[nc..], &pixels[np..]);
             Some(frame)
-        })
+        });
+        // A recording holds a body's poses or marker observations, never both.
+        bodies.chain(points)
+    }
+
+    /// The streams of a recording of a rigid body: the encoder samples and the body's poses on
+    /// the tracker's clock, read from `captures_path` (a `poses.csv` or a bag). What the CSV
+    /// reader ([`Streams::read_body`]), a bag's reader and the simulator all make.
+    ///
+    /// # Errors
+    /// A [`FileError`] on `captures_path` when the poses' times do not strictly increase (at the
+    /// first that does not), when there are fewer than [`MIN_FRAMES`] or one lies outside the
+    /// encoder stream for every latency within `latency_bound_s` (`encoders` not empty).
+    pub(crate) fn of_body(
+        captures_path: std::path::PathBuf,
+        encoders: Vec<EncoderSample>,
+        bodies: Vec<BodyCapture>,
+        latency_bound_s: f64,
+    ) -> Result<Streams, FileError> {
+        let at = |b: &BodyCapture, reason: String| {
+            FileError::new(&captures_path, reason).at_line(b.pose.line).in_column("time_s")
+        };
+        if let Some(w) = bodies.windows(2).find(|w| w[1].time_s <= w[0].time_s) {
+            return Err(at(
+                &w[1],
+                format!("time {} s does not come after the previous pose's {} s", w[1].time_s, w[0].time_s),
+            ));
+        }
+        check_frames(&captures_path, bodies.len())?;
+        let (first, last) = (encoders[0].time_s, encoders[encoders.len() - 1].time_s);
+        let bound = latency_bound_s;
+        if let Some(b) = bodies.iter().find(|b| b.time_s + bound < first || b.time_s - bound > last) {
+            let reason = format!(
+                "the body pose at {} s lies outside the encoder stream ({first} s to {last} s) for every latency within ±{bound} s",
+                b.time_s
+            );
+            return Err(at(b, reason));
+        }
+        Ok(Streams { captures_path, encoders, captures: Vec::new(), pixels: Vec::new(), bag_topics: None, bodies })
+    }
+
+    /// Read the recording of a rigid body in `dir`: `encoders.csv` and `poses.csv`.
+    ///
+    /// # Errors
+    /// A [`FileError`] naming the file, line and column of the first problem.
+    pub(crate) fn read_body(dir: &Path, limits: &StreamLimits) -> Result<Streams, FileError> {
+        let encoders = read_encoders(&dir.join("encoders.csv"), limits)?;
+        let path = dir.join("poses.csv");
+        let bodies = read_body_captures(&path)?;
+        Streams::of_body(path, encoders, bodies, limits.latency_bound_s)
+    }
+
+    /// The body's poses of a recording of a rigid body: each as its time on the tracker's clock
+    /// (s) and the pose; nothing for a recording of markers.
+    pub fn body_poses(&self) -> impl Iterator<Item = (f64, &super::BodyPose)> {
+        self.bodies.iter().map(|b| (b.time_s, &b.pose))
     }
 
     /// The camera time from the recording's first frame to its last (s).
     pub(crate) fn camera_span_s(&self) -> f64 {
         let times = self.captures.iter().map(|c| c.time_s).chain(self.pixels.iter().map(|p| p.at));
+        let times = times.chain(self.bodies.iter().map(|b| b.time_s));
         let (first, last) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
         (last - first).max(0.0)
     }

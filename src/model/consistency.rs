@@ -92,10 +92,12 @@ pub(crate) fn check(model: &RobotModel, params: &Parameters, file: Option<&Path>
         ModelError::File(companion_keys.error(&companion_file, key, reason))
     };
 
-    // Markers, by name, in one pass each way.
-    if !params.markers.is_empty() {
+    // Markers, by name, in one pass each way (a rigid body's frame, fitted from a tracker's
+    // poses, is no marker of the model: an export leaves it out).
+    if params.markers.iter().any(|m| m.rotation.is_none()) {
         let in_model: HashSet<&str> = model.markers.iter().map(|m| m.name.as_str()).collect();
-        if let Some(k) = params.markers.iter().position(|m| !in_model.contains(m.name.as_str())) {
+        let unknown = |m: &super::MarkerPosition| m.rotation.is_none() && !in_model.contains(m.name.as_str());
+        if let Some(k) = params.markers.iter().position(unknown) {
             let reason = format!(
                 "{urdf} has no marker `{}`, which {} fitted: the parameters belong to another model, or a marker \
                  was renamed; exported, the fitted marker would be lost",

@@ -127,6 +127,11 @@ pub struct MarkerPosition {
     pub position: Vector3<f64>,
     /// Standard errors per axis (m), when fitted.
     pub std_error: Option<Vector3<f64>>,
+    /// For a rigid body's frame (its origin is `position`), its orientation on the MP: body
+    /// frame → P; `None` for a marker.
+    pub rotation: Option<Rotation3<f64>>,
+    /// Its standard errors (rad, per axis of a small rotation in P), when fitted.
+    pub rotation_std_error: Option<Vector3<f64>>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -136,6 +141,11 @@ struct MarkerRecord {
     position_m: [f64; 3],
     #[serde(default, skip_serializing_if = "Option::is_none")]
     std_error_m: Option<[f64; 3]>,
+    /// A rigid body's frame: its orientation on the MP (body → P), scalar first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rotation_wxyz: Option<[f64; 4]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rotation_std_error_deg: Option<[f64; 3]>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -475,10 +485,20 @@ impl Parameters {
                     return Err(check.error(&format!("{se}[{axis}]"), reason));
                 }
             }
+            let rotation = match m.rotation_wxyz {
+                Some(q) => Some(so3::from_wxyz(q).ok_or_else(|| {
+                    let reason =
+                        format!("body `{}`'s rotation {q:?} is not a unit quaternion (qw, qx, qy, qz)", m.name);
+                    check.error(&format!("{key}.rotation_wxyz"), reason)
+                })?),
+                None => None,
+            };
             markers.push(MarkerPosition {
                 name: m.name,
                 position: Vector3::from(m.position_m),
                 std_error: m.std_error_m.map(Vector3::from),
+                rotation,
+                rotation_std_error: m.rotation_std_error_deg.map(|e| Vector3::from(e).map(f64::to_radians)),
             });
         }
         if let Some(latency) = record.latency_s
@@ -557,6 +577,8 @@ impl Parameters {
                     name: m.name.clone(),
                     position_m: m.position.into(),
                     std_error_m: m.std_error.map(Into::into),
+                    rotation_wxyz: m.rotation.as_ref().map(so3::to_wxyz),
+                    rotation_std_error_deg: m.rotation_std_error.map(|e| e.map(f64::to_degrees).into()),
                 })
                 .collect(),
             latency_s: self.latency_s,

@@ -63,6 +63,7 @@ impl Information {
                 line: 0,
                 station: None,
                 time_s: None,
+                rotation: false,
             };
             match &rig {
                 None => vec![observation(p.camera_model(&x0).distort(&y), None)],
@@ -99,6 +100,7 @@ impl Information {
                     line: 0,
                     station: None,
                     time_s: None,
+                    rotation: false,
                 })
                 .collect();
             // Always there when the Jacobian is asked for.
@@ -155,6 +157,10 @@ impl Camera {
             depth_std_error_m: 0.0,
             pixel_px: Vec::new(),
             pixel_std_error_px: Vec::new(),
+            body_position_m: None,
+            body_position_std_error_m: None,
+            body_orientation_rad: None,
+            body_orientation_std_error_rad: None,
         }
     }
 }

@@ -438,6 +438,7 @@ impl Plan {
                 line: 0,
                 marker_lines: vec![0; markers],
                 station: None,
+                body: None,
             })
             .collect();
         Session {
@@ -446,6 +447,7 @@ impl Plan {
             description: Some(format!("a capture plan of {} poses", self.poses.len())),
             model: model.urdf_path.clone(),
             markers: model.markers.iter().map(|m| m.name.clone()).collect(),
+            body: None,
             reference_pose: self.poses.first().map_or(0, |p| p.step),
             poses,
             truth: None,

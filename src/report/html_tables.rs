@@ -130,16 +130,11 @@ fn fit(r: &CalibrationReport) -> String {
         }
         t.row(["camera model".to_string(), camera_model(&m.camera_model)]);
         if let Some(n) = &m.stereo_noise {
-            t.row([
-                format!("stereo noise at {:.3} m", n.reference_distance_m),
-                format!(
-                    "across the line of sight {:.4} ± {:.4} mm, along it {:.4} ± {:.4} mm",
-                    n.lateral_m * 1e3,
-                    n.lateral_std_error_m * 1e3,
-                    n.depth_m * 1e3,
-                    n.depth_std_error_m * 1e3
-                ),
-            ]);
+            let (what, value) = noise(n);
+            t.row([what, value]);
+        }
+        for (name, frame) in m.markers.iter().filter_map(|k| Some((&k.name, body_frame(k)?))) {
+            t.row([format!("{name}'s frame on the MP (body → P)"), frame]);
         }
         if let Some(first) = m.fast_captures.first() {
             t.row([
@@ -154,6 +149,43 @@ fn fit(r: &CalibrationReport) -> String {
         }
     }
     t.html()
+}
+
+/// The noise the fit estimated, in words: a stereo camera's σ's across and along the line of
+/// sight, or a rigid body's position and orientation σ's; `(what, value)`.
+pub(crate) fn noise(n: &crate::calib::StereoNoise) -> (String, String) {
+    let se = |v: Option<f64>| v.unwrap_or(f64::NAN);
+    match (n.body_position_m, n.body_orientation_rad) {
+        (Some(position), Some(orientation)) => (
+            "rigid body noise".to_string(),
+            format!(
+                "position {:.4} ± {:.4} mm, orientation {:.4} ± {:.4} deg (per axis)",
+                position * 1e3,
+                se(n.body_position_std_error_m) * 1e3,
+                orientation.to_degrees(),
+                se(n.body_orientation_std_error_rad).to_degrees()
+            ),
+        ),
+        _ => (
+            format!("stereo noise at {:.3} m", n.reference_distance_m),
+            format!(
+                "across the line of sight {:.4} ± {:.4} mm, along it {:.4} ± {:.4} mm",
+                n.lateral_m * 1e3,
+                n.lateral_std_error_m * 1e3,
+                n.depth_m * 1e3,
+                n.depth_std_error_m * 1e3
+            ),
+        ),
+    }
+}
+
+/// A rigid body's fitted frame orientation in words (`None` for a marker).
+pub(crate) fn body_frame(k: &crate::calib::MarkerReport) -> Option<String> {
+    let q = k.rotation_wxyz?;
+    let se = k
+        .rotation_std_error_deg
+        .map_or("held".to_string(), |s| format!("± [{:.4}, {:.4}, {:.4}] deg", s[0], s[1], s[2]));
+    Some(format!("qw,qx,qy,qz [{:.6}, {:+.6}, {:+.6}, {:+.6}] {se}", q[0], q[1], q[2], q[3]))
 }
 
 /// The fit's convergence in words, as the text report says it.

@@ -274,15 +274,8 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
         None => camera_model(f, &m.camera_model)?,
     }
     if let Some(n) = m.stereo_noise.as_ref().filter(|_| m.rig.is_none()) {
-        writeln!(
-            f,
-            "stereo noise at {:.3} m: across the line of sight {:.4} ± {:.4} mm, along it {:.4} ± {:.4} mm",
-            n.reference_distance_m,
-            n.lateral_m * 1e3,
-            n.lateral_std_error_m * 1e3,
-            n.depth_m * 1e3,
-            n.depth_std_error_m * 1e3
-        )?;
+        let (what, value) = super::html_tables::noise(n);
+        writeln!(f, "{what}: {value}")?;
     }
     writeln!(f, "marker   fitted position in P (m)          change from the model (mm)         std error (mm)")?;
     for k in &m.markers {
@@ -294,6 +287,9 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
             "  {:<6} [{:+.5}, {:+.5}, {:+.5}]   [{:+7.3}, {:+7.3}, {:+7.3}]   {se}",
             k.name, k.fitted_m[0], k.fitted_m[1], k.fitted_m[2], k.change_mm[0], k.change_mm[1], k.change_mm[2]
         )?;
+        if let Some(frame) = super::html_tables::body_frame(k) {
+            writeln!(f, "  {:<6} frame's orientation (body → P): {frame}", k.name)?;
+        }
     }
     if !m.fast_captures.is_empty() {
         writeln!(

@@ -196,12 +196,57 @@ pub struct Camera {
     #[cfg(not(feature = "internals"))]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) rig: Option<RigSettings>,
+    /// A motion-capture rigid body instead of markers (`camera.rigid_body`): the session holds
+    /// the body's poses (`poses.csv`) in the camera's frame; none by default.
+    #[cfg(feature = "internals")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rigid_body: Option<RigidBodySettings>,
+    /// A motion-capture rigid body instead of markers (`camera.rigid_body`); none by default.
+    #[cfg(not(feature = "internals"))]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) rigid_body: Option<RigidBodySettings>,
     /// Growth of the denominator `cᵀx + 1` along camera x, per metre (a projective camera).
     pub perspective_x: f64,
     /// Growth of the denominator along camera y, per metre (a projective camera).
     pub perspective_y: f64,
     /// Growth of the denominator along the optical axis, per metre (a projective camera).
     pub perspective_z: f64,
+}
+
+/// A rigid body a motion-capture system tracks on the MP (`camera.rigid_body`): per capture it
+/// reports the pose of the body's frame in the tracker's frame (the camera's), either with
+/// Gaussian noise of its own or, with `fitted_to_markers`, as a tracker makes it — the body's
+/// markers (the model's, at their true places) fitted to their measured positions (Kabsch, three
+/// seen at least), so that its noise is the markers' noise.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigidBodySettings {
+    /// The body's name (`session.yaml`'s `body`).
+    pub name: String,
+    /// The body frame's origin in P (m).
+    pub origin_m: [f64; 3],
+    /// The body frame's orientation on the MP (body → P), a rotation vector (deg).
+    pub rotation_deg: [f64; 3],
+    /// Position noise, per axis (m).
+    pub position_sigma_m: f64,
+    /// Orientation noise, per axis of a small rotation (deg).
+    pub orientation_sigma_deg: f64,
+    /// The body fitted to the measured markers instead (the σ's above do not apply).
+    pub fitted_to_markers: bool,
+}
+
+impl Default for RigidBodySettings {
+    /// An OptiTrack-like body: 0.3 mm and 0.1° of noise, its frame off the MP's.
+    fn default() -> Self {
+        RigidBodySettings {
+            name: "platform".into(),
+            origin_m: [0.004, -0.008, 0.02],
+            rotation_deg: [5.0, -8.0, 30.0],
+            position_sigma_m: 0.0003,
+            orientation_sigma_deg: 0.1,
+            fitted_to_markers: false,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -333,6 +378,7 @@ impl Default for Camera {
             shear_xz: 0.0,
             shear_yz: 0.0,
             rig: None,
+            rigid_body: None,
             perspective_x: 0.0,
             perspective_y: 0.0,
             perspective_z: 0.0,
@@ -492,11 +538,43 @@ impl SimConfig {
             return Err((format!("camera.{key}"), reason));
         }
         self.check_rig()?;
+        self.check_rigid_body()?;
         if self.camera.height_m <= self.camera.marker_radius_m {
             return Err(("camera.height_m".into(), "the camera must be above the markers".into()));
         }
         if self.name.trim().is_empty() {
             return Err(("name".into(), "`name` must not be empty".into()));
+        }
+        Ok(())
+    }
+
+    /// A rigid body's settings: finite, non-negative noise, a name, no rig beside it.
+    fn check_rigid_body(&self) -> Result<(), (String, String)> {
+        let Some(b) = &self.camera.rigid_body else { return Ok(()) };
+        for (key, value) in [
+            ("camera.rigid_body.position_sigma_m", b.position_sigma_m),
+            ("camera.rigid_body.orientation_sigma_deg", b.orientation_sigma_deg),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err((key.into(), format!("`{key}` must be a finite, non-negative number (got {value})")));
+            }
+        }
+        let frame = b.origin_m.iter().chain(&b.rotation_deg);
+        if frame.clone().any(|v| !v.is_finite()) || b.origin_m.iter().any(|v| v.abs() > 1.0) {
+            let reason = "the body frame's `origin_m` (within 1 m of O) and `rotation_deg` must be finite numbers";
+            return Err(("camera.rigid_body".into(), reason.into()));
+        }
+        if b.name.trim().is_empty() {
+            return Err(("camera.rigid_body.name".into(), "the body's `name` must not be empty".into()));
+        }
+        if self.camera.rig.is_some() {
+            let reason = "a rigid body's poses come from a tracker, not from a rig's pixels: give one or the other";
+            return Err(("camera.rigid_body".into(), reason.into()));
+        }
+        if b.fitted_to_markers && self.capture.sequential {
+            let reason =
+                "a body fitted to its markers needs three of them in one capture: not with `capture.sequential`";
+            return Err(("camera.rigid_body.fitted_to_markers".into(), reason.into()));
         }
         Ok(())
     }

@@ -18,9 +18,11 @@ mod simulator;
 
 #[cfg(not(feature = "internals"))]
 pub(crate) use config::Camera;
+#[cfg(not(feature = "internals"))]
+pub(crate) use config::RigidBodySettings;
 pub use config::SimConfig;
 #[cfg(feature = "internals")]
-pub use config::{Camera, CaptureSettings, Encoders, Recording, Trajectory, TruthSpread, Workspace};
+pub use config::{Camera, CaptureSettings, Encoders, Recording, RigidBodySettings, Trajectory, TruthSpread, Workspace};
 pub(crate) use config::{PlanRow, PlanSource};
 #[cfg(feature = "internals")]
 pub use rig::{Miscalibration, RigCameraSettings, RigSettings};

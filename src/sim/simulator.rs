@@ -11,11 +11,12 @@ use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use super::camera::lenses;
-use super::config::{Recording, SimConfig, Trajectory, Workspace};
+use super::config::{Recording, RigidBodySettings, SimConfig, Trajectory, Workspace};
 use super::rig::{PixelCameras, Sighting};
 use super::scene::CollisionScene;
 use crate::dataset::{
-    Capture, EncoderSample, MIN_MARKERS, PixelRow, SeenPixel, Session, SessionPose, Streams, Truth, triangulate,
+    BodyCapture, BodyPose, Capture, EncoderSample, MIN_MARKERS, PixelRow, SeenPixel, Session, SessionPose, Streams,
+    Truth, triangulate,
 };
 use crate::math::so3;
 use crate::model::{
@@ -455,6 +456,42 @@ impl Candidate {
     }
 }
 
+/// The body frame of `b` on the MP: its origin in P and its orientation, body → P.
+fn body_frame(b: &RigidBodySettings) -> (Vector3<f64>, Rotation3<f64>) {
+    (Vector3::from(b.origin_m), so3::exp(&Vector3::from(b.rotation_deg).map(f64::to_radians)))
+}
+
+/// The rigid motion `(R, t)` carrying the markers `model` (in P) onto those `measured` (in the
+/// camera's frame; `None`: unseen) best in least squares (Kabsch); `None` for fewer than three.
+fn fit_markers(model: &[Vector3<f64>], measured: &[Option<Vector3<f64>>]) -> Option<(Rotation3<f64>, Vector3<f64>)> {
+    let pairs: Vec<(Vector3<f64>, Vector3<f64>)> =
+        model.iter().zip(measured).filter_map(|(p, m)| m.map(|m| (*p, m))).collect();
+    if pairs.len() < MIN_MARKERS {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let cp = pairs.iter().map(|(p, _)| p).sum::<Vector3<f64>>() / n;
+    let cm = pairs.iter().map(|(_, m)| m).sum::<Vector3<f64>>() / n;
+    let h: nalgebra::Matrix3<f64> = pairs.iter().map(|(p, m)| (m - cm) * (p - cp).transpose()).sum();
+    let rotation = so3::nearest_rotation(&h)?;
+    Some((rotation, cm - rotation * cp))
+}
+
+/// `session` as a tracker of the rigid body `b` reports it: the body's poses, no markers.
+fn as_body(mut session: Session, b: &RigidBodySettings) -> Session {
+    session.markers.clear();
+    session.body = Some(b.name.clone());
+    for pose in session.poses.iter_mut() {
+        pose.markers.clear();
+        pose.marker_lines.clear();
+    }
+    if let Some(streams) = session.streams.as_mut() {
+        std::sync::Arc::make_mut(streams).captures.clear();
+    }
+    session.reference_pose = session.poses.iter().find(|p| p.body.is_some()).map_or(0, |p| p.id);
+    session
+}
+
 fn random_rotation_vector<R: Rng + ?Sized>(sigma: f64, rng: &mut R) -> Vector3<f64> {
     let normal = Normal::new(0.0, sigma).expect("validated deviation");
     Vector3::from_fn(|_, _| normal.sample(rng))
@@ -545,17 +582,22 @@ impl Simulator<'_> {
             )
         });
         let reference_pose = poses.iter().find(|p| p.seen() >= MIN_MARKERS).unwrap_or(&poses[0]).id;
-        Ok(Session {
+        let session = Session {
             rig: self.file_rig(),
             name: self.config.name.clone(),
             description: Some(description),
             model: self.model.urdf_path.clone(),
             markers: self.model.markers.iter().map(|m| m.name.clone()).collect(),
+            body: None,
             reference_pose,
             poses,
             truth: Some(Truth { parameters, orientations: truth, rig: self.true_rig() }),
             streams: None,
             folder: None,
+        };
+        Ok(match &self.config.camera.rigid_body {
+            Some(b) => as_body(session, b),
+            None => session,
         })
     }
 
@@ -572,6 +614,31 @@ impl Simulator<'_> {
     /// The true parameters (with the camera latency of a recording, and its clock rate when the
     /// camera's clock runs at its own).
     fn truth_parameters(&self, latency_s: Option<f64>, clock_rate_ppm: Option<f64>) -> Parameters {
+        let markers = match &self.config.camera.rigid_body {
+            Some(b) => {
+                let (origin, frame) = body_frame(b);
+                vec![MarkerPosition {
+                    name: b.name.clone(),
+                    position: origin,
+                    std_error: None,
+                    rotation: Some(frame),
+                    rotation_std_error: None,
+                }]
+            }
+            None => self
+                .model
+                .markers
+                .iter()
+                .zip(&self.markers)
+                .map(|(m, p)| MarkerPosition {
+                    name: m.name.clone(),
+                    position: *p,
+                    std_error: None,
+                    rotation: None,
+                    rotation_std_error: None,
+                })
+                .collect(),
+        };
         Parameters {
             source: ParameterSource::Truth,
             model: Some(self.model.reference().display().to_string()),
@@ -579,13 +646,7 @@ impl Simulator<'_> {
             legs: *self.spm.geometry(),
             camera: Some(self.camera),
             camera_model: self.config.camera.model(),
-            markers: self
-                .model
-                .markers
-                .iter()
-                .zip(&self.markers)
-                .map(|(m, p)| MarkerPosition { name: m.name.clone(), position: *p, std_error: None })
-                .collect(),
+            markers,
             latency_s,
             clock_rate_ppm,
             fit: None,
@@ -670,7 +731,7 @@ impl Simulator<'_> {
         let jitter = Normal::new(0.0, r.jitter_s).expect("validated deviation");
         let frames = (r.duration_s * r.camera_rate_hz).floor() as usize;
         let m = self.markers.len();
-        let (mut captures, mut pixels) = (Vec::new(), Vec::new());
+        let (mut captures, mut pixels, mut bodies) = (Vec::new(), Vec::new(), Vec::new());
         for f in 0..frames {
             let t = (f as f64 + 0.5) / r.camera_rate_hz;
             let rot = at(scale, t);
@@ -685,8 +746,11 @@ impl Simulator<'_> {
                 }
             }
             pixels.extend(pose.pixels.into_iter().map(|seen| PixelRow { at: stamp, seen }));
+            bodies.extend(pose.body.map(|pose| BodyCapture { time_s: stamp, pose }));
             progress(f + 1);
         }
+        // The jitter (under a quarter frame) never reorders frames; sorted all the same.
+        bodies.sort_by(|a: &BodyCapture, b: &BodyCapture| a.time_s.total_cmp(&b.time_s));
         captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
         pixels.sort_by(|a, b| a.at.total_cmp(&b.at));
         self.summary.poses = frames;
@@ -698,11 +762,12 @@ impl Simulator<'_> {
                 Streams::of_pixels(std::path::PathBuf::from("pixels.csv"), encoders, pixels, &cameras.file).0
             }
             None => Streams {
-                captures_path: std::path::PathBuf::from("captures.csv"),
+                captures_path: std::path::PathBuf::from(if bodies.is_empty() { "captures.csv" } else { "poses.csv" }),
                 encoders,
                 captures,
                 pixels,
                 bag_topics: None,
+                bodies,
             },
         };
         let session = Session {
@@ -716,6 +781,7 @@ impl Simulator<'_> {
             })),
             model: self.model.urdf_path.clone(),
             markers: self.model.markers.iter().map(|mk| mk.name.clone()).collect(),
+            body: None,
             reference_pose: 0,
             poses: Vec::new(),
             truth: Some(Truth {
@@ -726,6 +792,10 @@ impl Simulator<'_> {
             }),
             streams: Some(std::sync::Arc::new(streams)),
             folder: None,
+        };
+        let session = match &self.config.camera.rigid_body {
+            Some(b) => as_body(session, b),
+            None => session,
         };
         Ok(session.at_clock(r.latency_s, r.clock_rate_ppm).0)
     }
@@ -845,6 +915,7 @@ impl Simulator<'_> {
             (self.measure_points(r, joints, which), Vec::new())
         };
         let n = markers.len();
+        let body = self.config.camera.rigid_body.as_ref().and_then(|b| self.see_body(b, r, &markers));
         SessionPose {
             pixels,
             id,
@@ -854,7 +925,34 @@ impl Simulator<'_> {
             line: 0,
             marker_lines: vec![0; n],
             station: None,
+            body,
         }
+    }
+
+    /// What a tracker reports of the rigid body `b` at the MP orientation `r`, in the camera's
+    /// frame: the true pose with its own noise, or fitted to the `measured` markers (three seen at
+    /// least, else nothing) as a tracker fits a body to its markers.
+    fn see_body(
+        &mut self,
+        b: &RigidBodySettings,
+        r: &Rotation3<f64>,
+        measured: &[Option<Vector3<f64>>],
+    ) -> Option<BodyPose> {
+        let (origin, frame) = body_frame(b);
+        // The MP's pose in the camera's frame: the truth, or the markers' best fit.
+        let (rotation, translation) = match b.fitted_to_markers {
+            true => fit_markers(&self.markers, measured)?,
+            false => (self.camera.rotation * r, self.camera.translation),
+        };
+        let mut position = rotation * origin + translation;
+        let mut orientation = rotation * frame;
+        if !b.fitted_to_markers {
+            let noise = Normal::new(0.0, b.position_sigma_m).expect("validated deviation");
+            position += Vector3::from_fn(|_, _| noise.sample(&mut self.rng));
+            orientation =
+                so3::exp(&random_rotation_vector(b.orientation_sigma_deg.to_radians(), &mut self.rng)) * orientation;
+        }
+        Some(BodyPose { position, rotation: orientation, line: 0 })
     }
 
     /// What each camera of the rig sees of the markers `which` at a pose — the pixels of every

@@ -74,50 +74,60 @@ impl<'s> MarkerLevel<'s> {
         let spm = &robot.spm;
         let (observations, failed) = MarkerObservation::of_session(session, spm);
         let excluded = failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")).collect();
-        let markers0 = model_markers(&session.markers, robot).map_err(|e| match e {
-            SetError::UnknownMarker(name) => CalibError::UnknownMarker(name),
-            other => CalibError::Config { key: "markers".into(), reason: other.to_string() },
-        })?;
+        // A rigid body's origin is the one "marker", named after the body, its start fitted below.
+        let names: Vec<String> = session.body.iter().cloned().chain(session.markers.iter().cloned()).collect();
+        let markers0 = match session.body {
+            Some(_) => vec![Vector3::zeros()],
+            None => model_markers(&session.markers, robot).map_err(|e| match e {
+                SetError::UnknownMarker(name) => CalibError::UnknownMarker(name),
+                other => CalibError::Config { key: "markers".into(), reason: other.to_string() },
+            })?,
+        };
         // A marker seen at fewer than two poses cannot tell its position from the registration.
-        let poses_seeing: Vec<usize> = (0..session.markers.len())
+        let poses_seeing: Vec<usize> = (0..names.len())
             .map(|k| {
                 let mut poses: Vec<u64> = observations.iter().filter(|o| o.marker == k).map(|o| o.pose).collect();
                 poses.dedup();
                 poses.len()
             })
             .collect();
-        let held_markers: Vec<usize> = (0..session.markers.len()).filter(|&k| poses_seeing[k] < 2).collect();
+        let held_markers: Vec<usize> = (0..names.len()).filter(|&k| poses_seeing[k] < 2).collect();
         let warnings = held_markers
             .iter()
             .map(|&k| {
                 format!(
                     "marker `{}` is seen at {} pose(s): its position is held at the model's value",
-                    session.markers[k], poses_seeing[k]
+                    names[k], poses_seeing[k]
                 )
             })
             .collect();
         let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
-        let registration = match session.rig.as_deref() {
-            Some(rig) => registration::from_pixels(&observations, &nominal_r, &markers0, rig),
-            None => registration::from_markers(&observations, &nominal_r, &markers0),
-        }
-        .ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
+        let (registration, body_frame, markers0) = match (session.rig.as_deref(), &session.body) {
+            (Some(rig), _) => (registration::from_pixels(&observations, &nominal_r, &markers0, rig), None, markers0),
+            (None, Some(_)) => match registration::from_body(&observations, &nominal_r) {
+                Some((registration, a, origin)) => (Some(registration), Some(a), vec![origin]),
+                None => (None, None, markers0),
+            },
+            (None, None) => (registration::from_markers(&observations, &nominal_r, &markers0), None, markers0),
+        };
+        let registration = registration.ok_or(CalibError::MarkerRegistration { observations: observations.len() })?;
         // Pixels are seen through the rig, which is refined instead of a camera model; `auto` is
         // resolved before the level is prepared (the pipeline runs its choice as named).
-        let camera_model = if session.rig.is_some() { CameraModelKind::Rigid } else { config.camera_model_or_rigid() };
+        // A tracker's rigid body has no line of sight: nothing of a stereo camera's model applies.
+        let camera_model = match session.rig.is_some() || session.body.is_some() {
+            true => CameraModelKind::Rigid,
+            false => config.camera_model_or_rigid(),
+        };
         let carried = match camera_model {
-            CameraModelKind::Rigid if session.rig.is_none() => CameraModelKind::DepthScale,
+            CameraModelKind::Rigid if session.rig.is_none() && session.body.is_none() => CameraModelKind::DepthScale,
             kind => kind,
         };
         let start = config.camera_terms.model(carried);
-        let mut p = Parameterisation::for_markers(
-            *spm.geometry(),
-            &registration,
-            &markers0,
-            &session.markers,
-            start,
-            &config.bounds,
-        );
+        let mut p =
+            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &names, start, &config.bounds);
+        if let (Some(a), Some(body)) = (body_frame, &session.body) {
+            p = p.with_body_frame(a, body);
+        }
         bound_perspective(&mut p, &start, config.bounds.camera_term);
         let p = match &session.rig {
             Some(rig) => p.with_rig(rig.clone(), &config.rig_terms),
@@ -154,7 +164,7 @@ impl<'s> MarkerLevel<'s> {
             p,
             observations,
             streams,
-            names: session.markers.clone(),
+            names,
             held_markers,
             max_joint_speed_deg_s: config.max_joint_speed_deg_s,
             camera_model,
@@ -239,6 +249,8 @@ impl Level for MarkerLevel<'_> {
                     name: m.name.clone(),
                     position: Vector3::from(m.fitted_m),
                     std_error: m.std_error_mm.map(|s| Vector3::from(s) * 1e-3),
+                    rotation: m.rotation_wxyz.and_then(crate::math::so3::from_wxyz),
+                    rotation_std_error: m.rotation_std_error_deg.map(|s| Vector3::from(s).map(f64::to_radians)),
                 })
                 .collect(),
             latency_s: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.latency(x)),
@@ -646,13 +658,23 @@ fn marker_reports(
                 Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
                     .map(|s| s.map(|v| v * 1e3))
             });
+            // A rigid body's frame (its origin is marker 0): `A` is P → body frame, reported as the
+            // body frame's orientation on the MP, `Aᵀ`; a turn `a` of `A` is one of `−a` of the
+            // body frame in its axes, with the same standard errors.
+            let body = observations.iter().any(|o| o.rotation) && k == 0;
+            let frame = index_of(p, |kind| matches!(kind, Kind::Reference { .. })).filter(|_| body);
             MarkerReport {
                 name: name.clone(),
-                observations: observations.iter().filter(|o| o.marker == k).count(),
+                observations: observations.iter().filter(|o| o.marker == k && !o.rotation).count(),
                 model_m: p.markers0[k].into(),
                 fitted_m: fitted.into(),
                 change_mm: ((fitted - p.markers0[k]) * 1e3).into(),
                 std_error_mm,
+                rotation_wxyz: frame.map(|_| crate::math::so3::to_wxyz(&p.reference(x).inverse())),
+                rotation_std_error_deg: frame.and_then(|i| {
+                    Some([std_error(cov, free, i[0])?, std_error(cov, free, i[1])?, std_error(cov, free, i[2])?])
+                        .map(|s| s.map(f64::to_degrees))
+                }),
             }
         })
         .collect()

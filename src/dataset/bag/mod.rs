@@ -84,6 +84,7 @@ pub(crate) fn load(
         description,
         model,
         markers,
+        body: None,
         reference_pose: 0,
         poses: Vec::new(),
         truth: None,
@@ -165,7 +166,14 @@ fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> 
         );
         return Err(FileError::new(bag, reason));
     }
-    Ok(Streams { captures_path: bag.to_path_buf(), encoders, captures, pixels: Vec::new(), bag_topics: None })
+    Ok(Streams {
+        captures_path: bag.to_path_buf(),
+        encoders,
+        captures,
+        pixels: Vec::new(),
+        bag_topics: None,
+        bodies: Vec::new(),
+    })
 }
 
 /// A free-motion recording's joint states, checked as `encoders.csv` is: time increasing across
@@ -243,6 +251,7 @@ fn static_session(session: Session, poses: Vec<RestingPose>) -> Result<Session, 
                 line: 0,
                 marker_lines: vec![0; count],
                 station: None,
+                body: None,
             }
         })
         .collect();
