@@ -134,7 +134,6 @@ fn resting_pose(seen: &[BodyPose]) -> Result<BodyPose, String> {
     let q: [f64; 4] = std::array::from_fn(|i| median(aligned.iter().map(|a| a[i]).collect()));
     let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
     let line = seen[0].line;
-    BodyPose::new(position, q.map(|v| v / norm), line).map_err(|(_, reason)| {
-        format!("the body's poses resting from message {line} on have no median pose: {reason}")
-    })
+    BodyPose::new(position, q.map(|v| v / norm), line)
+        .map_err(|(_, reason)| format!("the body's poses resting from message {line} on have no median pose: {reason}"))
 }

@@ -4,9 +4,9 @@
 //! around every capture; [`write`] makes a bag of a session (the streams exact to the nanosecond;
 //! static poses at their own times when 0.2 s apart or more, else 0, 1, 2 … s).
 
+mod body;
 mod mapping;
 mod messages;
-mod body;
 mod read;
 mod still;
 mod write;
@@ -19,8 +19,8 @@ pub(crate) use write::write;
 
 use super::session::{Session, SessionPose, Warning};
 use super::streams::{Capture, EncoderSample, MIN_FRAMES, StreamLimits, Streams, unplaceable};
-use still::{median, resting};
 use crate::io::files::FileError;
+use still::{median, resting};
 
 /// `path` is a bag: an `.mcap` file, or a folder with `metadata.yaml` or `.mcap` files and no
 /// `session.yaml`.

@@ -63,4 +63,3 @@ pub(super) fn median(mut v: Vec<f64>) -> f64 {
     let n = v.len();
     if n % 2 == 1 || v[n / 2 - 1] == v[n / 2] { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
-

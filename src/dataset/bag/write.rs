@@ -86,6 +86,7 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
     };
     let body_name = session.body.as_deref().unwrap_or_default();
     let body = |t: f64, pose: &BodyPose| -> Result<Message, String> {
+        // Matrix → quaternion → matrix is exact to a few ulps, not to the bit.
         let [w, x, y, z] = crate::math::so3::to_wxyz(&pose.rotation);
         let p = pose.position;
         let m = TransformStamped {
