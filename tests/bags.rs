@@ -3,7 +3,7 @@
 //! bad bags are refused naming the topic, the message and the reason; a bag written by Python's
 //! `rosbags` (where installed) reads back.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use spmcal::calib::{CalibConfig, calibrate};
 use spmcal::dataset::Session;

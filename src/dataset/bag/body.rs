@@ -9,7 +9,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::mapping::{BodySource, Mapping};
-use super::still::median;
+use super::still::{RestingJoints, median};
 use crate::dataset::streams::{MIN_FRAMES, Streams};
 use crate::dataset::{BodyCapture, BodyPose, Session, SessionPose, Warning};
 use crate::io::files::FileError;
@@ -40,7 +40,7 @@ pub(super) fn check_count(bag: &Path, bodies: &[BodyCapture], mapping: &Mapping)
 pub(super) fn static_session(
     bag: &Path,
     session: Session,
-    rests: Vec<(f64, Vector3<f64>)>,
+    rests: Vec<RestingJoints>,
     of: &[usize],
     bodies: &[BodyCapture],
 ) -> Result<Session, FileError> {

@@ -13,6 +13,9 @@ struct Rest {
     to: usize,
 }
 
+/// A static pose's time (its first observation's) and joints (their median over the rest).
+pub(super) type RestingJoints = (f64, Vector3<f64>);
+
 /// The poses of a static bag — each run of joints resting within `still` for at least `min_rest_s`
 /// with observations in it: the first observation's time and the joints' median — and the pose of
 /// each observation (at `times`, ascending); `None` when some observation falls where the joints
@@ -23,7 +26,7 @@ pub(super) fn resting(
     times: &[f64],
     still: f64,
     min_rest_s: f64,
-) -> Option<(Vec<(f64, Vector3<f64>)>, Vec<usize>)> {
+) -> Option<(Vec<RestingJoints>, Vec<usize>)> {
     let limits = StreamLimits::default();
     let mut rests: Vec<Rest> = Vec::new();
     let mut from = 0;
