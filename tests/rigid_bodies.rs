@@ -147,20 +147,24 @@ fn body_sessions_round_trip_through_their_folders() {
         assert!(yaml.contains("body: platform") && !yaml.contains("markers"), "{yaml}");
         let (back, _) = Session::load(&out, Some(&model.urdf_path)).unwrap();
         assert_eq!(back.body, session.body);
-        assert_eq!(back.poses.len(), session.poses.len());
-        for (a, b) in back.poses.iter().zip(&session.poses) {
-            let (a, b) = (a.body.unwrap(), b.body.unwrap());
+        // A recording is its streams (its poses are made at the latency asked for).
+        let bodies = |s: &Session| -> Vec<(Option<f64>, spmcal::dataset::BodyPose)> {
+            match &s.streams {
+                Some(streams) => streams.body_poses().map(|(t, b)| (Some(t), *b)).collect(),
+                None => s.poses.iter().map(|p| (None, p.body.unwrap())).collect(),
+            }
+        };
+        let (written, read) = (bodies(&session), bodies(&back));
+        assert_eq!(written.len(), read.len());
+        assert!(written.len() >= 30);
+        for ((ta, a), (tb, b)) in read.iter().zip(&written) {
+            assert_eq!(ta, tb);
             // Written with every digit (Ryū) and read back: the same numbers, the quaternion's
             // normalisation and its conversion to a matrix aside (a few ulps).
             assert_eq!(a.position, b.position);
             assert!(so3::geodesic_angle(&a.rotation, &b.rotation) < 1e-12);
             assert!(a.line >= 2, "the line of poses.csv");
         }
-        // Written again, the files are the same bytes.
-        let again = dir.path().join("again");
-        back.write(&again).unwrap();
-        let read = |d: &Path| std::fs::read_to_string(d.join("poses.csv")).unwrap();
-        assert_eq!(read(&out), read(&again));
     }
 }
 
@@ -183,14 +187,17 @@ fn bad_rows_of_poses_csv_are_errors_at_their_line() {
     let cases = [
         (
             format!("{HEADER}{GOOD}1,0.01,0.02,0.75,1,0.2,0,0\n"),
-            "poses.csv:3: column `qw`: quaternion [1.0, 0.2, 0.0, 0.0] has norm 1.0198039027185568, not 1",
+            "poses.csv:3: column `qw`: quaternion [1.0, 0.2, 0.0, 0.0] has norm 1.0198",
         ),
         (format!("{HEADER}{GOOD}1,NaN,0.02,0.75,1,0,0,0\n"), "poses.csv:3: column `x_m`: `NaN` is not finite"),
         (
             format!("{HEADER}{GOOD}1,10.5,20.1,750.2,1,0,0,0\n"),
             "poses.csv:3: column `x_m`: 10.5 m is farther than the 10 m a tracker measures this mechanism's rigid body within: it looks like millimetres",
         ),
-        ("pose,x_m,y_m,z_m,qw,qx,qy\n0,0.01,0.02,0.75,1,0,0\n".to_string(), "poses.csv: missing column `qz`"),
+        (
+            "pose,x_m,y_m,z_m,qw,qx,qy\n0,0.01,0.02,0.75,1,0,0\n".to_string(),
+            "poses.csv:1: the header has no column `qz`",
+        ),
         (format!("{HEADER}{GOOD}{GOOD}"), "poses.csv:3: column `pose`: pose 0 appears twice"),
         (
             format!("{HEADER}{GOOD}9,0.01,0.02,0.75,1,0,0,0\n"),
