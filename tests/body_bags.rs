@@ -393,3 +393,20 @@ fn a_free_motion_body_bag_calibrates_exactly_as_its_folder_recording() {
         assert_eq!(parameters(&session), expected, "{mode}");
     }
 }
+
+#[test]
+fn the_cdr_bytes_the_unit_tests_decode_are_what_rosbags_writes() {
+    // src/dataset/bag/messages.rs decodes tests/data/bags/rosbags_cdr.txt without Python; here
+    // the file is checked against a fresh run of the script that made it.
+    let run = std::process::Command::new("python3").arg("tests/data/bags/rosbags_cdr.py").output();
+    let out = match run {
+        Ok(o) if o.status.success() => o.stdout,
+        Ok(o) if String::from_utf8_lossy(&o.stderr).contains("No module named 'rosbags'") => {
+            return outside_tool::missing("Python's `rosbags`", "pip install rosbags");
+        }
+        Ok(o) => panic!("rosbags_cdr.py failed: {}", String::from_utf8_lossy(&o.stderr)),
+        Err(_) => return outside_tool::missing("python3", "install Python 3 with pip install rosbags"),
+    };
+    let fixture = std::fs::read_to_string("tests/data/bags/rosbags_cdr.txt").unwrap();
+    assert_eq!(String::from_utf8(out).unwrap(), fixture);
+}

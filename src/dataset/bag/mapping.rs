@@ -15,10 +15,11 @@
 //!   frame_ids: {tracker/m1: m1}       # ... by these names (default: the marker's own)
 //!   topics: {/tracker/m1: m1}         # or a topic per marker (default: /markers/<name>)
 //!   camera_frame: camera              # a topic per marker: header.frame_id must be this
-//! body:                               # or a rigid body on the platform, tracked by motion capture:
-//!   topic: /vrpn_mocap/wrist/pose     # PoseStamped or TransformStamped (said by the schema) ...
+//! body:                               # or a rigid body on the platform (markers then not read):
+//!   topic: /vrpn_mocap/wrist/pose     # PoseStamped or TransformStamped, as the schema says (default /body) ...
 //!   tf: /tf                           # ... or tf2_msgs/msg/TFMessage on this topic (default /tf) ...
-//!   child_frame: wrist                # ... the transforms to this frame (required with `tf`)
+//!   child_frame: wrist                # ... the transforms to this frame (required with `tf`; on a
+//!                                     # TransformStamped topic, its child_frame_id checked)
 //!   parent_frame: world               # header.frame_id of every pose (default: the first's)
 //! clock: header                       # header (header.stamp, the sensors' time) | receive
 //! still_rad: 0.0005                   # joints resting within this ...
