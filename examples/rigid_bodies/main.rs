@@ -14,9 +14,10 @@
 //! a marker session's camera model chosen by `auto`), no cross-validation. Also the noise the fit
 //! estimates for the fitted body, and the predicted error against the achieved for the bodies.
 //! Static rows: 200 poses; recording rows: free motion, every marker in every frame (a body needs
-//! three at once), 15 Hz, 40 ms latency.
+//! three at once), 15 Hz, 40 ms latency, two minutes (as the shipped recording; shorter ones
+//! cover the workspace too thinly for the unseen poses, which span all of it).
 //! Run: `cargo run --release --example rigid_bodies [sessions] [recordings] [seconds]` (default
-//! 12, 12 and 60).
+//! 50, 30 and 120).
 
 #[macro_use]
 #[path = "../common/results.rs"]
@@ -42,7 +43,7 @@ struct Outcome {
 fn main() {
     let mut results = results::Results::new("rigid_bodies");
     let arg = |k: usize, default: u64| std::env::args().nth(k).and_then(|a| a.parse().ok()).unwrap_or(default);
-    let (sessions, recordings, seconds) = (arg(1, 12), arg(2, 12), arg(3, 60));
+    let (sessions, recordings, seconds) = (arg(1, 50), arg(2, 30), arg(3, 120));
     let model = RobotModel::load(Path::new("models/agile_wrist.urdf")).expect("shipped model");
     let mut fixed = SimConfig::read(Path::new("configs/simulate_agile_wrist.yaml")).expect("shipped config");
     fixed.poses = 200;
@@ -85,12 +86,16 @@ fn main() {
             for (row, o) in rows.iter_mut().zip(outcomes) {
                 row.push(o.expect("checked"));
             }
+            let last = |k: usize| rows[k].last().map_or((f64::NAN, f64::NAN), |o| (o.achieved, o.predicted));
             eprintln!(
-                "  {label} seed {}: {:.4} / {:.4} / {:.4}°",
+                "  {label} seed {}: achieved (predicted) {:.4} ({:.4}) / {:.4} ({:.4}) / {:.4} ({:.4})°",
                 c.seed,
-                rows[0].last().map_or(f64::NAN, |o| o.achieved),
-                rows[1].last().map_or(f64::NAN, |o| o.achieved),
-                rows[2].last().map_or(f64::NAN, |o| o.achieved),
+                last(0).0,
+                last(0).1,
+                last(1).0,
+                last(1).1,
+                last(2).0,
+                last(2).1,
             );
         }
         let [markers, body, tracked] = rows.each_ref().map(|r| rms(r.iter().map(|o| o.achieved)));

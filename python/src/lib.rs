@@ -1134,6 +1134,7 @@ fn _marker_model<'py>(
         body_position_std_error_m: None,
         body_orientation_rad: None,
         body_orientation_std_error_rad: None,
+        body_covariances: None,
     };
     let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;

@@ -174,6 +174,11 @@ pub struct StereoNoise {
     /// Its standard error (rad).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub body_orientation_std_error_rad: Option<f64>,
+    /// A rigid body's position and orientation covariances in the tracker's frame (m², rad²),
+    /// which whiten its residuals: a tracker's noise differs by direction as a camera's does
+    /// (its σ's above are their per-axis RMS).
+    #[serde(skip)]
+    pub body_covariances: Option<[Matrix3<f64>; 2]>,
 }
 
 /// A pose's joints and their rates of change with the camera latency and with the clock's rate
@@ -392,9 +397,10 @@ impl<'a> MarkerResiduals<'a> {
         }
     }
 
-    /// A rigid body's σ's (position, orientation), each from its own group's residuals, with
-    /// `dof` the share of the rows left by the parameters: `σ² = Σ w |r|² / (3 Σ w · dof)` per
-    /// axis, `w` the Huber weight (at [`BODY_HUBER`] robust σ's) of the group's own robust scale;
+    /// A rigid body's noise (position, orientation), each from its own group's residuals, with
+    /// `dof` the share of the rows left by the parameters: the covariance `Σ w r rᵀ / (Σ w · dof)`,
+    /// `w` the Huber weight (at [`BODY_HUBER`] robust σ's) of the group's own robust scale, and
+    /// its per-axis RMS `σ² = tr Σ / 3`;
     /// standard errors `σ / √(2 · 3n · dof)` (n rows of 3), as a variance estimated from `3n·dof`
     /// squares has. Nothing for markers. Not the fit's weights: the fit's first phase weighs
     /// metres and radians alike, its robust scale lies between the two groups', and its Huber
@@ -412,37 +418,41 @@ impl<'a> MarkerResiduals<'a> {
             body_position_std_error_m: None,
             body_orientation_rad: None,
             body_orientation_std_error_rad: None,
+            body_covariances: None,
         };
         if !self.body {
             return none;
         }
-        let group = |rotation: bool| -> Vec<f64> {
+        let group = |rotation: bool| -> Vec<Vector3<f64>> {
             let of = residuals.iter().zip(self.observations.iter()).enumerate();
-            of.filter(|(_, (_, o))| o.rotation == rotation).map(|(j, (r, _))| r.norm() / self.inflation(j)).collect()
+            of.filter(|(_, (_, o))| o.rotation == rotation).map(|(j, (r, _))| r / self.inflation(j)).collect()
         };
         let count = |rotation: bool| group(rotation).len() as f64;
-        let sigma = |rotation: bool| {
-            let norms = group(rotation);
-            let mut sorted = norms.clone();
+        let covariance = |rotation: bool| {
+            let residuals = group(rotation);
+            let mut sorted: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
             sorted.sort_by(f64::total_cmp);
             // The median norm of a 3-vector of per-axis σ is 1.5382 σ.
             let scale = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0) / 1.5382;
             let limit = BODY_HUBER * scale;
-            let (mut sum, mut total) = (0.0, 0.0);
-            for d in norms {
+            let (mut sum, mut total) = (Matrix3::zeros(), 0.0);
+            for r in residuals {
+                let d = r.norm();
                 let w = if d > limit { limit / d } else { 1.0 };
-                sum += w * d * d;
+                sum += r * r.transpose() * w;
                 total += w;
             }
-            (sum / (3.0 * f64::max(total, f64::MIN_POSITIVE) * dof)).sqrt()
+            sum / (f64::max(total, f64::MIN_POSITIVE) * dof)
         };
-        let (position, orientation) = (sigma(false), sigma(true));
+        let covariances = [covariance(false), covariance(true)];
+        let [position, orientation] = covariances.map(|c| (c.trace() / 3.0).max(0.0).sqrt());
         let error = |s: f64, n: f64| s / (6.0 * n * dof).max(1.0).sqrt();
         StereoNoise {
             body_position_m: Some(position),
             body_position_std_error_m: Some(error(position, count(false))),
             body_orientation_rad: Some(orientation),
             body_orientation_std_error_rad: Some(error(orientation, count(true))),
+            body_covariances: Some(covariances),
             ..none
         }
     }
@@ -455,11 +465,12 @@ impl<'a> MarkerResiduals<'a> {
     /// `Σ_j^{-1/2}` of observation `j` under `noise`.
     pub fn whitening_of(&self, j: usize, noise: &StereoNoise) -> Matrix3<f64> {
         if self.body {
-            let sigma = match self.observations[j].rotation {
-                true => noise.body_orientation_rad.unwrap_or(1.0).max(ROTATION_SIGMA_FLOOR_RAD),
-                false => noise.body_position_m.unwrap_or(1.0).max(SIGMA_FLOOR_M),
-            };
-            return Matrix3::identity() / (sigma * self.inflation(j));
+            let rotation = self.observations[j].rotation;
+            let floor = if rotation { ROTATION_SIGMA_FLOOR_RAD } else { SIGMA_FLOOR_M };
+            let covariance = noise.body_covariances.map_or_else(Matrix3::identity, |c| c[usize::from(rotation)]);
+            // Floored so that noise-free data stays defined.
+            let covariance = covariance + Matrix3::identity() * floor * floor;
+            return super::orientation_residuals::inverse_root(&covariance) / self.inflation(j);
         }
         if let Some(c) = self.observations[j].camera {
             let sigma = noise.pixel_px.get(c).copied().unwrap_or(1.0).max(PIXEL_SIGMA_FLOOR_PX);

@@ -232,7 +232,7 @@ fn weighted_covariance(residuals: &[Vector3<f64>], members: &[usize], weights: &
 }
 
 /// `Σ^{-1/2}`, with the spectrum floored so that noise-free data (zero residuals) stays defined.
-fn inverse_root(covariance: &Matrix3<f64>) -> Matrix3<f64> {
+pub(crate) fn inverse_root(covariance: &Matrix3<f64>) -> Matrix3<f64> {
     let Some(eig) = crate::math::linalg::bounded_symmetric_eigen(covariance) else {
         return Matrix3::identity();
     };

@@ -513,6 +513,10 @@ pub struct CalibrationReport {
 impl CalibrationReport {
     /// The file the marker observations came from, for messages ([`observations_file`]).
     pub(crate) fn observations_file(&self) -> &'static str {
+        // A rigid body's frame is reported with its orientation: its observations are poses.csv's.
+        if self.markers.as_ref().is_some_and(|m| m.markers.iter().any(|k| k.rotation_wxyz.is_some())) {
+            return "poses.csv";
+        }
         observations_file(self.markers.as_ref().is_some_and(|m| m.latency.is_some()), self.unit == "px")
     }
 }

@@ -676,7 +676,7 @@ fn body_session(recording: Option<f64>) -> (Session, RobotModel, Parameterisatio
         *model.spm.geometry(),
         &truth.parameters.camera.unwrap(),
         &[Vector3::from(body.origin_m) + Vector3::new(0.002, -0.001, 0.003)],
-        &[body.name.clone()],
+        std::slice::from_ref(&body.name),
         CameraModel::rigid(),
         &CalibConfig::default().bounds,
     )

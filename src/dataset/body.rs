@@ -191,7 +191,7 @@ mod tests {
         let ok = BodyPose::new(at, [half, 0.0, 0.0, half], 3).unwrap();
         assert!((ok.rotation.angle() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         // A quaternion printed to 6 decimals is accepted (and normalised).
-        assert!(BodyPose::new(at, [0.707107, 0.0, 0.0, 0.707107], 3).is_ok());
+        assert!(BodyPose::new(at, [0.866025, 0.0, 0.0, 0.5], 3).is_ok());
         assert_eq!(BodyPose::new(at, [1.0, 0.1, 0.0, 0.0], 3).unwrap_err().0, "qw");
         assert_eq!(BodyPose::new(Vector3::new(0.1, 250.0, 0.9), [1.0, 0.0, 0.0, 0.0], 3).unwrap_err().0, "y_m");
         let mm = BodyPose::new(Vector3::new(0.1, 250.0, 0.9), [1.0, 0.0, 0.0, 0.0], 3).unwrap_err().1;

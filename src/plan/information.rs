@@ -161,6 +161,7 @@ impl Camera {
             body_position_std_error_m: None,
             body_orientation_rad: None,
             body_orientation_std_error_rad: None,
+            body_covariances: None,
         }
     }
 }

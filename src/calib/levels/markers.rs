@@ -364,7 +364,10 @@ impl Level for MarkerLevel<'_> {
             }),
         };
         let drift = self.drift_finding(&markers);
-        let source = observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency), p.rig0.is_some());
+        let source = match observations.iter().any(|o| o.rotation) {
+            true => "poses.csv",
+            false => observations_file(p.entries.iter().any(|e| e.kind == Kind::Latency), p.rig0.is_some()),
+        };
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
             format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)
