@@ -93,6 +93,9 @@ fn main() {
             let last: Vec<String> =
                 rows.iter().map(|r| format!("{:.4}", r.last().map_or(f64::NAN, |o| o.achieved))).collect();
             eprintln!("  {label} seed {}: scales {:?}: {}°", c.seed, c.encoders.scales, last.join(" / "));
+            let pred: Vec<String> =
+                rows.iter().map(|r| format!("{:.4}", r.last().map_or(f64::NAN, |o| o.predicted))).collect();
+            eprintln!("    predicted {}", pred.join(" / "));
         }
         let [clean_default, clean_held, scaled_default, scaled_held, clean_fitted] = rows.each_ref().map(|r| pooled(r));
         let bound = study_rms(rows[4].iter().map(|o| o.predicted)) / study_rms(rows[1].iter().map(|o| o.predicted));

@@ -553,15 +553,21 @@ impl Residuals for MarkerResiduals<'_> {
         self.pose_of[j]
     }
 
-    fn observed(&self, j: usize) -> super::residuals::Observed {
-        let o = &self.observations[j];
-        super::residuals::Observed {
-            point: (o.camera.is_none() && !o.rotation).then_some(o.measured),
-            pixel: o.camera.map(|c| (c, [o.measured.x, o.measured.y])),
-            joints: o.joints,
-            time_s: o.time_s,
-            marker: Some(o.marker),
-        }
+    fn observed(&self, x: &DVector<f64>) -> Vec<super::residuals::Observed> {
+        // A frame the clock at `x` puts outside the stream keeps its recorded joints (the fit would
+        // not have ended there).
+        let at_clock = self.joints(x).ok();
+        self.observations
+            .iter()
+            .enumerate()
+            .map(|(j, o)| super::residuals::Observed {
+                point: (o.camera.is_none() && !o.rotation).then_some(o.measured),
+                pixel: o.camera.map(|c| (c, [o.measured.x, o.measured.y])),
+                joints: at_clock.as_ref().map_or(o.joints, |poses| poses[self.pose_of[j]].0),
+                time_s: o.time_s,
+                marker: Some(o.marker),
+            })
+            .collect()
     }
 
     fn poses(&self) -> usize {

@@ -309,10 +309,11 @@ pub(crate) fn check<M: Residuals>(
     // Where the model puts each observation, not where it was measured: a feature read from the
     // measurement would carry its noise, which the residual carries too, and correlate with it.
     let residuals = &outcome.evaluation.residuals;
-    let observed: Vec<Observed> = (0..m)
-        .map(|j| {
-            let mut o = model.observed(j);
-            let r = residuals[j];
+    let observed: Vec<Observed> = model
+        .observed(&outcome.x)
+        .into_iter()
+        .zip(residuals)
+        .map(|(mut o, r)| {
             o.point = o.point.map(|p| p - r);
             o.pixel = o.pixel.map(|(c, [u, v])| (c, [u - r.x, v - r.y]));
             o
@@ -769,7 +770,8 @@ impl ModelCheck {
                 "the residuals grow with the joints' angles, as an encoder whose scale is off makes them (joint \
                  scales)"
                     .to_string(),
-                "check each encoder's counts per revolution and gear ratio (this version does not fit joint scales)"
+                "fit the joint scales (`joint_scales: fit`; `auto` holds a scale the session determines to no \
+                 better than 0.1 %), and check each encoder's counts per revolution and gear ratio"
                     .to_string(),
             ),
             Structure::Time => (

@@ -128,8 +128,11 @@ impl Residuals for OrientationResiduals<'_> {
         j
     }
 
-    fn observed(&self, j: usize) -> super::residuals::Observed {
-        super::residuals::Observed { joints: self.observations[j].joints, ..Default::default() }
+    fn observed(&self, _x: &DVector<f64>) -> Vec<super::residuals::Observed> {
+        self.observations
+            .iter()
+            .map(|o| super::residuals::Observed { joints: o.joints, ..Default::default() })
+            .collect()
     }
 
     fn poses(&self) -> usize {

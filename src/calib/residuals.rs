@@ -128,8 +128,10 @@ pub(crate) trait Residuals {
     /// one group are held out together.
     fn group(&self, j: usize) -> (bool, u64);
 
-    /// What observation `j` was (for the model check).
-    fn observed(&self, j: usize) -> Observed;
+    /// What each observation was (for the model check), its joints where the model at `x` reads
+    /// them: in a recording, along the encoder stream at the fitted camera clock, not at the
+    /// capture's own time stamp.
+    fn observed(&self, x: &DVector<f64>) -> Vec<Observed>;
 
     /// Index into the evaluation's `orientations` of observation `j`'s pose.
     fn pose_of(&self, j: usize) -> usize;
