@@ -3,8 +3,7 @@
 //! bad bags are refused naming the topic, the message and the reason; a bag written by Python's
 //! `rosbags` (where installed) reads back.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use spmcal::calib::{CalibConfig, calibrate};
 use spmcal::dataset::Session;
@@ -13,98 +12,11 @@ use spmcal::model::RobotModel;
 #[path = "common/outside_tool.rs"]
 mod outside_tool;
 
+#[path = "common/bag_writer.rs"]
+mod bag_writer;
+use bag_writer::{Message, joint_state, point, tmp, write_bag};
+
 const MODEL: &str = "models/agile_wrist.urdf";
-
-/// A plain-CDR encoder (the layout of the OMG spec, alignment from after the 4-byte header).
-struct Cdr {
-    bytes: Vec<u8>,
-    big: bool,
-}
-
-impl Cdr {
-    fn new(big: bool) -> Self {
-        Cdr { bytes: vec![0, if big { 0 } else { 1 }, 0, 0], big }
-    }
-    fn align(&mut self, n: usize) {
-        while !(self.bytes.len() - 4).is_multiple_of(n) {
-            self.bytes.push(0);
-        }
-    }
-    fn u32(&mut self, v: u32) {
-        self.align(4);
-        self.bytes.extend(if self.big { v.to_be_bytes() } else { v.to_le_bytes() });
-    }
-    fn f64(&mut self, v: f64) {
-        self.align(8);
-        self.bytes.extend(if self.big { v.to_be_bytes() } else { v.to_le_bytes() });
-    }
-    fn string(&mut self, s: &str) {
-        self.u32(s.len() as u32 + 1);
-        self.bytes.extend(s.as_bytes());
-        self.bytes.push(0);
-    }
-    fn header(&mut self, ns: u64, frame: &str) {
-        self.u32((ns / 1_000_000_000) as u32);
-        self.u32((ns % 1_000_000_000) as u32);
-        self.string(frame);
-    }
-}
-
-fn joint_state(ns: u64, names: &[&str], positions: &[f64], big: bool) -> Vec<u8> {
-    let mut c = Cdr::new(big);
-    c.header(ns, "");
-    c.u32(names.len() as u32);
-    names.iter().for_each(|n| c.string(n));
-    c.u32(positions.len() as u32);
-    positions.iter().for_each(|p| c.f64(*p));
-    c.u32(0);
-    c.u32(0);
-    c.bytes
-}
-
-fn point(ns: u64, frame: &str, p: [f64; 3], big: bool) -> Vec<u8> {
-    let mut c = Cdr::new(big);
-    c.header(ns, frame);
-    p.iter().for_each(|v| c.f64(*v));
-    c.bytes
-}
-
-const JOINT_STATE_SCHEMA: &str = "# This is a message that holds data to describe the state of a set of torque controlled joints.\n\
-std_msgs/Header header\n\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n\
-================================================================================\nMSG: std_msgs/Header\n\
-builtin_interfaces/Time stamp\nstring frame_id\n";
-const POINT_STAMPED_SCHEMA: &str = "# This represents a Point with reference coordinate frame and timestamp\n\
-std_msgs/Header header\nPoint point\n\
-================================================================================\nMSG: geometry_msgs/Point\n\
-float64 x\nfloat64 y\nfloat64 z\n";
-
-/// A message to write: topic, log time (ns), CDR bytes.
-type Message = (String, u64, Vec<u8>);
-
-/// Write `messages` as an MCAP bag at `path`; topics starting `/joint` are joint states.
-fn write_bag(path: &Path, messages: &[Message], encoding: &str) {
-    let mut w = mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(path).unwrap())).unwrap();
-    let joints = w.add_schema("sensor_msgs/msg/JointState", "ros2msg", JOINT_STATE_SCHEMA.as_bytes()).unwrap();
-    let points = w.add_schema("geometry_msgs/msg/PointStamped", "ros2msg", POINT_STAMPED_SCHEMA.as_bytes()).unwrap();
-    let mut channels: BTreeMap<String, u16> = BTreeMap::new();
-    for (k, (topic, ns, data)) in messages.iter().enumerate() {
-        let id = *channels.entry(topic.clone()).or_insert_with(|| {
-            let schema = if topic.starts_with("/joint") { joints } else { points };
-            w.add_channel(schema, topic, encoding, &BTreeMap::new()).unwrap()
-        });
-        let header =
-            mcap::records::MessageHeader { channel_id: id, sequence: k as u32, log_time: *ns, publish_time: *ns };
-        w.write_to_known_channel(&header, data).unwrap();
-    }
-    w.finish().unwrap();
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("spmcal-bags-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 const NAMES: [&str; 3] = ["theta1", "theta2", "theta3"];
 

@@ -1,5 +1,7 @@
 //! What maps to what in a bag: `spmcal.yaml` beside the `.mcap` file (or inside the bag folder).
-//! Every key is optional; a bag recorded with the default names needs no file at all.
+//! Every key is optional; a bag recorded with the default names needs no file at all (markers on
+//! `/markers`, or a rigid body as `PoseStamped` or `TransformStamped` on `/body`). A bag holds
+//! markers or a body, not both.
 //!
 //! ```yaml
 //! model: agile_wrist                 # a shipped model's name, or a URDF's path relative to this
@@ -13,6 +15,12 @@
 //!   frame_ids: {tracker/m1: m1}       # ... by these names (default: the marker's own)
 //!   topics: {/tracker/m1: m1}         # or a topic per marker (default: /markers/<name>)
 //!   camera_frame: camera              # a topic per marker: header.frame_id must be this
+//! body:                               # or a rigid body on the platform (markers then not read):
+//!   topic: /vrpn_mocap/wrist/pose     # PoseStamped or TransformStamped, as the schema says (default /body) ...
+//!   tf: /tf                           # ... or tf2_msgs/msg/TFMessage on this topic (default /tf) ...
+//!   child_frame: wrist                # ... the transforms to this frame (required with `tf`; on a
+//!                                     # TransformStamped topic, its child_frame_id checked)
+//!   parent_frame: world               # header.frame_id of every pose (default: the first's)
 //! clock: header                       # header (header.stamp, the sensors' time) | receive
 //! still_rad: 0.0005                   # joints resting within this ...
 //! min_rest_s: 0.05                    # ... this long around every capture: a static session
@@ -89,6 +97,88 @@ impl Default for Markers {
     }
 }
 
+/// The topic a rigid body's poses are read from when the mapping names none.
+pub(crate) const DEFAULT_BODY_TOPIC: &str = "/body";
+
+/// The `body` key as written: a rigid body on the platform, tracked by motion capture.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub(crate) struct BodyKeys {
+    topic: Option<String>,
+    tf: Option<String>,
+    child_frame: Option<String>,
+    parent_frame: Option<String>,
+}
+
+/// Where a rigid body's poses are.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum BodySource {
+    /// A topic of `PoseStamped` or `TransformStamped` (the schema says which); a
+    /// `TransformStamped`'s `child_frame_id` must be `child_frame` when given.
+    Topic { topic: String, child_frame: Option<String> },
+    /// The transforms to `child_frame` among those of a `TFMessage` topic.
+    Tf { topic: String, child_frame: String },
+}
+
+/// The rigid body of the mapping.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Body {
+    pub(crate) source: BodySource,
+    /// Every pose's `header.frame_id` must be this (`None`: the first pose's).
+    pub(crate) parent_frame: Option<String>,
+}
+
+impl Default for Body {
+    fn default() -> Self {
+        Body { source: BodySource::Topic { topic: DEFAULT_BODY_TOPIC.into(), child_frame: None }, parent_frame: None }
+    }
+}
+
+impl Body {
+    /// The topic the poses are on.
+    pub(crate) fn topic(&self) -> &str {
+        body_topic(&self.source)
+    }
+
+    /// The body as a message names it: `` `/body` `` or `` frame `wrist` on `/tf` ``.
+    pub(crate) fn describe(&self) -> String {
+        match &self.source {
+            BodySource::Topic { topic, .. } => format!("topic `{topic}`"),
+            BodySource::Tf { topic, child_frame } => format!("frame `{child_frame}` on `{topic}`"),
+        }
+    }
+
+    /// The body of the keys as written, checked: a topic, or `tf` with a child frame.
+    fn of(keys: BodyKeys) -> Result<Body, String> {
+        let BodyKeys { topic, tf, child_frame, parent_frame } = keys;
+        let source = match (topic, tf, child_frame) {
+            (Some(_), Some(_), _) => return Err("`body` names both `topic` and `tf`: a body is on one of them".into()),
+            (Some(topic), None, child_frame) => BodySource::Topic { topic, child_frame },
+            (None, tf, Some(child_frame)) => BodySource::Tf { topic: tf.unwrap_or_else(|| "/tf".into()), child_frame },
+            (None, _, None) => {
+                let reason =
+                    "`body` needs `topic` (PoseStamped or TransformStamped) or `child_frame` (on `tf`, default /tf)";
+                return Err(reason.into());
+            }
+        };
+        let child = match &source {
+            BodySource::Topic { child_frame, .. } => child_frame.as_deref(),
+            BodySource::Tf { child_frame, .. } => Some(child_frame.as_str()),
+        };
+        if body_topic(&source).is_empty() || child.is_some_and(str::is_empty) || parent_frame.as_deref() == Some("") {
+            return Err("`body` names an empty topic or frame".into());
+        }
+        Ok(Body { source, parent_frame })
+    }
+}
+
+/// The topic a body's poses are on.
+fn body_topic(source: &BodySource) -> &str {
+    match source {
+        BodySource::Topic { topic, .. } | BodySource::Tf { topic, .. } => topic,
+    }
+}
+
 /// The whole mapping.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -96,6 +186,15 @@ pub(crate) struct Mapping {
     pub(crate) model: Option<PathBuf>,
     pub(crate) joints: Joints,
     pub(crate) markers: Markers,
+    /// The rigid body as written (checked into `body`).
+    #[serde(rename = "body")]
+    body_keys: Option<BodyKeys>,
+    /// The rigid body: the mapping's, else a `PoseStamped` or `TransformStamped` on `/body`.
+    #[serde(skip)]
+    pub(crate) body: Body,
+    /// The mapping names a body: a bag without it is refused rather than read as markers.
+    #[serde(skip)]
+    pub(crate) body_mapped: bool,
     pub(crate) clock: Clock,
     /// Joints resting within this (rad, each joint) around the captures make a static pose.
     pub(crate) still_rad: f64,
@@ -112,6 +211,9 @@ impl Default for Mapping {
             model: None,
             joints: Joints::default(),
             markers: Markers::default(),
+            body_keys: None,
+            body: Body::default(),
+            body_mapped: false,
             clock: Clock::Header,
             still_rad: 5e-4,
             min_rest_s: 0.05,
@@ -144,6 +246,10 @@ impl Mapping {
         let names = &mapping.joints.names;
         if names[0] == names[1] || names[1] == names[2] || names[0] == names[2] {
             return Err(keys.error(&path, "joints", format!("`names` lists a joint twice: {names:?}")));
+        }
+        if let Some(written) = mapping.body_keys.take() {
+            mapping.body = Body::of(written).map_err(|reason| keys.error(&path, "body", reason))?;
+            mapping.body_mapped = true;
         }
         mapping.model = mapping.model.map(|m| crate::io::files::resolve_reference(folder, &m));
         mapping.path = Some(path);

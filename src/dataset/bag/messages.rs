@@ -1,5 +1,8 @@
-//! The two ROS 2 message types a bag holds for spmcal, as serde structs decoded from (and encoded
-//! to) CDR by `re_cdr`, and the schemas they are checked against.
+//! The ROS 2 message types a bag holds for spmcal — joint states, marker points, a rigid body's
+//! pose (`PoseStamped`, `TransformStamped`, or one transform of a `tf2_msgs/msg/TFMessage`) — as
+//! serde structs decoded from (and encoded to) CDR by `re_cdr`, and the schemas they are checked
+//! against. Field order and types are the ROS 2 definitions' (`common_interfaces`, `geometry2`);
+//! CDR aligns each primitive to its size, nested structs adding no padding of their own.
 //!
 //! A CDR message starts with a 4-byte encapsulation header: the representation identifier
 //! (`00 00` plain CDR big-endian, `00 01` little-endian — what ROS 2 writes) and two option bytes;
@@ -69,6 +72,55 @@ pub(crate) struct PointStamped<'a> {
     pub(crate) point: Point,
 }
 
+/// `geometry_msgs/msg/Quaternion` (ROS order: the scalar last).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Quaternion {
+    pub(crate) x: f64,
+    pub(crate) y: f64,
+    pub(crate) z: f64,
+    pub(crate) w: f64,
+}
+
+/// `geometry_msgs/msg/Pose`: the body's frame in the header's (position m, orientation body →
+/// header frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Pose {
+    pub(crate) position: Point,
+    pub(crate) orientation: Quaternion,
+}
+
+/// `geometry_msgs/msg/PoseStamped` (vrpn_mocap, the OptiTrack and Vicon bridges).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct PoseStamped<'a> {
+    #[serde(borrow)]
+    pub(crate) header: Header<'a>,
+    pub(crate) pose: Pose,
+}
+
+/// `geometry_msgs/msg/Transform`: `child_frame_id`'s frame in the header's; `translation` is a
+/// `geometry_msgs/msg/Vector3`, three float64 `x y z` laid out as a [`Point`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Transform {
+    pub(crate) translation: Point,
+    pub(crate) rotation: Quaternion,
+}
+
+/// `geometry_msgs/msg/TransformStamped`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct TransformStamped<'a> {
+    #[serde(borrow)]
+    pub(crate) header: Header<'a>,
+    pub(crate) child_frame_id: &'a str,
+    pub(crate) transform: Transform,
+}
+
+/// `tf2_msgs/msg/TFMessage`: what `/tf` and `/tf_static` carry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct TfMessage<'a> {
+    #[serde(borrow)]
+    pub(crate) transforms: Vec<TransformStamped<'a>>,
+}
+
 /// A message type spmcal reads: its ROS name and the `ros2msg` schema a bag records for it.
 pub(crate) struct MessageType {
     /// e.g. `sensor_msgs/msg/JointState`.
@@ -124,12 +176,94 @@ pub(crate) const POINT_STAMPED: MessageType = MessageType {
     ),
 };
 
+/// The definitions a `ros2msg` schema appends for `geometry_msgs/Quaternion`.
+macro_rules! quaternion_definition {
+    () => {
+        "================================================================================\n\
+         MSG: geometry_msgs/Quaternion\n\
+         float64 x 0\n\
+         float64 y 0\n\
+         float64 z 0\n\
+         float64 w 1\n"
+    };
+}
+
+/// The definitions a `ros2msg` schema appends for `geometry_msgs/Transform`'s own types.
+macro_rules! transform_definitions {
+    () => {
+        concat!(
+            "================================================================================\n\
+             MSG: geometry_msgs/Transform\n\
+             Vector3 translation\n\
+             Quaternion rotation\n\
+             ================================================================================\n\
+             MSG: geometry_msgs/Vector3\n\
+             float64 x\n\
+             float64 y\n\
+             float64 z\n",
+            quaternion_definition!()
+        )
+    };
+}
+
+/// `geometry_msgs/msg/PoseStamped`.
+pub(crate) const POSE_STAMPED: MessageType = MessageType {
+    name: "geometry_msgs/msg/PoseStamped",
+    fields: &["std_msgs/Header header", "Pose pose"],
+    schema: concat!(
+        "std_msgs/Header header\nPose pose\n",
+        "================================================================================\n\
+         MSG: geometry_msgs/Pose\n\
+         Point position\n\
+         Quaternion orientation\n\
+         ================================================================================\n\
+         MSG: geometry_msgs/Point\n\
+         float64 x\n\
+         float64 y\n\
+         float64 z\n",
+        quaternion_definition!(),
+        header_definitions!()
+    ),
+};
+
+/// `geometry_msgs/msg/TransformStamped`.
+pub(crate) const TRANSFORM_STAMPED: MessageType = MessageType {
+    name: "geometry_msgs/msg/TransformStamped",
+    fields: &["std_msgs/Header header", "string child_frame_id", "Transform transform"],
+    schema: concat!(
+        "std_msgs/Header header\nstring child_frame_id\nTransform transform\n",
+        transform_definitions!(),
+        header_definitions!()
+    ),
+};
+
+/// `tf2_msgs/msg/TFMessage`.
+pub(crate) const TF_MESSAGE: MessageType = MessageType {
+    name: "tf2_msgs/msg/TFMessage",
+    fields: &["geometry_msgs/TransformStamped[] transforms"],
+    schema: concat!(
+        "geometry_msgs/TransformStamped[] transforms\n",
+        "================================================================================\n\
+         MSG: geometry_msgs/TransformStamped\n\
+         std_msgs/Header header\n\
+         string child_frame_id\n\
+         Transform transform\n",
+        transform_definitions!(),
+        header_definitions!()
+    ),
+};
+
 impl MessageType {
+    /// `name` (a schema's) is this type's: `pkg/msg/Type`, or the older `pkg/Type`.
+    pub(crate) fn names(&self, name: &str) -> bool {
+        name == self.name || name == self.name.replace("/msg/", "/")
+    }
+
     /// Why a recorded schema (`name`, `encoding`, `data`) is not this type's, or `None`: the name
     /// must match (`pkg/msg/Type`, or the older `pkg/Type`), the encoding be `ros2msg` and the
     /// top-level declarations (comments, blank lines and constants aside) be this type's fields.
     pub(crate) fn mismatch(&self, name: &str, encoding: &str, data: &[u8]) -> Option<String> {
-        if name != self.name && name != self.name.replace("/msg/", "/") {
+        if !self.names(name) {
             return Some(format!("the schema is `{name}`, not `{}`", self.name));
         }
         if encoding != "ros2msg" {
@@ -144,7 +278,9 @@ impl MessageType {
             .map(|l| l.split('#').next().unwrap_or("").split_whitespace().collect::<Vec<_>>().join(" "))
             .filter(|l| !l.is_empty() && !l.contains('='))
             .collect();
-        let normal = |f: &str| f.replace("std_msgs/Header", "Header").replace("geometry_msgs/Point", "Point");
+        // A type of the message's own package may be written with or without it (`Pose`,
+        // `geometry_msgs/Pose`), as may the header (`std_msgs/Header`, `Header`).
+        let normal = |f: &str| f.replace("std_msgs/", "").replace("geometry_msgs/", "");
         let expected: Vec<String> = self.fields.iter().map(|f| normal(f)).collect();
         let declared: Vec<String> = declared.iter().map(|f| normal(f)).collect();
         (declared != expected).then(|| {
@@ -218,6 +354,88 @@ mod tests {
         assert!(decode::<JointState>(&[0, 2, 0, 0]).unwrap_err().contains("not plain CDR"));
         // XCDR2 aligns 8-byte values to 4: refused, not misread.
         assert!(decode::<JointState>(&[0, 7, 0, 0, 1, 0, 0, 0]).unwrap_err().contains("not plain CDR"));
+    }
+
+    /// The bytes Python's `rosbags` serialises for `type` in byte order `endian` (`le`, `be`), as
+    /// tests/data/bags/rosbags_cdr.py printed them.
+    fn rosbags_bytes(type_name: &str, endian: &str) -> Vec<u8> {
+        let text = include_str!("../../../tests/data/bags/rosbags_cdr.txt");
+        let hex = text
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("{type_name} {endian} ")))
+            .expect("the fixture has every type in both byte orders");
+        (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap()).collect()
+    }
+
+    /// The fixture's values (written out in rosbags_cdr.py).
+    fn wrist() -> TransformStamped<'static> {
+        TransformStamped {
+            header: Header { stamp: Time { sec: 1_700_000_001, nanosec: 5 }, frame_id: "mocap" },
+            child_frame_id: "wrist",
+            transform: Transform {
+                translation: Point { x: -0.03, y: 0.04, z: 0.65 },
+                rotation: Quaternion { x: 0.0, y: 0.0, z: 0.6, w: 0.8 },
+            },
+        }
+    }
+
+    #[test]
+    fn rigid_body_messages_decode_from_what_rosbags_writes_and_encode_to_the_same_bytes() {
+        let pose = PoseStamped {
+            header: Header { stamp: Time { sec: 1_700_000_000, nanosec: 123_456_789 }, frame_id: "world" },
+            pose: Pose {
+                position: Point { x: 0.125, y: -0.25, z: 0.7 },
+                orientation: Quaternion { x: 0.1, y: -0.2, z: 0.3, w: 0.927_361_849_549_570_4 },
+            },
+        };
+        let other = TransformStamped {
+            header: Header { stamp: Time { sec: 1_700_000_001, nanosec: 5 }, frame_id: "world" },
+            child_frame_id: "base_link_x",
+            transform: Transform {
+                translation: Point { x: 1.0, y: 2.0, z: 3.0 },
+                rotation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            },
+        };
+        let tf = TfMessage { transforms: vec![other, wrist()] };
+        for endian in ["le", "be"] {
+            let bytes = rosbags_bytes("PoseStamped", endian);
+            assert_eq!(decode::<PoseStamped>(&bytes).unwrap(), pose, "{endian}");
+            let bytes = rosbags_bytes("TransformStamped", endian);
+            assert_eq!(decode::<TransformStamped>(&bytes).unwrap(), wrist(), "{endian}");
+            let bytes = rosbags_bytes("TFMessage", endian);
+            assert_eq!(decode::<TfMessage>(&bytes).unwrap(), tf, "{endian}");
+        }
+        // spmcal's writer (little-endian, as ROS 2) gives rosbags' bytes exactly, the padding
+        // before each float64 after a string included.
+        assert_eq!(encode(&pose), rosbags_bytes("PoseStamped", "le"));
+        assert_eq!(encode(&wrist()), rosbags_bytes("TransformStamped", "le"));
+        assert_eq!(encode(&tf), rosbags_bytes("TFMessage", "le"));
+        // A message cut short does not decode as a shorter one.
+        let bytes = rosbags_bytes("TFMessage", "le");
+        assert!(decode::<TfMessage>(&bytes[..bytes.len() - 8]).unwrap_err().contains("does not decode"));
+    }
+
+    #[test]
+    fn the_rigid_body_schemas_accept_what_rosbags_and_ros2_bag_record_write() {
+        for t in [&POSE_STAMPED, &TRANSFORM_STAMPED, &TF_MESSAGE] {
+            assert_eq!(t.mismatch(t.name, "ros2msg", t.schema.as_bytes()), None, "{}", t.name);
+        }
+        // rosbags qualifies every type; the .msg files (which `ros2 bag record` copies) leave the
+        // package's own unqualified and carry comments.
+        let rosbags = "std_msgs/Header header\ngeometry_msgs/Pose pose\n====\nMSG: geometry_msgs/Pose\n";
+        assert_eq!(POSE_STAMPED.mismatch("geometry_msgs/msg/PoseStamped", "ros2msg", rosbags.as_bytes()), None);
+        let record = "# A Pose with reference coordinate frame and timestamp\n\nstd_msgs/Header header\nPose pose\n";
+        assert_eq!(POSE_STAMPED.mismatch("geometry_msgs/PoseStamped", "ros2msg", record.as_bytes()), None);
+        let tf = "geometry_msgs/TransformStamped[] transforms\n";
+        assert_eq!(TF_MESSAGE.mismatch("tf2_msgs/msg/TFMessage", "ros2msg", tf.as_bytes()), None);
+        let e = POINT_STAMPED.mismatch("geometry_msgs/msg/PoseStamped", "ros2msg", rosbags.as_bytes()).unwrap();
+        assert!(e.contains("PoseStamped") && e.contains("PointStamped"), "{e}");
+        let e = TRANSFORM_STAMPED.mismatch(
+            TRANSFORM_STAMPED.name,
+            "ros2msg",
+            b"std_msgs/Header header\nTransform transform\n",
+        );
+        assert!(e.unwrap().contains("another version"));
     }
 
     #[test]

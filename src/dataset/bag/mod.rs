@@ -4,9 +4,11 @@
 //! around every capture; [`write`] makes a bag of a session (the streams exact to the nanosecond;
 //! static poses at their own times when 0.2 s apart or more, else 0, 1, 2 … s).
 
+mod body;
 mod mapping;
 mod messages;
 mod read;
+mod still;
 mod write;
 
 use std::path::{Path, PathBuf};
@@ -18,6 +20,7 @@ pub(crate) use write::write;
 use super::session::{Session, SessionPose, Warning};
 use super::streams::{Capture, EncoderSample, MIN_FRAMES, StreamLimits, Streams, unplaceable};
 use crate::io::files::FileError;
+use still::{median, resting};
 
 /// `path` is a bag: an `.mcap` file, or a folder with `metadata.yaml` or `.mcap` files and no
 /// `session.yaml`.
@@ -88,6 +91,10 @@ pub(crate) fn load(
         streams: None,
         folder: None,
     };
+    // A mapped body is read alone; unmapped, a body on the default topic when there are no markers.
+    if mapping.body_mapped || (data.captures.is_empty() && !data.bodies.is_empty()) {
+        return body_session(bag, session, data, &mapping);
+    }
     let mut captures = data.captures;
     // Topics interleave by receive time: order the captures by their own time (stable).
     captures.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
@@ -98,6 +105,27 @@ pub(crate) fn load(
             let mut streams = streams(bag, data.encoders, captures)?;
             streams.bag_topics = Some(mapping.marker_topics());
             Ok(Session { streams: Some(std::sync::Arc::new(streams)), ..session }.at_latency(0.0))
+        }
+    }
+}
+
+/// The session of the bag's rigid body: static when the joints rest around every pose of it,
+/// else a free-motion recording.
+fn body_session(
+    bag: &Path,
+    session: Session,
+    data: read::BagData,
+    mapping: &mapping::Mapping,
+) -> Result<(Session, Vec<Warning>), FileError> {
+    let name = body::name(mapping, data.body_child.as_deref());
+    let session = Session { markers: Vec::new(), body: Some(name), ..session };
+    body::check_count(bag, &data.bodies, mapping)?;
+    let times: Vec<f64> = data.bodies.iter().map(|b| b.time_s).collect();
+    match resting(&data.encoders, &times, mapping.still_rad, mapping.min_rest_s) {
+        Some((rests, of)) => Ok((body::static_session(bag, session, rests, &of, &data.bodies)?, Vec::new())),
+        None => {
+            check_encoders(bag, &data.encoders)?;
+            body::recording(bag, session, data.encoders, data.bodies, mapping)
         }
     }
 }
@@ -129,6 +157,28 @@ fn check_captures(bag: &Path, captures: &[Capture], names: &[String]) -> Result<
 /// A free-motion recording's streams, checked as `encoders.csv` is (the gap limit) and every
 /// capture placeable for some latency within the bound.
 fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> Result<Streams, FileError> {
+    check_encoders(bag, &encoders)?;
+    let bound = StreamLimits::default().latency_bound_s;
+    if let Some((c, first, last)) = unplaceable(&encoders, &captures, bound) {
+        let reason = format!(
+            "the marker point at {} s (message {} on its topic) lies outside the joint states ({first} s to {last} s) for every latency within ±{bound} s",
+            c.time_s, c.line
+        );
+        return Err(FileError::new(bag, reason));
+    }
+    Ok(Streams {
+        captures_path: bag.to_path_buf(),
+        encoders,
+        captures,
+        pixels: Vec::new(),
+        bag_topics: None,
+        bodies: Vec::new(),
+    })
+}
+
+/// A free-motion recording's joint states, checked as `encoders.csv` is: time increasing across
+/// the bag's files, two at least, no gap over the limit.
+fn check_encoders(bag: &Path, encoders: &[EncoderSample]) -> Result<(), FileError> {
     let limits = StreamLimits::default();
     // Each file's clock is checked as it is read; a split bag's files must follow each other too.
     if let Some(w) = encoders.windows(2).find(|w| w[1].time_s <= w[0].time_s) {
@@ -150,87 +200,31 @@ fn streams(bag: &Path, encoders: Vec<EncoderSample>, captures: Vec<Capture>) -> 
         );
         return Err(FileError::new(bag, reason));
     }
-    let bound = limits.latency_bound_s;
-    if let Some((c, first, last)) = unplaceable(&encoders, &captures, bound) {
-        let reason = format!(
-            "the marker point at {} s (message {} on its topic) lies outside the joint states ({first} s to {last} s) for every latency within ±{bound} s",
-            c.time_s, c.line
-        );
-        return Err(FileError::new(bag, reason));
-    }
-    Ok(Streams {
-        captures_path: bag.to_path_buf(),
-        encoders,
-        captures,
-        pixels: Vec::new(),
-        bag_topics: None,
-        bodies: Vec::new(),
-    })
+    Ok(())
 }
 
 /// A static pose read from a bag: its first capture's time, the joints' median over the rest,
 /// each marker's captures (indexed like the session's markers).
 type RestingPose = (f64, Vector3<f64>, Vec<Vec<Vector3<f64>>>);
 
-/// A run of joint states that rest within `still` of each other, without a gap.
-struct Rest {
-    from: usize,
-    to: usize,
-}
-
-/// The poses of a static bag — each run of joints resting within `still` for at least `min_rest_s`
-/// with captures in it: the joints' median, each marker's median — or `None` when some capture
-/// falls where the joints move (a free-motion recording: a slow hand also stays within `still` for
-/// a few samples, so a rest must last).
+/// The poses of a static marker bag ([`resting`]) with each marker's captures, or `None`.
 fn still_poses(
     encoders: &[EncoderSample],
     captures: &[Capture],
     still: f64,
     min_rest_s: f64,
 ) -> Option<Vec<RestingPose>> {
-    let limits = StreamLimits::default();
-    let mut rests: Vec<Rest> = Vec::new();
-    let mut from = 0;
-    for k in 1..=encoders.len() {
-        let ends = k == encoders.len()
-            || encoders[k].time_s - encoders[k - 1].time_s > limits.max_encoder_gap_s
-            || (encoders[k].joints - encoders[from].joints).amax() > still;
-        if ends {
-            rests.push(Rest { from, to: k - 1 });
-            from = k;
-        }
-    }
-    let mut poses: Vec<RestingPose> = Vec::new();
-    let mut rest = 0;
-    let mut last_rest = usize::MAX;
-    for c in captures {
-        while rest < rests.len() && encoders[rests[rest].to].time_s < c.time_s {
-            rest += 1;
-        }
-        let r = rests.get(rest)?;
-        if encoders[r.from].time_s > c.time_s || encoders[r.to].time_s - encoders[r.from].time_s < min_rest_s {
-            return None;
-        }
-        if rest != last_rest {
-            let samples = &encoders[r.from..=r.to];
-            let joints = Vector3::from_fn(|i, _| median(samples.iter().map(|s| s.joints[i]).collect()));
-            poses.push((c.time_s, joints, Vec::new()));
-            last_rest = rest;
-        }
-        let markers = &mut poses.last_mut().expect("pushed above").2;
+    let times: Vec<f64> = captures.iter().map(|c| c.time_s).collect();
+    let (rests, of) = resting(encoders, &times, still, min_rest_s)?;
+    let mut poses: Vec<RestingPose> = rests.into_iter().map(|(t, joints)| (t, joints, Vec::new())).collect();
+    for (c, &k) in captures.iter().zip(&of) {
+        let markers = &mut poses[k].2;
         if markers.len() <= c.marker {
             markers.resize(c.marker + 1, Vec::new());
         }
         markers[c.marker].push(c.position);
     }
     Some(poses)
-}
-
-/// The median (the mean of the middle two for an even count) — exact for equal values.
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 || v[n / 2 - 1] == v[n / 2] { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
 /// The static session of `poses` (time, joints, each marker's captures), numbered from 0, checked

@@ -1,6 +1,6 @@
 //! Reading a bag in one pass: MCAP records streamed through `mcap`'s sans-io reader (the file is
-//! never held in memory, only the samples spmcal keeps), the two message types decoded from CDR,
-//! each message checked where it stands (topic, message number, reason).
+//! never held in memory, only the samples spmcal keeps), the message types decoded from CDR, each
+//! message checked where it stands (topic, message number, reason).
 
 use std::collections::HashMap;
 use std::io::Read as _;
@@ -11,9 +11,12 @@ use mcap::records::Record;
 use mcap::sans_io::{LinearReadEvent, LinearReader};
 use nalgebra::Vector3;
 
-use super::mapping::{Clock, Mapping};
-use super::messages::{JOINT_STATE, JointState, POINT_STAMPED, PointStamped, decode};
-use crate::dataset::{Capture, EncoderSample};
+use super::mapping::{BodySource, Clock, Mapping};
+use super::messages::{
+    Header, JOINT_STATE, JointState, MessageType, POINT_STAMPED, POSE_STAMPED, PointStamped, PoseStamped, Quaternion,
+    TF_MESSAGE, TRANSFORM_STAMPED, TfMessage, TransformStamped, decode,
+};
+use crate::dataset::{BodyCapture, BodyPose, Capture, EncoderSample};
 use crate::io::files::FileError;
 
 /// What a bag holds for spmcal, times in seconds from the whole second of its first message.
@@ -23,6 +26,13 @@ pub(crate) struct BagData {
     pub(crate) encoders: Vec<EncoderSample>,
     /// Marker captures in the order read (`line`: the message's number in the bag).
     pub(crate) captures: Vec<Capture>,
+    /// The rigid body's poses in the order read, time strictly increasing (`line`: the
+    /// message's number on its topic).
+    pub(crate) bodies: Vec<BodyCapture>,
+    /// The frame the body's poses are in (their `header.frame_id`).
+    pub(crate) body_frame: Option<String>,
+    /// The body's frame as the first `TransformStamped` names it (`child_frame_id`).
+    pub(crate) body_child: Option<String>,
     /// The whole second (since the epoch) the times count from.
     pub(crate) epoch_s: Option<i64>,
 }
@@ -35,13 +45,39 @@ struct Channel {
     count: usize,
     /// The last time on it (s), for the clock check.
     last_s: Option<f64>,
+    /// Its schema's name (to suggest a mapping for a topic not read).
+    schema: String,
 }
 
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Role {
     Joints,
     Markers,
+    /// The rigid body as `PoseStamped`.
+    Pose,
+    /// The rigid body as `TransformStamped`.
+    Transform,
+    /// The rigid body among the transforms of a `TFMessage`.
+    Tf,
     Ignored,
+}
+
+impl Role {
+    /// The message type a channel of this role must carry.
+    fn expected(self) -> Option<&'static MessageType> {
+        match self {
+            Role::Joints => Some(&JOINT_STATE),
+            Role::Markers => Some(&POINT_STAMPED),
+            Role::Pose => Some(&POSE_STAMPED),
+            Role::Transform => Some(&TRANSFORM_STAMPED),
+            Role::Tf => Some(&TF_MESSAGE),
+            Role::Ignored => None,
+        }
+    }
+
+    fn is_body(self) -> bool {
+        matches!(self, Role::Pose | Role::Transform | Role::Tf)
+    }
 }
 
 /// The bag files to read: the `.mcap` file itself, or a bag folder's files in the order its
@@ -120,7 +156,16 @@ pub(crate) fn read_bag(
     let mut done = 0u64;
     for file in files {
         let container = Container { mapping, markers, file };
-        let mut decoder = Decoder { mapping, markers, file, channels: Vec::new(), slots: vec![NONE; 1 << 16], data };
+        let mut decoder = Decoder {
+            mapping,
+            markers,
+            file,
+            channels: Vec::new(),
+            slots: vec![NONE; 1 << 16],
+            data,
+            body_last_s: None,
+            child_frames: std::collections::BTreeSet::new(),
+        };
         std::thread::scope(|scope| {
             let (send, receive) = std::sync::mpsc::sync_channel::<Event>(4);
             let reading = scope.spawn(move || container.stream(&send));
@@ -138,10 +183,22 @@ pub(crate) fn read_bag(
     Ok(data)
 }
 
+/// Check that time `t` follows `last` (`strict`: strictly) and make it the last.
+fn advance(last: &mut Option<f64>, t: f64, strict: bool) -> Result<(), String> {
+    if let Some(before) = *last
+        && (t < before || (strict && t == before))
+    {
+        let what = if t == before { "repeats" } else { "goes back from" };
+        return Err(format!("clock {what} the previous message's ({t} s after {before} s)"));
+    }
+    *last = Some(t);
+    Ok(())
+}
+
 /// What the reading thread hands the decoding one.
 enum Event {
     /// A channel of the bag (checked when it carries joints or markers).
-    Channel { id: u16, topic: String, role: Role },
+    Channel { id: u16, topic: String, role: Role, schema: String },
     /// Messages on joint or marker channels, their bytes back to back.
     Messages(Batch),
     /// Bytes of the file read so far.
@@ -235,12 +292,13 @@ impl Container<'_> {
             }
             Record::Channel(c) if state.roles[usize::from(c.id)].is_some() => Ok(()),
             Record::Channel(c) => {
-                let role = self.role(&c.topic);
-                if role != Role::Ignored {
-                    self.check_channel(&state.schemas, &c.topic, role, c.schema_id, &c.message_encoding)?;
+                let schema = state.schemas.get(&c.schema_id).map_or_else(String::new, |s| s.0.clone());
+                let role = self.role(&c.topic, &schema);
+                if let Some(expected) = role.expected() {
+                    self.check_channel(&state.schemas, &c.topic, expected, c.schema_id, &c.message_encoding)?;
                 }
                 state.roles[usize::from(c.id)] = Some(role);
-                send.send(Event::Channel { id: c.id, topic: c.topic, role })
+                send.send(Event::Channel { id: c.id, topic: c.topic, role, schema })
             }
             Record::Message { header, data } => match state.roles[usize::from(header.channel_id)] {
                 None => {
@@ -260,10 +318,20 @@ impl Container<'_> {
         })
     }
 
-    fn role(&self, topic: &str) -> Role {
+    /// What the channel on `topic` with the schema named `schema` carries for spmcal: a body on
+    /// its own topic is a `TransformStamped` when its schema says so, else a `PoseStamped` (checked
+    /// as one); a mapped body leaves the markers unread.
+    fn role(&self, topic: &str, schema: &str) -> Role {
+        let body = &self.mapping.body;
         if topic == self.mapping.joints.topic {
             Role::Joints
-        } else if self.mapping.carries_markers(topic, self.markers) {
+        } else if topic == body.topic() {
+            match body.source {
+                BodySource::Tf { .. } => Role::Tf,
+                BodySource::Topic { .. } if TRANSFORM_STAMPED.names(schema) => Role::Transform,
+                BodySource::Topic { .. } => Role::Pose,
+            }
+        } else if !self.mapping.body_mapped && self.mapping.carries_markers(topic, self.markers) {
             Role::Markers
         } else {
             Role::Ignored
@@ -275,19 +343,29 @@ impl Container<'_> {
         &self,
         schemas: &HashMap<u16, (String, String, Vec<u8>)>,
         topic: &str,
-        role: Role,
+        expected: &MessageType,
         schema_id: u16,
         encoding: &str,
     ) -> Result<(), FileError> {
-        let expected = if role == Role::Joints { &JOINT_STATE } else { &POINT_STAMPED };
         if encoding != "cdr" {
             return Err(self.error(format!("topic `{topic}`: message encoding `{encoding}`; spmcal reads ROS 2 `cdr`")));
         }
         let Some((name, schema_encoding, text)) = schemas.get(&schema_id) else {
             return Err(self.error(format!("topic `{topic}`: no schema recorded; expected `{}`", expected.name)));
         };
+        let body_types = [&POSE_STAMPED, &TRANSFORM_STAMPED, &TF_MESSAGE];
+        let file = super::mapping::MAPPING_FILE;
+        let hint = if expected.name == POSE_STAMPED.name && TF_MESSAGE.names(name) {
+            format!(" (transforms are read as `body: {{tf: {topic}, child_frame: <the body's frame>}}` in {file})")
+        } else if expected.name == POSE_STAMPED.name {
+            " (a rigid body's topic carries geometry_msgs/msg/PoseStamped or TransformStamped)".to_string()
+        } else if !body_types.iter().any(|t| t.name == expected.name) && body_types.iter().any(|t| t.names(name)) {
+            format!(" (a rigid body is mapped under `body` in {file})")
+        } else {
+            String::new()
+        };
         match expected.mismatch(name, schema_encoding, text) {
-            Some(reason) => Err(self.error(format!("topic `{topic}`: {reason}"))),
+            Some(reason) => Err(self.error(format!("topic `{topic}`: {reason}{hint}"))),
             None => Ok(()),
         }
     }
@@ -302,6 +380,10 @@ struct Decoder<'a> {
     /// Channel id → index in `channels` (`NONE`: not declared).
     slots: Vec<u32>,
     data: BagData,
+    /// The body's last time (s): its own clock check, `/tf` mixing many frames' stamps.
+    body_last_s: Option<f64>,
+    /// Child frames seen on the body's `/tf` topic (to list when the body's is not among them).
+    child_frames: std::collections::BTreeSet<String>,
 }
 
 impl Decoder<'_> {
@@ -317,9 +399,9 @@ impl Decoder<'_> {
     ) -> Result<(), FileError> {
         for event in receive {
             match event {
-                Event::Channel { id, topic, role } => {
+                Event::Channel { id, topic, role, schema } => {
                     self.slots[usize::from(id)] = self.channels.len() as u32;
-                    self.channels.push(Channel { topic, role, count: 0, last_s: None });
+                    self.channels.push(Channel { topic, role, count: 0, last_s: None, schema });
                 }
                 Event::Messages(batch) => {
                     for (id, log_ns, range) in &batch.items {
@@ -329,6 +411,7 @@ impl Decoder<'_> {
                         match self.channels[c].role {
                             Role::Joints => self.joint_state(c, *log_ns, data)?,
                             Role::Markers => self.point(c, *log_ns, data)?,
+                            Role::Pose | Role::Transform | Role::Tf => self.body(c, *log_ns, data)?,
                             Role::Ignored => {}
                         }
                     }
@@ -342,6 +425,13 @@ impl Decoder<'_> {
     /// The message's time (s from the first message's whole second) on the mapping's clock, and a
     /// clock check on its channel (`strict`: strictly increasing).
     fn time(&mut self, channel: usize, stamp: super::messages::Time, log_ns: u64, strict: bool) -> Result<f64, String> {
+        let t = self.seconds(stamp, log_ns)?;
+        advance(&mut self.channels[channel].last_s, t, strict).map_err(|r| format!("the {r}"))?;
+        Ok(t)
+    }
+
+    /// The message's time (s from the first message's whole second) on the mapping's clock.
+    fn seconds(&mut self, stamp: super::messages::Time, log_ns: u64) -> Result<f64, String> {
         if self.mapping.clock == Clock::Header && stamp.nanosec >= 1_000_000_000 {
             return Err(format!("header.stamp.nanosec is {}: not a time (at most 999,999,999)", stamp.nanosec));
         }
@@ -350,16 +440,7 @@ impl Decoder<'_> {
             Clock::Receive => ((log_ns / 1_000_000_000) as i64, (log_ns % 1_000_000_000) as i64),
         };
         let epoch = *self.data.epoch_s.get_or_insert(sec);
-        let t = (sec - epoch) as f64 + nanosec as f64 * 1e-9;
-        let c = &mut self.channels[channel];
-        if let Some(last) = c.last_s
-            && (t < last || (strict && t == last))
-        {
-            let what = if t == last { "repeats" } else { "goes back from" };
-            return Err(format!("the clock {what} the previous message's ({t} s after {last} s)"));
-        }
-        c.last_s = Some(t);
-        Ok(t)
+        Ok((sec - epoch) as f64 + nanosec as f64 * 1e-9)
     }
 
     fn at(&self, channel: usize, reason: &str) -> FileError {
@@ -420,7 +501,115 @@ impl Decoder<'_> {
         Ok(())
     }
 
-    /// The joint topic and some marker topic were in the bag.
+    /// A message on the body's channel: a `PoseStamped`, a `TransformStamped`, or a `TFMessage`
+    /// whose transforms to the body's frame are kept.
+    fn body(&mut self, channel: usize, log_ns: u64, data: &[u8]) -> Result<(), FileError> {
+        let role = self.channels[channel].role;
+        let type_name = role.expected().map_or("", |t| t.name);
+        let undecodable = |r: String| format!("{type_name} {r}");
+        match role {
+            Role::Pose => {
+                let m: PoseStamped = decode(data).map_err(|r| self.at(channel, &undecodable(r)))?;
+                let p = m.pose.position;
+                self.body_pose(channel, log_ns, &m.header, Vector3::new(p.x, p.y, p.z), m.pose.orientation)
+            }
+            Role::Transform => {
+                let m: TransformStamped = decode(data).map_err(|r| self.at(channel, &undecodable(r)))?;
+                if let BodySource::Topic { child_frame: Some(child), .. } = &self.mapping.body.source
+                    && child != m.child_frame_id
+                {
+                    let reason = format!("child_frame_id is `{}`, not the body's frame `{child}`", m.child_frame_id);
+                    return Err(self.at(channel, &reason));
+                }
+                if self.data.body_child.is_none() {
+                    self.data.body_child = Some(m.child_frame_id.to_string());
+                }
+                let t = m.transform.translation;
+                self.body_pose(channel, log_ns, &m.header, Vector3::new(t.x, t.y, t.z), m.transform.rotation)
+            }
+            _ => {
+                let m: TfMessage = decode(data).map_err(|r| self.at(channel, &undecodable(r)))?;
+                let mapping = self.mapping;
+                let BodySource::Tf { child_frame, .. } = &mapping.body.source else {
+                    // A TFMessage channel is the body's only on `tf`.
+                    return Ok(());
+                };
+                for t in &m.transforms {
+                    if t.child_frame_id == child_frame {
+                        let v = t.transform.translation;
+                        self.body_pose(channel, log_ns, &t.header, Vector3::new(v.x, v.y, v.z), t.transform.rotation)?;
+                    } else if self.child_frames.len() < 64 {
+                        self.child_frames.insert(t.child_frame_id.to_string());
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// One pose of the body, checked: in the parent frame (the mapping's, else the first pose's),
+    /// finite, in metres, a unit quaternion, later than the last.
+    fn body_pose(
+        &mut self,
+        channel: usize,
+        log_ns: u64,
+        header: &Header<'_>,
+        position: Vector3<f64>,
+        q: Quaternion,
+    ) -> Result<(), FileError> {
+        let frame = self.mapping.body.parent_frame.as_deref().or(self.data.body_frame.as_deref());
+        if let Some(frame) = frame
+            && frame != header.frame_id
+        {
+            let whose =
+                if self.mapping.body.parent_frame.is_some() { "`body: parent_frame`" } else { "the first pose's" };
+            let reason = format!("header.frame_id is `{}`, not `{frame}` ({whose})", header.frame_id);
+            return Err(self.at(channel, &reason));
+        }
+        if self.data.body_frame.is_none() {
+            self.data.body_frame = Some(header.frame_id.to_string());
+        }
+        let line = self.channels[channel].count;
+        // Checked as a row of poses.csv is; the quaternion in ROS order here.
+        let pose = BodyPose::new(position, [q.w, q.x, q.y, q.z], line).map_err(|(column, reason)| {
+            let reason = match column {
+                "qw" => format!(
+                    "the orientation (x y z w) {} {} {} {} has norm {}, not 1: not a unit quaternion",
+                    q.x,
+                    q.y,
+                    q.z,
+                    q.w,
+                    crate::io::files::number((q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt())
+                ),
+                axis => format!("the position's {}: {reason}", &axis[..1]),
+            };
+            self.at(channel, &reason)
+        })?;
+        let time_s = self.seconds(header.stamp, log_ns).map_err(|r| self.at(channel, &r))?;
+        advance(&mut self.body_last_s, time_s, true).map_err(|r| self.at(channel, &format!("the body's {r}")))?;
+        self.data.bodies.push(BodyCapture { time_s, pose });
+        Ok(())
+    }
+
+    /// What to map for a rigid body the bag seems to hold on a topic not read: `; ` and a
+    /// suggestion per such topic, or nothing.
+    fn body_hint(&self) -> String {
+        let mut hints = Vec::new();
+        for c in self.channels.iter().filter(|c| c.role == Role::Ignored) {
+            let topic = &c.topic;
+            if POSE_STAMPED.names(&c.schema) || TRANSFORM_STAMPED.names(&c.schema) {
+                hints.push(format!("`{topic}` holds {}: a rigid body, read with `body: {{topic: {topic}}}`", c.schema));
+            } else if TF_MESSAGE.names(&c.schema) && topic != "/tf_static" {
+                hints.push(format!(
+                    "`{topic}` holds {}: read the body's frame with `body: {{tf: {topic}, child_frame: <its frame>}}`",
+                    c.schema
+                ));
+            }
+        }
+        hints.iter().map(|h| format!("; {h}")).collect()
+    }
+
+    /// The joint topic and a marker or body topic were in the bag (with the body's frame, on `/tf`).
     fn check_topics(&self) -> Result<(), FileError> {
         let topics: Vec<&str> = self.channels.iter().map(|c| c.topic.as_str()).collect();
         let has = |role: Role| self.channels.iter().any(|c| c.role == role);
@@ -438,12 +627,34 @@ impl Decoder<'_> {
             );
             return Err(self.error(reason));
         }
-        if !has(Role::Markers) {
+        let file = super::mapping::MAPPING_FILE;
+        let body = &self.mapping.body;
+        let has_body = self.channels.iter().any(|c| c.role.is_body());
+        if self.mapping.body_mapped && !has_body {
             let reason = format!(
-                "no marker topic (`{}` or `/markers/<name>`, geometry_msgs/msg/PointStamped) in the bag; its topics: {} — map them under `markers` in {}",
+                "no topic `{}` (the rigid body of `body` in {file}) in the bag; its topics: {}",
+                body.topic(),
+                listed()
+            );
+            return Err(self.error(reason + &self.body_hint()));
+        }
+        if !has(Role::Markers) && !has_body {
+            let reason = format!(
+                "no marker topic (`{}` or `/markers/<name>`, geometry_msgs/msg/PointStamped) nor rigid body (`{}`, geometry_msgs/msg/PoseStamped or TransformStamped) in the bag; its topics: {} — map them under `markers` or `body` in {file}",
                 self.mapping.markers.topic,
+                body.topic(),
                 listed(),
-                super::mapping::MAPPING_FILE
+            );
+            return Err(self.error(reason + &self.body_hint()));
+        }
+        if let BodySource::Tf { topic, child_frame } = &body.source
+            && has_body
+            && self.data.bodies.is_empty()
+        {
+            let seen: Vec<&str> = self.child_frames.iter().map(String::as_str).collect();
+            let reason = format!(
+                "no transform to frame `{child_frame}` on `{topic}` (`body: child_frame` in {file}); its child frames: {}",
+                if seen.is_empty() { "none".to_string() } else { seen.join(", ") }
             );
             return Err(self.error(reason));
         }

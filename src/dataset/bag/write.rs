@@ -1,13 +1,19 @@
 //! A session as a ROS 2 bag (one `.mcap` file, zstd-compressed chunks): joint states on
 //! `/joint_states` (`theta1..3`, rad), marker points on `/markers` with `header.frame_id` the
-//! marker's name — the defaults [`super::load`] reads without a mapping file. A free-motion
-//! recording's streams go as they are; a static session's pose becomes the joints resting for
-//! 0.1 s (eleven states, 10 ms apart) with its markers at the first of them.
+//! marker's name, or a rigid body's poses on `/body` as `geometry_msgs/msg/TransformStamped` from
+//! `world` to the body's name (a `TransformStamped`, not a `PoseStamped`, so that the name travels)
+//! — the defaults [`super::load`] reads without a mapping file. A free-motion recording's streams
+//! go as they are; a static session's pose becomes the joints resting for 0.1 s (eleven states,
+//! 10 ms apart) with its markers or body at the first of them.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::messages::{Header, JOINT_STATE, JointState, POINT_STAMPED, Point, PointStamped, Time, encode};
+use super::messages::{
+    Header, JOINT_STATE, JointState, POINT_STAMPED, Point, PointStamped, Quaternion, TRANSFORM_STAMPED, Time,
+    Transform, TransformStamped, encode,
+};
+use crate::dataset::BodyPose;
 use crate::dataset::Session;
 use crate::io::files::{FileError, StagedFile};
 
@@ -29,11 +35,15 @@ pub(crate) fn write(session: &Session, path: &Path) -> Result<(), FileError> {
         let mut writer =
             mcap::WriteOptions::new().profile("ros2").create(std::io::BufWriter::new(file)).map_err(fail)?;
         let joints = writer.add_schema(JOINT_STATE.name, "ros2msg", JOINT_STATE.schema.as_bytes()).map_err(fail)?;
-        let points = writer.add_schema(POINT_STAMPED.name, "ros2msg", POINT_STAMPED.schema.as_bytes()).map_err(fail)?;
+        let (observed, topic) = match session.body {
+            None => (&POINT_STAMPED, "/markers"),
+            Some(_) => (&TRANSFORM_STAMPED, super::mapping::DEFAULT_BODY_TOPIC),
+        };
+        let observations = writer.add_schema(observed.name, "ros2msg", observed.schema.as_bytes()).map_err(fail)?;
         let none = BTreeMap::new();
         let channels = [
             writer.add_channel(joints, "/joint_states", "cdr", &none).map_err(fail)?,
-            writer.add_channel(points, "/markers", "cdr", &none).map_err(fail)?,
+            writer.add_channel(observations, topic, "cdr", &none).map_err(fail)?,
         ];
         let mut sequence = [0u32; 2];
         for &(ns, channel, ref data) in &messages {
@@ -74,6 +84,18 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
         };
         Ok((m.header.stamp.nanoseconds(), 1, encode(&m)))
     };
+    let body_name = session.body.as_deref().unwrap_or_default();
+    let body = |t: f64, pose: &BodyPose| -> Result<Message, String> {
+        // Matrix → quaternion → matrix is exact to a few ulps, not to the bit.
+        let [w, x, y, z] = crate::math::so3::to_wxyz(&pose.rotation);
+        let p = pose.position;
+        let m = TransformStamped {
+            header: Header { stamp: stamp(t)?, frame_id: "world" },
+            child_frame_id: body_name,
+            transform: Transform { translation: Point { x: p.x, y: p.y, z: p.z }, rotation: Quaternion { x, y, z, w } },
+        };
+        Ok((m.header.stamp.nanoseconds(), 1, encode(&m)))
+    };
     let mut out = Vec::new();
     match &session.streams {
         Some(streams) => {
@@ -82,6 +104,9 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
             }
             for c in &streams.captures {
                 out.push(point(c.time_s, c.marker, &c.position)?);
+            }
+            for (t, pose) in streams.body_poses() {
+                out.push(body(t, pose)?);
             }
         }
         None => {
@@ -98,6 +123,9 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
                     if let Some(p) = p {
                         out.push(point(t, marker, p)?);
                     }
+                }
+                if let Some(b) = &pose.body {
+                    out.push(body(t, b)?);
                 }
             }
         }
