@@ -18,7 +18,8 @@ mod simulator;
 
 #[cfg(not(feature = "internals"))]
 pub(crate) use config::Camera;
-#[cfg(not(feature = "internals"))]
+// Only the crate's own unit tests name it outside the simulator.
+#[cfg(all(test, not(feature = "internals")))]
 pub(crate) use config::RigidBodySettings;
 pub use config::SimConfig;
 #[cfg(feature = "internals")]
