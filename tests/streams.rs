@@ -426,3 +426,32 @@ fn a_short_recording_holds_the_clock_rate_and_says_so() {
     assert!(fit.report.to_string().contains("held: the recording spans"));
     assert!(!fit.parameterisation.entries.iter().any(|e| e.name == "camera.clock_rate"));
 }
+
+/// A recording's frames that fall outside the encoder stream are at its ends (the stream has no
+/// gaps; a capture beyond the latency's bound is refused): notes, not warnings, each named by its
+/// line — the shipped recording's last frame, stamped after the last encoder sample, and with the
+/// camera's stamps 0.15 s late, the frames of its last 0.15 s.
+#[test]
+fn frames_outside_the_encoder_stream_are_left_out_with_a_note() {
+    let shipped = Path::new("datasets/agile_wrist_free_motion_120s");
+    let (_, found) = Session::load(shipped, None).unwrap();
+    assert!(!found.is_empty() && found.iter().all(|w| w.note), "{found:?}");
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["session.yaml", "encoders.csv"] {
+        std::fs::copy(shipped.join(file), dir.path().join(file)).unwrap();
+    }
+    let captures = std::fs::read_to_string(shipped.join("captures.csv")).unwrap();
+    let mut late = String::new();
+    for (k, line) in captures.lines().enumerate() {
+        match line.split_once(',') {
+            Some((t, rest)) if k > 0 => writeln!(late, "{},{rest}", t.parse::<f64>().unwrap() + 0.15).unwrap(),
+            _ => writeln!(late, "{line}").unwrap(),
+        }
+    }
+    std::fs::write(dir.path().join("captures.csv"), late).unwrap();
+    let (_, found) = Session::load(dir.path(), None).unwrap();
+    // 15 frames a second: two or three in the last 0.15 s, one more when the last is late already.
+    assert!((2..=4).contains(&found.len()), "{found:?}");
+    assert!(found.iter().all(|w| w.note && w.message.contains("falls outside the encoder stream")), "{found:?}");
+    assert!(found.iter().all(|w| w.line > 1600), "{found:?}");
+}

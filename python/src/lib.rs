@@ -315,9 +315,11 @@ impl Session {
         let model = urdf_opt(model, "model")?;
         let loaded = py.detach(|| spmcal::dataset::Session::load(&path, model.as_deref()));
         let (session, warnings) = loaded.map_err(raise!(FileError))?;
-        // What the command line prints as `warning:` lines, as Python warnings.
+        // What the command line prints as `warning:` lines, as Python warnings (not its notes:
+        // a recording's few frames at its ends left out are expected, and would warn on every
+        // clean recording).
         let warn = py.import("warnings")?;
-        for w in &warnings {
+        for w in warnings.iter().filter(|w| !w.note) {
             warn.call_method1("warn", (w.to_string(),))?;
         }
         Ok(Session { inner: Arc::new(session) })
@@ -1122,20 +1124,8 @@ fn _marker_model<'py>(
             rotation: false,
         })
         .collect();
-    let noise = StereoNoise {
-        reference_distance_m: 1.0,
-        lateral_m: 1.0,
-        lateral_std_error_m: 0.0,
-        depth_m: 1.0,
-        depth_std_error_m: 0.0,
-        pixel_px: Vec::new(),
-        pixel_std_error_px: Vec::new(),
-        body_position_m: None,
-        body_position_std_error_m: None,
-        body_orientation_rad: None,
-        body_orientation_std_error_rad: None,
-        body_covariances: None,
-    };
+    let noise = StereoNoise::points(1.0, 1.0, 1.0);
+
     let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;
     let columns: Vec<usize> = (0..3)

@@ -1,8 +1,10 @@
 """The Python module against the Rust library and the command line (issue 24)."""
 
 import json
+import shutil
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -228,6 +230,17 @@ def test_bad_arrays_and_single_rows() -> None:
                                    times=[float("nan")] * len(loaded))
 
 
-def test_loading_warnings_are_python_warnings() -> None:
-    with pytest.warns(UserWarning, match="falls outside the encoder stream"):
+def test_loading_warnings_are_python_warnings(tmp_path: Path) -> None:
+    # A station that captures a marker twice (a retake) loads with a warning: a Python warning.
+    session = tmp_path / "retake"
+    shutil.copytree("datasets/agile_wrist_sequential_200", session)
+    joints, markers = session / "joints.csv", session / "markers.csv"
+    pose1 = joints.read_text().splitlines()[2].split(",")[1:4]
+    joints.write_text(joints.read_text() + f"765,{','.join(pose1)},382.5,0\n")
+    markers.write_text(markers.read_text() + "765,m2,-0.0726,0.0494,0.7581\n")
+    with pytest.warns(UserWarning, match="a retake"):
+        spmcal.Session.load(str(session))
+    # A recording's last frame, stamped after the last encoder sample, is a note: no warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         spmcal.Session.load("datasets/agile_wrist_free_motion_120s")

@@ -181,6 +181,27 @@ pub struct StereoNoise {
     pub body_covariances: Option<[Matrix3<f64>; 2]>,
 }
 
+impl StereoNoise {
+    /// A camera's noise for points: `lateral_m` across and `depth_m` along the line of sight at
+    /// `reference_distance_m` (m), known exactly (no standard errors), no pixels, no rigid body.
+    pub fn points(reference_distance_m: f64, lateral_m: f64, depth_m: f64) -> StereoNoise {
+        StereoNoise {
+            reference_distance_m,
+            lateral_m,
+            lateral_std_error_m: 0.0,
+            depth_m,
+            depth_std_error_m: 0.0,
+            pixel_px: Vec::new(),
+            pixel_std_error_px: Vec::new(),
+            body_position_m: None,
+            body_position_std_error_m: None,
+            body_orientation_rad: None,
+            body_orientation_std_error_rad: None,
+            body_covariances: None,
+        }
+    }
+}
+
 /// A pose's joints and their rates of change with the camera latency and with the clock's rate
 /// entry (the drift over the recording, `ρ·10⁻⁶·T`).
 type JointsAndRate = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
@@ -406,20 +427,7 @@ impl<'a> MarkerResiduals<'a> {
     /// metres and radians alike, its robust scale lies between the two groups', and its Huber
     /// weights would cut the orientations' larger residuals (their σ 11 % low in a test).
     fn body_noise(&self, residuals: &[Vector3<f64>], dof: f64) -> StereoNoise {
-        let none = StereoNoise {
-            reference_distance_m: self.reference_distance,
-            lateral_m: 0.0,
-            lateral_std_error_m: 0.0,
-            depth_m: 0.0,
-            depth_std_error_m: 0.0,
-            pixel_px: Vec::new(),
-            pixel_std_error_px: Vec::new(),
-            body_position_m: None,
-            body_position_std_error_m: None,
-            body_orientation_rad: None,
-            body_orientation_std_error_rad: None,
-            body_covariances: None,
-        };
+        let none = StereoNoise::points(self.reference_distance, 0.0, 0.0);
         if !self.body {
             return none;
         }

@@ -166,13 +166,20 @@ impl SessionArgs {
         })
     }
 
-    pub(crate) fn load(&self) -> Result<(Session, Vec<String>)> {
-        let (session, warnings) = load_session(&self.dataset, self.model.as_deref())?;
-        let warnings: Vec<String> = warnings.iter().map(|w| w.to_string()).collect();
+    /// The session, with what its loading found: warnings, and notes (expected, harmless), each
+    /// printed and returned as text for `--json`.
+    pub(crate) fn load(&self) -> Result<(Session, Vec<String>, Vec<String>)> {
+        let (session, found) = load_session(&self.dataset, self.model.as_deref())?;
+        let (notes, warnings): (Vec<_>, Vec<_>) = found.iter().partition(|w| w.note);
+        let (notes, warnings): (Vec<String>, Vec<String>) =
+            (notes.iter().map(|w| w.to_string()).collect(), warnings.iter().map(|w| w.to_string()).collect());
         for w in &warnings {
             eprintln!("warning: {w}");
         }
-        Ok((session, warnings))
+        for n in &notes {
+            eprintln!("note: {n}");
+        }
+        Ok((session, warnings, notes))
     }
 }
 

@@ -54,7 +54,7 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
     let (params_slot, rrd) = (outputs.reserve(&args.out)?, reserve(&mut outputs, args.rrd.as_deref())?);
     let html = reserve(&mut outputs, args.report.as_deref())?;
     let cameras = reserve(&mut outputs, args.cameras_out.as_deref())?;
-    let (session, warnings) = args.session.load()?;
+    let (session, warnings, notes) = args.session.load()?;
     if cameras.is_some() && session.rig.is_none() {
         anyhow::bail!(
             "--cameras-out: {} is a session of points, not pixels (pixels.csv + cameras.yaml): it has no camera rig to refine",
@@ -119,6 +119,7 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
             .input("dataset", args.session.dataset.display())
             .input("out", args.out.display());
         envelope.warnings = warnings;
+        envelope.notes = notes;
         out(&(envelope.to_json() + "\n"))
     } else {
         out(&format!("{}wrote {}\n", calibration.report, args.out.display()))

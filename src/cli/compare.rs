@@ -64,7 +64,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     files.check()?;
     let mut outputs = Outputs::new();
     let rrd = reserve(&mut outputs, args.rrd.as_deref())?;
-    let (session, mut warnings) = args.session.load()?;
+    let (session, mut warnings, notes) = args.session.load()?;
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     // The model's own camera model (an exported calibration carries one) corrects its markers.
@@ -88,6 +88,7 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
     if args.json {
         let mut envelope = Envelope::new("compare", &result).input("dataset", args.session.dataset.display());
         envelope.warnings = warnings;
+        envelope.notes = notes;
         return out(&(envelope.to_json() + "\n"));
     }
     out(&comparison_csv(&result))?;

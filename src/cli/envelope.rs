@@ -16,12 +16,14 @@ pub(crate) struct Envelope<T: Serialize> {
     pub(crate) results: T,
     /// What the user should know but did not stop the command.
     pub(crate) warnings: Vec<String>,
+    /// What is expected and harmless but said (a recording's frames at its ends left out).
+    pub(crate) notes: Vec<String>,
 }
 
 impl<T: Serialize> Envelope<T> {
     /// An envelope for `command` with no inputs and no warnings yet.
     pub(crate) fn new(command: &'static str, results: T) -> Self {
-        Envelope { command, inputs: BTreeMap::new(), results, warnings: Vec::new() }
+        Envelope { command, inputs: BTreeMap::new(), results, warnings: Vec::new(), notes: Vec::new() }
     }
 
     /// Record an input.

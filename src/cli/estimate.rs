@@ -46,7 +46,7 @@ pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     files.check()?;
     let mut outputs = Outputs::new();
     let (table_slot, rrd) = (reserve(&mut outputs, args.out.as_deref())?, reserve(&mut outputs, args.rrd.as_deref())?);
-    let (mut session, mut warnings) = args.session.load()?;
+    let (mut session, mut warnings, notes) = args.session.load()?;
     if let Some(path) = &args.params {
         let p = Parameters::read(path)?;
         session = SessionArgs::at_latency(session, path, &p, &mut warnings);
@@ -65,6 +65,7 @@ pub(crate) fn run(args: EstimateArgs) -> Result<()> {
     if args.json {
         let mut envelope = Envelope::new("estimate", summary).input("dataset", args.session.dataset.display());
         envelope.warnings = warnings;
+        envelope.notes = notes;
         return out(&(envelope.to_json() + "\n"));
     }
     // The table may be on standard output: the human summary goes to standard error then.

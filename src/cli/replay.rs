@@ -41,7 +41,7 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     files.check()?;
     let mut outputs = Outputs::new();
     let slot = outputs.reserve(&args.rrd)?;
-    let (session, mut warnings) = args.session.load()?;
+    let (session, mut warnings, notes) = args.session.load()?;
     files.check_model(&session.model)?;
     let model = RobotModel::load(&session.model)?;
     let params = args.params.as_deref().map(Parameters::read).transpose()?;
@@ -56,6 +56,7 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
     if args.json {
         let mut envelope = Envelope::new("replay", summary).input("dataset", args.session.dataset.display());
         envelope.warnings = warnings;
+        envelope.notes = notes;
         out(&(envelope.to_json() + "\n"))?;
     }
     Ok(())

@@ -146,6 +146,10 @@ pub struct Warning {
     /// For a pose of a bag, the topic its message came from (`line` is then that message's
     /// index on its topic, not a line).
     pub topic: Option<String>,
+    /// Expected and harmless, so a note rather than a warning: a recording's frame at its ends
+    /// that falls outside the encoder stream, as when the camera stops after the encoders (the
+    /// stream has no gaps, and a capture further out than the latency's bound is refused).
+    pub note: bool,
 }
 
 impl fmt::Display for Warning {
@@ -559,6 +563,7 @@ impl Session {
                     pose: poses.len() as u64,
                     message: format!("the frame at {time} s falls outside the encoder stream {at}: left out"),
                     topic: streams.bag_topics.clone(),
+                    note: true,
                 });
                 continue;
             };
@@ -892,6 +897,7 @@ fn check_station_markers(
             pose: poses[second.0].id,
             message: format!("{captures}: a retake? The marker-level fit uses both; the per-pose estimator the first"),
             topic: None,
+            note: false,
         });
     }
     Ok(())
@@ -1165,6 +1171,7 @@ pub(crate) fn triangulate_poses(
             pose: pose.id,
             message: unmet_message(names, rig, k, &cameras),
             topic: None,
+            note: false,
         }));
     }
     warnings
@@ -1182,6 +1189,7 @@ fn unmet_in_recording(unmet: &[Unmet], frames: &[f64], path: &Path, names: &[Str
             pose: frames.partition_point(|t| t < time) as u64,
             message: unmet_message(names, rig, *k, cameras),
             topic: None,
+            note: false,
         })
         .collect()
 }

@@ -149,20 +149,7 @@ impl Information {
 impl Camera {
     /// The noise model of this (simulated) camera, as the marker-level fit sees it.
     pub fn stereo_noise(&self) -> StereoNoise {
-        StereoNoise {
-            reference_distance_m: self.reference_distance_m,
-            lateral_m: self.lateral_sigma_m,
-            lateral_std_error_m: 0.0,
-            depth_m: self.depth_sigma_m,
-            depth_std_error_m: 0.0,
-            pixel_px: Vec::new(),
-            pixel_std_error_px: Vec::new(),
-            body_position_m: None,
-            body_position_std_error_m: None,
-            body_orientation_rad: None,
-            body_orientation_std_error_rad: None,
-            body_covariances: None,
-        }
+        StereoNoise::points(self.reference_distance_m, self.lateral_sigma_m, self.depth_sigma_m)
     }
 }
 
