@@ -78,8 +78,6 @@ enum Alter {
     PerfectRig,
     /// A pixel session's points as its (miscalibrated) rig file triangulates them.
     Triangulated,
-    /// Joint 1's readings this much long (its encoder's scale, a fraction).
-    JointScale(f64),
     /// Written as a ROS 2 bag and read back (the truth, which a bag does not carry, kept).
     Bag,
     /// Markers 1 and 2 swapped at every n-th capture.
@@ -184,6 +182,13 @@ fn main() {
     depth_moving.camera.depth_scale = 1.02;
     let mut clock = free_motion(600.0);
     clock.recording.as_mut().expect("a recording config").clock_rate_ppm = 50.0;
+    // Joint 1 reads `long` (a fraction) more than it turns: its true scale `1 / (1 + long)`, which
+    // the truth carries, so that the unseen poses' readings are what the device would read.
+    let long_joint = |long: f64| {
+        let mut c = static_n(200);
+        c.encoders.scales[0] = 1.0 / (1.0 + long);
+        c
+    };
     let sagging = |sag_deg: f64| {
         let mut c = static_n(200);
         c.truth.sag_deg = sag_deg;
@@ -257,10 +262,10 @@ fn main() {
             held(
                 kind(
                     "joint 1 reads 1 % long, scales held",
-                    static_n(200),
+                    long_joint(0.01),
                     sessions,
                     36_100,
-                    Alter::JointScale(0.01),
+                    Alter::None,
                     auto,
                     "joint angles",
                 ),
@@ -272,10 +277,10 @@ fn main() {
             held(
                 kind(
                     "joint 1 reads 1.5 % long, scales held",
-                    static_n(200),
+                    long_joint(0.015),
                     sessions,
                     36_100,
-                    Alter::JointScale(0.015),
+                    Alter::None,
                     auto,
                     "joint angles",
                 ),
@@ -287,10 +292,10 @@ fn main() {
             held(
                 kind(
                     "joint 1 reads 2 % long, scales held",
-                    static_n(200),
+                    long_joint(0.02),
                     sessions,
                     36_100,
-                    Alter::JointScale(0.02),
+                    Alter::None,
                     auto,
                     "joint angles",
                 ),
@@ -413,7 +418,7 @@ fn main() {
 
     // The same effects calibrated with the defaults (`joint_scales: auto`, the clock rate fitted).
     let modelled = [
-        (kind("joint 1 reads 1 % long", static_n(200), sessions, 36_100, Alter::JointScale(0.01), auto, ""), 1),
+        (kind("joint 1 reads 1 % long", long_joint(0.01), sessions, 36_100, Alter::None, auto, ""), 1),
         (kind("clock 50 ppm fast, 10 min", clock, recordings, 36_400, Alter::None, auto, ""), 5),
     ];
     out!(
@@ -536,7 +541,6 @@ fn alter(mut session: Session, alter: Alter) -> Session {
             read.truth = session.truth.take();
             session = read;
         }
-        Alter::JointScale(scale) => session.poses.iter_mut().for_each(|p| p.joints[0] *= 1.0 + scale),
         Alter::Swapped(every) => {
             for p in session.poses.iter_mut().filter(|p| p.id % every == 3 % every) {
                 p.markers.swap(0, 1);

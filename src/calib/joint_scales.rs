@@ -4,10 +4,10 @@
 //! A scale moves a joint's angle by `θ` times what its offset does: where a joint's reading barely
 //! changes over the session the two cannot be told apart, and where it spans a little they can
 //! only poorly. `joint_scales: auto` (the default) fits without them, frees the ones the fit would
-//! determine to [`AUTO_MOST_STD_ERROR`] ([`score`]; the others are held at their start with a
-//! warning giving the joints' spans) and keeps them when together they differ from their start by
-//! 3σ's worth ([`wald`], [`shows_error`]); else the fit without them stands, the report's lines
-//! saying why;
+//! determine to [`AUTO_MOST_STD_ERROR`] and those determined worse whose own score test shows an
+//! error at 3σ ([`score`]; the others are held at their start with a note giving the joints'
+//! spans) and keeps them when together they differ from their start by 3σ's worth ([`wald`],
+//! [`shows_error`]); else the fit without them stands, the report's lines saying why;
 //! `fit` fits all three (an unidentifiable one is then regularised like any other direction);
 //! `hold` fits none.
 
@@ -20,9 +20,11 @@ use super::parameterisation::{Kind, Parameterisation};
 use super::uncertainty::{residual_scale, std_error};
 use crate::dataset::Session;
 
-/// `auto` fits a scale whose standard error is at most this (0.1 %): a transmission's error of
-/// 0.3 % is then seen at 3σ, and one that the data determine no better would add to the
-/// calibrated model's error about as much as it could remove.
+/// `auto` tries a scale whose standard error is at most this (0.1 %): a transmission's error of
+/// 0.3 % is then seen at 3σ. One that the data determine no better would add to the calibrated
+/// model's error about as much as it could remove, unless its error is large: it is tried only
+/// when its score test at the fit without it shows the error at 3σ (a joint 1 % long where the
+/// session determines its scale to ±0.25 % doubles the error when held).
 pub(crate) const AUTO_MOST_STD_ERROR: f64 = 1e-3;
 
 /// One leg's joint scale as the calibration leaves it.
@@ -85,11 +87,13 @@ const CHI2_3_SIGMA: [f64; 3] = [9.0, 11.829, 14.156];
 /// zero; the scales' gradient `g_s`, with the Schur complement `S = H_ss − H_sf H_ff⁻¹ H_fs` of the
 /// weighted normal equations, gives each scale's standard error were it freed (`σ̂² S⁻¹`), the
 /// one-step change it would make (`−S⁻¹ g_s`) and the score statistic `g_sᵀ S⁻¹ g_s / σ̂²`. `auto`
-/// uses the standard errors to choose which scales to try; it decides on the Wald statistic of the
-/// fit with them free, since the score's is blunted where the fit without them bent the camera
-/// model and the robust weights to a scale error (a ten-minute recording, measured).
+/// uses the standard errors, and for a scale determined worse than [`AUTO_MOST_STD_ERROR`] its
+/// own score statistic (3σ), to choose which scales to try; it decides on the Wald statistic of
+/// the fit with them free, since the score's is blunted where the fit without them bent the
+/// camera model and the robust weights to a scale error (a ten-minute recording, measured).
 pub(crate) struct Score {
-    /// Scales determined to [`AUTO_MOST_STD_ERROR`]: `(entry, one-step change, σ)`.
+    /// Scales to try: determined to [`AUTO_MOST_STD_ERROR`], or worse with an error their score
+    /// shows at 3σ: `(entry, one-step change, σ)`.
     pub(crate) determined: Vec<(usize, f64, f64)>,
     /// The others: `(entry, σ)` (`None`: not identifiable at all).
     pub(crate) undetermined: Vec<(usize, Option<f64>)>,
@@ -143,7 +147,7 @@ pub(crate) fn score<N>(
         Some((s, gs))
     };
     let mut out = Score { determined: Vec::new(), undetermined: Vec::new(), chi2: 0.0 };
-    let Some((s, _)) = schur(tested) else {
+    let Some((s, gs)) = schur(tested) else {
         out.undetermined = tested.iter().map(|&i| (i, None)).collect();
         return out;
     };
@@ -152,8 +156,10 @@ pub(crate) fn score<N>(
     let mut determined = Vec::new();
     for (a, &i) in tested.iter().enumerate() {
         let sigma = cov.as_ref().map(|c| (sigma2 * c[(a, a)]).sqrt()).filter(|s| s.is_finite() && *s > 0.0);
+        // Its own score statistic, it alone freed (the Schur complement's diagonal is its own).
+        let shows = s[(a, a)] > 0.0 && gs[a] * gs[a] / (sigma2 * s[(a, a)]) >= CHI2_3_SIGMA[0];
         match sigma {
-            Some(sd) if sd <= AUTO_MOST_STD_ERROR => determined.push(i),
+            Some(sd) if sd <= AUTO_MOST_STD_ERROR || shows => determined.push(i),
             _ => out.undetermined.push((i, sigma)),
         }
     }
@@ -189,7 +195,7 @@ pub(crate) fn held_reason(span_deg: f64, sigma: Option<f64>) -> String {
     };
     format!(
         "not determined by this session: the joint's reading spans {span_deg:.1}°, which {determined} \
-         (`joint_scales: auto` fits a scale determined to ±{:.1} %)",
+         (`joint_scales: auto` fits a scale determined to ±{:.1} %, or worse where its error shows at 3σ)",
         100.0 * AUTO_MOST_STD_ERROR
     )
 }
@@ -214,7 +220,8 @@ pub(crate) fn undetermined_warning(held: &[(usize, f64, Option<f64>)]) -> Option
     };
     Some(format!(
         "the joint {noun} {legs} {held_at}: this session tells {them} from the joint offsets to {sigmas} \
-         ({span} {spans}; `joint_scales: auto` fits a scale determined to ±{:.1} %): move the joints further to \
+         ({span} {spans}; `joint_scales: auto` fits a scale determined to ±{:.1} %, or worse where its error shows \
+         at 3σ): move the joints further to \
          calibrate {them}, or set `joint_scales: fit`",
         100.0 * AUTO_MOST_STD_ERROR
     ))
