@@ -24,7 +24,7 @@ mod results;
 use std::path::Path;
 
 use rand::{Rng, SeedableRng};
-use spmcal::calib::{CalibConfig, JointScales, PredictionWorkspace};
+use spmcal::calib::{CalibConfig, JointScales};
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
@@ -144,10 +144,8 @@ fn run(
 ) -> Result<Outcome, String> {
     let truth = session.truth.as_ref().expect("simulated");
     let tests = study::test_orientations(&truth.parameters.spm().expect("valid"), 100, seed ^ 0x5eed);
-    // The predicted error over the workspace the achieved one is measured on (tilt and yaw to 30°,
-    // as `study::test_orientations` draws them), not over the session's own poses: a recording's
-    // hand covers the workspace unevenly.
-    let workspace = Some(PredictionWorkspace { max_tilt_deg: 30.0, max_yaw_deg: 30.0 });
+    // The predicted error over the workspace the achieved one is measured on.
+    let workspace = Some(study::TEST_WORKSPACE);
     let config = CalibConfig { folds: 0, joint_scales: scales, workspace, ..CalibConfig::default() };
     let fitted = spmcal::calib::calibrate(session, model, &config, &mut |_| {}).map_err(|e| e.to_string())?;
     let achieved = study::calibration_error_up_to_common_rotations(session, &fitted, &tests);

@@ -7,7 +7,8 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use rand::{Rng, SeedableRng};
 use spmcal::calib::{
-    CalibConfig, Calibration, FitLevel, MarkerObservation, MarkerResiduals, Parameterisation, TruthInGauge, calibrate,
+    CalibConfig, Calibration, FitLevel, MarkerObservation, MarkerResiduals, Parameterisation, PredictionWorkspace,
+    TruthInGauge, calibrate,
 };
 use spmcal::dataset::Session;
 use spmcal::math::so3;
@@ -35,14 +36,20 @@ pub struct SessionResult {
     pub within_3_sigma: (usize, usize),
 }
 
-/// Random orientations of the workspace (tilt ≤ 30°, yaw ≤ 30°) that `truth` reaches.
+/// The workspace [`test_orientations`] draws from: a calibration asked to predict its error there
+/// (`workspace:`) predicts what the study measures, also where a session (a recording's hand)
+/// covered it unevenly.
+pub const TEST_WORKSPACE: PredictionWorkspace = PredictionWorkspace { max_tilt_deg: 30.0, max_yaw_deg: 30.0 };
+
+/// Random orientations of [`TEST_WORKSPACE`] (tilt ≤ 30°, yaw ≤ 30°) that `truth` reaches.
 pub fn test_orientations(truth: &Spm, n: usize, seed: u64) -> Vec<Rotation3<f64>> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut out = Vec::with_capacity(n);
+    let (max_tilt, max_yaw) = (TEST_WORKSPACE.max_tilt_deg, TEST_WORKSPACE.max_yaw_deg);
     while out.len() < n {
-        let tilt = 30f64.to_radians() * rng.random::<f64>().sqrt();
+        let tilt = max_tilt.to_radians() * rng.random::<f64>().sqrt();
         let azimuth = rng.random_range(0.0..std::f64::consts::TAU);
-        let yaw = rng.random_range(-30f64..30.0).to_radians();
+        let yaw = rng.random_range(-max_yaw..max_yaw).to_radians();
         let r = so3::exp(&(Vector3::new(azimuth.cos(), azimuth.sin(), 0.0) * tilt)) * so3::exp(&(Vector3::z() * yaw));
         if truth.ik(&r).is_ok() {
             out.push(r);

@@ -25,7 +25,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use nalgebra::{Rotation3, Vector3};
-use spmcal::calib::{CalibConfig, CameraModelSetting, Group, JointScales, PredictionWorkspace};
+use spmcal::calib::{CalibConfig, CameraModelSetting, Group, JointScales};
 use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
@@ -106,10 +106,8 @@ fn main() {
         c
     };
     let stereo = SimConfig::read(Path::new("configs/simulate_agile_wrist_stereo.yaml")).expect("shipped config");
-    // The predicted error over the workspace the achieved one is measured on (tilt and yaw to
-    // 30°, as `study::test_orientations` draws them): like for like also where a recording's hand
-    // did not cover the workspace evenly.
-    let workspace = Some(PredictionWorkspace { max_tilt_deg: 30.0, max_yaw_deg: 30.0 });
+    // The predicted error over the workspace the achieved one is measured on.
+    let workspace = Some(study::TEST_WORKSPACE);
     let with = |camera_model| CalibConfig { camera_model, workspace, ..CalibConfig::default() };
     let kind = |label, config, sessions, seed0, alter, camera_model, cause| Kind {
         label,
@@ -189,6 +187,11 @@ fn main() {
         c.encoders.scales[0] = 1.0 / (1.0 + long);
         c
     };
+    // The scales held: what the model check is to find.
+    let held_joint = |label, long| {
+        let k = kind(label, long_joint(long), sessions, 36_100, Alter::None, auto, "joint angles");
+        held(k, Group::JointScales)
+    };
     let sagging = |sag_deg: f64| {
         let mut c = static_n(200);
         c.truth.sag_deg = sag_deg;
@@ -258,51 +261,9 @@ fn main() {
             ),
             7,
         ),
-        (
-            held(
-                kind(
-                    "joint 1 reads 1 % long, scales held",
-                    long_joint(0.01),
-                    sessions,
-                    36_100,
-                    Alter::None,
-                    auto,
-                    "joint angles",
-                ),
-                Group::JointScales,
-            ),
-            1,
-        ),
-        (
-            held(
-                kind(
-                    "joint 1 reads 1.5 % long, scales held",
-                    long_joint(0.015),
-                    sessions,
-                    36_100,
-                    Alter::None,
-                    auto,
-                    "joint angles",
-                ),
-                Group::JointScales,
-            ),
-            1,
-        ),
-        (
-            held(
-                kind(
-                    "joint 1 reads 2 % long, scales held",
-                    long_joint(0.02),
-                    sessions,
-                    36_100,
-                    Alter::None,
-                    auto,
-                    "joint angles",
-                ),
-                Group::JointScales,
-            ),
-            1,
-        ),
+        (held_joint("joint 1 reads 1 % long, scales held", 0.01), 1),
+        (held_joint("joint 1 reads 1.5 % long, scales held", 0.015), 1),
+        (held_joint("joint 1 reads 2 % long, scales held", 0.02), 1),
         (
             held(
                 kind(

@@ -1125,7 +1125,6 @@ fn _marker_model<'py>(
         })
         .collect();
     let noise = StereoNoise::points(1.0, 1.0, 1.0);
-
     let fitted = MarkerResiduals::new(&p, &observations);
     let information = fitted.information_per_pose(&x, &noise).map_err(raise!(CalibrationError))?;
     let columns: Vec<usize> = (0..3)
