@@ -103,7 +103,7 @@ fn a_session_without_scale_errors_is_not_hurt_by_fitting_them_by_default() {
 /// to ~0.25 % only, worse than the ±0.1 % `auto` tries by itself. A joint 2 % long (8σ) shows in
 /// its score at the fit without the scales, and `auto` fits it: the scale within 4σ of the truth,
 /// the mechanism well below the held fit's error (the verdict study: held, a 2 % scale costs
-/// 3.6×). The other two, without an error, show none (their score under 3σ but once in 370) and
+/// 3.3×). The other two, without an error, show none (their score under 3σ but once in 370) and
 /// stay held, as on the same session without the error.
 #[test]
 fn a_scale_determined_worse_than_auto_asks_is_fitted_where_its_error_shows() {

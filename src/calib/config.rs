@@ -96,8 +96,9 @@ impl From<CameraModelKind> for CameraModelSetting {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JointScales {
-    /// Each scale that the session determines (to ±0.1 %) and shows to differ from its start (by
-    /// 3 standard errors); the others held at their start, and said.
+    /// Each scale that the session determines (to ±0.1 %, or worse where its own error shows at
+    /// 3σ) and shows to differ from its start (by 3 standard errors); the others held at their
+    /// start, and said.
     #[default]
     Auto,
     /// All three, whatever the session.
@@ -254,9 +255,9 @@ pub struct CalibConfig {
     #[serde(default)]
     pub freeze: Vec<Group>,
     /// The joints' scales (`φ = sθ + δ`, a transmission ratio's error): `auto` (the default) keeps
-    /// the ones the session determines (to ±0.1 %) when they show an error (3σ's worth together)
-    /// and holds the others at their start, saying so; `fit` fits all three; `hold` holds them (as
-    /// `freeze: [joint_scales]`).
+    /// the ones the session determines (to ±0.1 %, or worse where a scale's own error shows at 3σ)
+    /// when they show an error (3σ's worth together) and holds the others at their start, saying
+    /// so; `fit` fits all three; `hold` holds them (as `freeze: [joint_scales]`).
     pub joint_scales: JointScales,
     /// A session seen through its cameras' pixels: the rig's terms refined with the mechanism
     /// (`focal_lengths`, `principal_points`, `radial_k1`, `radial_k2`, `other_distortion`,

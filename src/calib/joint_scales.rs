@@ -24,7 +24,7 @@ use crate::dataset::Session;
 /// 0.3 % is then seen at 3σ. One that the data determine no better would add to the calibrated
 /// model's error about as much as it could remove, unless its error is large: it is tried only
 /// when its score test at the fit without it shows the error at 3σ (a joint 1 % long where the
-/// session determines its scale to ±0.25 % doubles the error when held).
+/// session determines its scale to ±0.25 % costs 1.9 times the error when held).
 pub(crate) const AUTO_MOST_STD_ERROR: f64 = 1e-3;
 
 /// One leg's joint scale as the calibration leaves it.

@@ -637,7 +637,7 @@ pub(crate) fn check<M: Residuals>(
 /// the family's. A test of one column the model's own parameters take most of (a joint's scale,
 /// which its offset nearly mimics; the sag, which the geometry bends to) weighs
 /// [`FAINT_EFFECT_WEIGHT`]: such an effect costs accuracy long before its residuals stand out (a
-/// joint 1 % long doubles the error of a 200-pose session at 4.0 standard errors of its column), while
+/// joint 1 % long costs 1.9 times the error of a 200-pose session at 4.0 standard errors of its column), while
 /// the broad tests' effects (the camera's, a marker's, time's) stand out far beyond any share.
 fn weight(structure: Structure) -> f64 {
     match structure {
@@ -925,7 +925,8 @@ impl ModelCheck {
                     ),
                     format!(
                         "fit the joint scales (`joint_scales: fit`; `auto` holds a scale the session determines to \
-                         no better than 0.1 %), and check {joint}'s encoder: its counts per revolution and gear ratio"
+                         no better than 0.1 % unless its own error shows at 3σ), and check {joint}'s encoder: \
+                         its counts per revolution and gear ratio"
                     ),
                 )
             }

@@ -289,7 +289,8 @@ fn run<L: Level>(
         FitSettings { prior: prior.clone(), stage: "calibration", ..FitSettings::from_config(config, free.clone()) };
     let mut robust = fit(&problem, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
     clock.lap("calibration", robust.log.len());
-    // `joint_scales: auto`: the scales the fit without them would determine (to ±0.1 %) are freed
+    // `joint_scales: auto`: the scales the fit without them would determine (to ±0.1 %, or worse
+    // where a scale's own score shows its error at 3σ) are freed
     // and the fit finished with them when, together, the data show them to differ from their
     // start (3σ's worth); else the calibration is `hold`'s, each scale's line saying why.
     let mut undetermined: Vec<(usize, f64, Option<f64>)> = Vec::new();
