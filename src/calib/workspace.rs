@@ -129,6 +129,20 @@ impl<'a> PredictionPoses<'a> {
         e.workspace = self.workspace;
         Some(e)
     }
+
+    /// The report's predicted error under `widened` (the covariance the model check may have
+    /// widened by the misfit) and, when that differs from the fit's own `plain`, the RMS without
+    /// the widening.
+    pub(crate) fn plain_and_widened(
+        poses: Option<&Self>,
+        widened: &DMatrix<f64>,
+        plain: &DMatrix<f64>,
+        fda: &[bool],
+    ) -> (Option<PredictedError>, Option<f64>) {
+        let predicted = |c: &DMatrix<f64>| poses.and_then(|poses| poses.predicted(c, fda));
+        let unwidened = (widened != plain).then(|| predicted(plain)).flatten().map(|e| e.rms);
+        (predicted(widened), unwidened)
+    }
 }
 
 /// The `k`-th element of the van der Corput sequence in `base` (in [0, 1)).

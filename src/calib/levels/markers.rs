@@ -301,11 +301,8 @@ impl Level for MarkerLevel<'_> {
             &eval.orientations,
             &pose_ids,
         );
-        let predicted = |c: &DMatrix<f64>| poses.as_ref().and_then(|poses| poses.predicted(c, &fda));
-        let predicted_error_deg = predicted(r.predicted_covariance);
-        // Without the misfit's widening, when the model check widened it.
-        let predicted_error_unwidened_deg =
-            (r.predicted_covariance != cov).then(|| predicted(cov)).flatten().map(|e| e.rms);
+        let (predicted_error_deg, predicted_error_unwidened_deg) =
+            PredictionPoses::plain_and_widened(poses.as_ref(), r.predicted_covariance, cov, &fda);
         let observation_poses: Vec<u64> = observations.iter().map(|o| o.pose).collect();
         let predicted_error_mm = r.predicted_ms.as_ref().and_then(|ms| {
             predicted_marker_error(

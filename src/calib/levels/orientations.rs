@@ -2,7 +2,7 @@
 //! estimator (poses that see at least three markers) against the FDA, every `holdout_every`-th
 //! pose held out of the fit to check it; `t_CB` comes from the centre of rotation.
 
-use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+use nalgebra::{DVector, Rotation3, Vector3};
 
 use crate::calib::agreement::degrees;
 use crate::calib::calibration::{CalibError, Fitted};
@@ -161,11 +161,8 @@ impl Level for OrientationLevel {
             &eval.orientations,
             &pose_ids,
         );
-        let predicted = |c: &DMatrix<f64>| poses.as_ref().and_then(|poses| poses.predicted(c, &fda));
-        let predicted_error_deg = predicted(r.predicted_covariance);
-        // Without the misfit's widening, when the model check widened it.
-        let predicted_error_unwidened_deg =
-            (r.predicted_covariance != cov).then(|| predicted(cov)).flatten().map(|e| e.rms);
+        let (predicted_error_deg, predicted_error_unwidened_deg) =
+            PredictionPoses::plain_and_widened(poses.as_ref(), r.predicted_covariance, cov, &fda);
         let residual_sigma_deg = r.calibrated.weighting.noise.as_ref().map_or_else(Vec::new, |classes| {
             classes
                 .iter()
