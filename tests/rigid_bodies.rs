@@ -1,16 +1,19 @@
 //! Rigid bodies from motion capture (issue 37): a session of a body's poses (`poses.csv`) calibrates
 //! to the simulator's truth within what its predicted standard errors allow, its noise estimates
-//! match the simulated noise, its files round-trip, and bad rows of `poses.csv` are errors at
-//! their file and line.
+//! match the simulated noise, its files round-trip, bad rows of `poses.csv` are errors at
+//! their file and line, and `compare`, `estimate` and `replay` read it.
 
 use std::path::Path;
 
 use nalgebra::{Rotation3, Vector3};
-use spmcal::calib::{CalibConfig, Calibration, TruthInGauge, calibrate};
+use spmcal::calib::{CalibConfig, Calibration, FitLevel, TruthInGauge, calibrate};
+use spmcal::compare::compare;
 use spmcal::dataset::Session;
 use spmcal::math::so3;
-use spmcal::model::RobotModel;
+use spmcal::model::{Parameters, RobotModel};
+use spmcal::record::Scene;
 use spmcal::sim::{RigidBodySettings, SimConfig};
+use spmcal::vision::{Method, SessionEstimate};
 
 #[path = "../examples/marker_efficiency/study.rs"]
 #[allow(dead_code)]
@@ -221,4 +224,41 @@ fn a_folder_of_a_body_and_markers_is_refused() {
         message.contains("holds a rigid body's poses (poses.csv) and marker observations (markers.csv)"),
         "{message}"
     );
+}
+
+/// `compare`, `estimate` and `replay` read a body session as `calibrate` does: a pose's
+/// measurement is its body's turn from the reference pose's (the per-pose level) and its origin,
+/// the one "marker" (the marker level). With the true parameters the errors are the tracker's
+/// noise; with the nominal ones, the mechanism's error too.
+#[test]
+fn compare_estimate_and_replay_read_a_body_session() {
+    let (session, model, body) = simulate(40, None, 77);
+    let truth = session.truth.as_ref().unwrap().parameters.clone();
+    let sets = vec![("nominal".to_string(), Parameters::nominal(&model.spm, None)), ("truth".to_string(), truth)];
+    let estimate = SessionEstimate::of(&session, Method::Paper).unwrap();
+    assert_eq!((estimate.poses.len(), estimate.skipped.len()), (40, 0));
+    // A turn from the reference pose carries both poses' noise, σ√2 per axis: its angle's RMS is
+    // √6·σ (0.245° at 0.1°), a little less once the reference rotation is fitted to the 40 poses;
+    // a position's error is √3·σ (0.52 mm at 0.3 mm) against the file's registration. Between
+    // 0.6 and 1.3 times that: 40 poses' RMS is within ±15 % of its expectation at 3σ.
+    let levels = [
+        (FitLevel::Orientations, 6f64.sqrt() * body.orientation_sigma_deg),
+        (FitLevel::Markers, 3f64.sqrt() * body.position_sigma_m * 1e3),
+    ];
+    for (level, noise) in levels {
+        let c = compare(&session, &model, &sets, Method::Paper, Some(level)).unwrap();
+        let (nominal, truth) = (&c[0], &c[1]);
+        assert_eq!((nominal.per_pose.len(), truth.per_pose.len()), (40, 40), "{level:?}");
+        assert!(
+            (0.6 * noise..1.3 * noise).contains(&truth.errors.rms),
+            "{level:?}: {} against {noise}",
+            truth.errors.rms
+        );
+        assert!(nominal.errors.rms > truth.errors.rms, "{level:?}: {} {}", nominal.errors.rms, truth.errors.rms);
+    }
+    for params in [None, Some(&sets[1].1)] {
+        let scene = Scene::replay(&session, &model, params).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(scene.write(&dir.path().join("body.rrd")).unwrap().poses, 40);
+    }
 }

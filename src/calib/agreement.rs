@@ -89,6 +89,9 @@ pub enum SetError {
     #[error("the markers do not span a plane: no registration")]
     /// The markers do not fix the registration.
     MarkersInALine,
+    #[error("the rigid body's orientations do not fix its frame on the platform: no registration")]
+    /// A rigid body's poses do not fix the registration and its frame on the MP.
+    BodyFrame,
     #[error("{0}")]
     /// The registration fit failed.
     Fit(FitError),
@@ -234,32 +237,58 @@ pub(crate) fn marker_pose_errors(
     if observations.len() < 3 {
         return Err(SetError::TooFewObservations(observations.len()));
     }
-    let mut markers = model_markers(&session.markers, model)?;
-    for (k, name) in session.markers.iter().enumerate() {
+    // A rigid body's origin is the one "marker", named after the body (as the calibration has it).
+    let names: Vec<String> = session.body.iter().cloned().chain(session.markers.iter().cloned()).collect();
+    let mut markers = match session.body {
+        Some(_) => vec![Vector3::zeros()],
+        None => model_markers(&session.markers, model)?,
+    };
+    for (k, name) in names.iter().enumerate() {
         if let Some(fitted) = params.marker(name) {
             markers[k] = fitted;
         }
     }
+    // The body's frame on the MP as the file has it (body → P): the fit's `A` is its inverse.
+    let filed_frame = session
+        .body
+        .as_ref()
+        .and_then(|b| params.markers.iter().find(|m| &m.name == b))
+        .and_then(|m| m.rotation.map(|r| (r.inverse(), m.position)));
     let config = CalibConfig::default();
-    let (registration, how) = match params.camera {
-        Some(c) => (c, "from the parameters file"),
-        None => {
-            let nominal = pose_orientations(&params.legs, &observations, &markers).map_err(SetError::Eval)?;
+    let nominal = || pose_orientations(&params.legs, &observations, &markers).map_err(SetError::Eval);
+    let (registration, body_frame, how) = match (params.camera, &session.body, filed_frame) {
+        (Some(c), None, _) => (c, None, "from the parameters file"),
+        (Some(c), Some(_), Some((a, _))) => (c, Some(a), "from the parameters file"),
+        // A body the file knows nothing of: its frame and origin as this session shows them.
+        (camera, Some(_), _) => {
+            let (start, a, origin) = registration::from_body(&observations, &nominal()?).ok_or(SetError::BodyFrame)?;
+            markers[0] = filed_frame.map_or(origin, |(_, position)| position);
+            match camera {
+                Some(c) => (c, Some(a), "from the parameters file (the body's frame fitted)"),
+                None => (start, Some(a), "best fit to this session"),
+            }
+        }
+        (None, None, _) => {
+            let nominal = nominal()?;
             let start = match session.rig.as_deref() {
                 Some(rig) => registration::from_pixels(&observations, &nominal, &markers, rig),
                 None => registration::from_markers(&observations, &nominal, &markers),
             };
-            (start.ok_or(SetError::MarkersInALine)?, "best fit to this session")
+            (start.ok_or(SetError::MarkersInALine)?, None, "best fit to this session")
         }
     };
     let p = Parameterisation::for_markers(
         params.legs,
         &registration,
         &markers,
-        &session.markers,
+        &names,
         CameraModel::rigid(),
         &config.bounds,
     );
+    let p = match (body_frame, &session.body) {
+        (Some(a), Some(body)) => p.with_body_frame(a, body),
+        _ => p,
+    };
     // A pixel session's observations are seen through its rig, as it is (no term of it refined).
     let p = match &session.rig {
         Some(rig) => p.with_rig(rig.clone(), &[]),
@@ -267,12 +296,18 @@ pub(crate) fn marker_pose_errors(
     };
     let x0 = DVector::zeros(p.len());
     let marker_residuals = MarkerResiduals::new(&p, &observations);
-    let (x, evaluation) = if params.camera.is_some() {
-        (x0.clone(), marker_residuals.evaluate(&x0, None, false).map_err(SetError::Eval)?)
-    } else {
-        let mask = registration_mask(&p, &vec![true; p.len()]);
+    // What is fitted: the registration when the file has none; a body's frame the file lacks.
+    let frame_unknown = session.body.is_some() && filed_frame.is_none();
+    let mask: Vec<bool> = registration_mask(&p, &vec![true; p.len()])
+        .into_iter()
+        .zip(&p.entries)
+        .map(|(f, e)| f && (params.camera.is_none() || (frame_unknown && e.kind.group() == Group::ReferenceRotation)))
+        .collect();
+    let (x, evaluation) = if mask.contains(&true) {
         let fit = best_registration(&marker_residuals, &x0, &mask, &config).map_err(SetError::Fit)?;
         (fit.x, fit.evaluation)
+    } else {
+        (x0.clone(), marker_residuals.evaluate(&x0, None, false).map_err(SetError::Eval)?)
     };
     // Metres to millimetres; a pixel's residual is in pixels already.
     let scale = if session.rig.is_some() { 1.0 } else { 1e3 };

@@ -116,6 +116,9 @@ impl SessionEstimate {
 }
 
 fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, VisionError> {
+    if session.body.is_some() {
+        return Ok(body_poses(session, method));
+    }
     if let Some(best) = session.poses.iter().max_by_key(|p| p.seen()).filter(|p| p.seen() < MIN_MARKERS) {
         let mut e = VisionError::at(session, best, &[], MarkerError::NoPoseWithThree { most: best.seen() });
         // About the file as a whole, not one row of it.
@@ -140,6 +143,44 @@ fn estimate_poses(session: &Session, method: Method) -> Result<SessionEstimate, 
         method_difference: all.method_difference,
         skipped: all.skipped,
     })
+}
+
+/// A rigid body's session: the tracker measured each pose's orientation itself, so the estimate of
+/// a pose is its body's turn from the reference pose's (`Q_j = R_j R_0ᵀ`, body → tracker) and its
+/// origin's move — exact as far as the tracker is, with nothing for either method to filter.
+fn body_poses(session: &Session, method: Method) -> SessionEstimate {
+    let reference = session.reference().body.as_ref().map(|b| (b.rotation, b.position));
+    let poses: Vec<(u64, PoseEstimate)> = session
+        .poses
+        .iter()
+        .filter_map(|p| {
+            let (b, (r0, c0)) = (p.body.as_ref()?, reference?);
+            let rotation = b.rotation * r0.inverse();
+            Some((
+                p.id,
+                PoseEstimate {
+                    rotation,
+                    putative: rotation.into_inner(),
+                    stretch: nalgebra::Matrix3::identity(),
+                    error: 0.0,
+                    translation: b.position - c0,
+                    centroid: b.position,
+                    reference_centroid: c0,
+                    markers_used: 0,
+                    redundant: false,
+                    polar_iterations: 0,
+                },
+            ))
+        })
+        .collect();
+    SessionEstimate {
+        method,
+        reference_pose: session.reference_pose,
+        centre: centre_of_rotation(poses.iter().map(|(_, e)| e)),
+        method_difference: vec![0.0; poses.len()],
+        poses,
+        skipped: Vec::new(),
+    }
 }
 
 /// Sessions with more poses than this are estimated on two cores.
