@@ -540,7 +540,9 @@ impl Session {
         let Some(streams) = &self.streams else { return (self.clone(), Vec::new()) };
         let m = self.markers.len();
         let (mut poses, mut warnings): (Vec<SessionPose>, Vec<Warning>) = (Vec::new(), Vec::new());
-        for frame in streams.frames() {
+        // A pose's id is its frame's place in the recording, whichever frames a clock leaves out:
+        // the same frame has the same id at every latency tried, and a left-out one its own.
+        for (id, frame) in (0u64..).zip(streams.frames()) {
             let time = frame.time_s;
             let corners = [(lo, slow), (lo, fast), (hi, slow), (hi, fast)];
             let inside = corners.iter().all(|&(latency_s, rate_ppm)| {
@@ -560,7 +562,7 @@ impl Session {
                 warnings.push(Warning {
                     path: streams.captures_path.clone(),
                     line: frame.line(),
-                    pose: poses.len() as u64,
+                    pose: id,
                     message: format!("the frame at {time} s falls outside the encoder stream {at}: left out"),
                     topic: streams.bag_topics.clone(),
                     note: true,
@@ -569,7 +571,7 @@ impl Session {
             };
             let mut pose = SessionPose {
                 pixels: frame.pixels.iter().map(|p| p.seen).collect(),
-                id: poses.len() as u64,
+                id,
                 joints,
                 time_s: Some(time),
                 markers: vec![None; m],
