@@ -405,3 +405,38 @@ fn completions_man_page_and_version_come_from_the_command_line_itself() {
     let run = spmcal(&["completions", "cmd.exe"]);
     assert!(!run.status.success() && String::from_utf8_lossy(&run.stderr).contains("possible values"));
 }
+
+/// `--json`'s envelope carries spmcal's version, and every warning and note the command printed at
+/// its top level — a calibration's own (here: a workspace beyond the session's poses; the joint
+/// scales 20 poses cannot tell from the offsets) as well as the session's.
+#[test]
+fn the_json_envelope_carries_the_version_and_every_warning_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("wide.yaml");
+    std::fs::write(&config, "workspace: {max_tilt_deg: 60, max_yaw_deg: 60}\n").unwrap();
+    let params = dir.path().join("p.yaml");
+    let run = |json: bool| {
+        let mut args = vec!["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--config"];
+        args.extend([config.to_str().unwrap(), "--out", params.to_str().unwrap()]);
+        args.extend(json.then_some("--json"));
+        spmcal(&args)
+    };
+    let text = run(false);
+    assert!(text.status.success(), "{}", String::from_utf8_lossy(&text.stderr));
+    let printed = String::from_utf8(text.stdout).unwrap();
+    let json = run(true);
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(v["version"], env!("CARGO_PKG_VERSION"));
+    let of = |key: &str| -> Vec<String> {
+        v[key].as_array().unwrap().iter().map(|w| w.as_str().unwrap().to_string()).collect()
+    };
+    let (warnings, notes) = (of("warnings"), of("notes"));
+    assert!(warnings.iter().any(|w| w.contains("`workspace`")), "{warnings:?}");
+    assert!(notes.iter().any(|n| n.contains("joint scales")), "{notes:?}");
+    for w in &warnings {
+        assert!(printed.contains(&format!("WARNING: {w}")), "{w} is not what the text printed:\n{printed}");
+    }
+    for n in &notes {
+        assert!(printed.contains(&format!("note: {n}")), "{n} is not what the text printed:\n{printed}");
+    }
+}

@@ -118,8 +118,9 @@ pub(crate) fn run(args: CalibrateArgs) -> Result<()> {
         let mut envelope = Envelope::new("calibrate", &calibration.report)
             .input("dataset", args.session.dataset.display())
             .input("out", args.out.display());
-        envelope.warnings = warnings;
-        envelope.notes = notes;
+        // Every warning and note printed, the calibration's own too (also in `results`).
+        envelope.warnings = warnings.into_iter().chain(calibration.report.warnings.iter().cloned()).collect();
+        envelope.notes = notes.into_iter().chain(calibration.report.notes.iter().cloned()).collect();
         out(&(envelope.to_json() + "\n"))
     } else {
         out(&format!("{}wrote {}\n", calibration.report, args.out.display()))

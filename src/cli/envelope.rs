@@ -10,11 +10,14 @@ use serde::Serialize;
 pub(crate) struct Envelope<T: Serialize> {
     /// The command's name (`calibrate`, `compare`, …).
     pub(crate) command: &'static str,
+    /// The version of spmcal that wrote it.
+    pub(crate) version: &'static str,
     /// The inputs it read, by option name (paths and settings as given).
     pub(crate) inputs: BTreeMap<String, String>,
     /// What it computed.
     pub(crate) results: T,
-    /// What the user should know but did not stop the command.
+    /// What the user should know but did not stop the command: every warning it printed (a
+    /// calibration's own are also in its report, `results.warnings`).
     pub(crate) warnings: Vec<String>,
     /// What is expected and harmless but said (a recording's frames at its ends left out).
     pub(crate) notes: Vec<String>,
@@ -23,7 +26,8 @@ pub(crate) struct Envelope<T: Serialize> {
 impl<T: Serialize> Envelope<T> {
     /// An envelope for `command` with no inputs and no warnings yet.
     pub(crate) fn new(command: &'static str, results: T) -> Self {
-        Envelope { command, inputs: BTreeMap::new(), results, warnings: Vec::new(), notes: Vec::new() }
+        let version = env!("CARGO_PKG_VERSION");
+        Envelope { command, version, inputs: BTreeMap::new(), results, warnings: Vec::new(), notes: Vec::new() }
     }
 
     /// Record an input.
