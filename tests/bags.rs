@@ -277,3 +277,44 @@ with Writer('{}', version=8, storage_plugin=StoragePlugin.MCAP) as w:
     assert_eq!((streams.encoder_count(), streams.capture_count()), (200, 20));
     assert!((session.poses[0].joints - nalgebra::Vector3::new(0.005, -0.0025, 0.001)).amax() < 1e-15);
 }
+
+/// The byte offsets of the records of an MCAP file (after its 8-byte magic) and their opcodes.
+fn records(bytes: &[u8]) -> Vec<(usize, u8)> {
+    let (mut at, mut out) = (8, Vec::new());
+    while at + 9 <= bytes.len() {
+        out.push((at, bytes[at]));
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        at += 9 + len;
+    }
+    out
+}
+
+/// A corrupt container is an error naming the file, whatever field the corruption hits: a record
+/// length near 2⁶⁴ (which overflowed inside the MCAP reader), a chunk's uncompressed size far
+/// beyond what a writer makes (an allocation of its size, or a decompression that never ended),
+/// and one flipped byte of a chunk's compressed data (which read as a wrong joint angle).
+#[test]
+fn a_corrupt_bag_container_is_an_error_naming_the_file() {
+    let dir = tmp("container");
+    let good = dir.join("good.mcap");
+    write_bag(&good, &small(), "cdr");
+    let bytes = std::fs::read(&good).unwrap();
+    let list = records(&bytes);
+    let (header, chunk) = (list[0].0, list.iter().find(|r| r.1 == 0x06).unwrap().0);
+    // A chunk: opcode, length, start and end times, then its uncompressed size.
+    let uncompressed_size = chunk + 1 + 8 + 16;
+    let corruptions: [(&str, usize, Vec<u8>); 4] = [
+        ("header-length", header + 1, (u64::MAX - 8).to_le_bytes().to_vec()),
+        ("chunk-length", chunk + 1, u64::MAX.to_le_bytes().to_vec()),
+        ("chunk-size", uncompressed_size, (1u64 << 62).to_le_bytes().to_vec()),
+        ("flipped", chunk + 80, vec![bytes[chunk + 80] ^ 0x10]),
+    ];
+    for (name, at, with) in corruptions {
+        let mut bad = bytes.clone();
+        bad[at..at + with.len()].copy_from_slice(&with);
+        let bag = dir.join(format!("{name}.mcap"));
+        std::fs::write(&bag, &bad).unwrap();
+        let e = Session::load(&bag, Some(Path::new(MODEL))).unwrap_err().to_string();
+        assert!(e.contains(&format!("{name}.mcap")) && e.contains("not a readable MCAP file"), "{name}: {e}");
+    }
+}

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{SendError, SyncSender};
 
 use mcap::records::Record;
-use mcap::sans_io::{LinearReadEvent, LinearReader};
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use nalgebra::Vector3;
 
 use super::mapping::{BodySource, Clock, Mapping};
@@ -219,6 +219,11 @@ const BATCH: usize = 4096;
 /// Bytes read from the file at a time.
 const READ_SIZE: usize = 1 << 20;
 
+/// The largest record or chunk (compressed or not) a bag may hold: writers chunk at about a
+/// megabyte (rosbag2 and Foxglove at 768 KiB), and a corrupt length field must be an error before
+/// it is an allocation of its size (or an overflow in the reader).
+const RECORD_LENGTH_LIMIT: usize = 256 << 20;
+
 /// No channel in a slot.
 const NONE: u32 = u32::MAX;
 
@@ -246,7 +251,12 @@ impl Container<'_> {
     /// decoder has stopped listening.
     fn stream(&self, send: &SyncSender<Event>) -> Result<(), FileError> {
         let mut file = std::fs::File::open(self.file).map_err(|e| self.error(format!("cannot open: {e}")))?;
-        let mut mcap = LinearReader::new();
+        // Each chunk's CRC checked before any of its messages is read: a flipped byte is an error,
+        // not a wrong joint angle.
+        let options = LinearReaderOptions::default()
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(RECORD_LENGTH_LIMIT);
+        let mut mcap = LinearReader::new_with_options(options);
         let mut state = Records { schemas: HashMap::new(), roles: vec![None; 1 << 16], batch: Batch::default() };
         let mut read = 0u64;
         while let Some(event) = mcap.next_event() {
