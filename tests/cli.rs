@@ -440,3 +440,39 @@ fn the_json_envelope_carries_the_version_and_every_warning_printed() {
         assert!(printed.contains(&format!("note: {n}")), "{n} is not what the text printed:\n{printed}");
     }
 }
+
+/// Whatever `calibrate` writes, its own readers read back — even from a session that determines
+/// the camera model poorly (every marker ten times as far: its depth scale's standard error is then
+/// larger than any depth scale a file may state, and was refused on reading).
+#[test]
+fn a_parameters_file_calibrate_writes_reads_back_however_poor_the_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("far");
+    std::fs::create_dir(&session).unwrap();
+    for f in ["joints.csv", "session.yaml"] {
+        std::fs::copy(format!("datasets/agile_wrist_sim_20/{f}"), session.join(f)).unwrap();
+    }
+    let markers = std::fs::read_to_string("datasets/agile_wrist_sim_20/markers.csv").unwrap();
+    let mut far = String::new();
+    for (k, line) in markers.lines().enumerate() {
+        let fields: Vec<&str> = line.split(',').collect();
+        let row = match k {
+            0 => line.to_string(),
+            _ => {
+                let xyz: Vec<String> =
+                    fields[2..].iter().map(|v| (v.parse::<f64>().unwrap() * 10.0).to_string()).collect();
+                format!("{},{},{}", fields[0], fields[1], xyz.join(","))
+            }
+        };
+        far.push_str(&row);
+        far.push('\n');
+    }
+    std::fs::write(session.join("markers.csv"), far).unwrap();
+    let params = dir.path().join("p.yaml");
+    let out = spmcal(&["calibrate", "--dataset", session.to_str().unwrap(), "--out", params.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let written = std::fs::read_to_string(&params).unwrap();
+    assert!(written.contains("_std_error"), "{written}");
+    let check = spmcal(&["check", "--params", params.to_str().unwrap()]);
+    assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
+}

@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 
 use super::camera::{CameraModel, CameraModelKind, CameraTerm};
 use super::geometry::{GeometryError, HomeBranch, LegGeometry};
-use super::limits::{MAX_CAMERA_TERM, MAX_CLOCK_RATE_PPM, MAX_LATENCY_S, MAX_POSITION_M, Ranges};
+use super::limits::{MAX_CAMERA_TERM, MAX_CLOCK_RATE_PPM, MAX_LATENCY_S, Ranges};
 use super::spm::{IkError, Spm, SpmError};
 use crate::io::files::FileError;
 use crate::math::so3;
@@ -285,8 +285,10 @@ impl CameraRecord {
                 );
                 return Err(check.error(&key, reason));
             }
-            if let Some(e) = std_error.filter(|e| !(e.is_finite() && (0.0..=MAX_CAMERA_TERM).contains(e))) {
-                let reason = format!("`{}_std_error` = {e} must be from 0 to {MAX_CAMERA_TERM}", term.name());
+            // A standard error says how well the session determined the term: a poorly determined
+            // one may exceed any bound on the value itself, and the file must still read back.
+            if let Some(e) = std_error.filter(|e| !(e.is_finite() && *e >= 0.0)) {
+                let reason = format!("`{}_std_error` = {e} must be finite and not negative", term.name());
                 return Err(check.error(&format!("{key}_std_error"), reason));
             }
             model = model.with(term, v, std_error);
@@ -477,11 +479,18 @@ impl Parameters {
             if let Some(e) = &m.std_error_m {
                 let se = format!("{key}.std_error_m");
                 check.finite(&se, &format!("marker `{}`'s standard error is not finite", m.name), e)?;
-                if let Some(axis) = e.iter().position(|x| !(0.0..=MAX_POSITION_M).contains(x)) {
-                    let reason = format!(
-                        "marker `{}`'s standard error {} m must be from 0 to {MAX_POSITION_M} m",
-                        m.name, e[axis]
-                    );
+                // However poorly determined (a marker seen at few poses), not bounded like a position.
+                if let Some(axis) = e.iter().position(|x| *x < 0.0) {
+                    let reason = format!("marker `{}`'s standard error {} m must not be negative", m.name, e[axis]);
+                    return Err(check.error(&format!("{se}[{axis}]"), reason));
+                }
+            }
+            if let Some(e) = &m.rotation_std_error_deg {
+                let se = format!("{key}.rotation_std_error_deg");
+                check.finite(&se, &format!("body `{}`'s rotation standard error is not finite", m.name), e)?;
+                if let Some(axis) = e.iter().position(|x| *x < 0.0) {
+                    let reason =
+                        format!("body `{}`'s rotation standard error {}° must not be negative", m.name, e[axis]);
                     return Err(check.error(&format!("{se}[{axis}]"), reason));
                 }
             }

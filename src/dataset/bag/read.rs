@@ -173,7 +173,10 @@ pub(crate) fn read_bag(
             // A decoding error drops the receiver, which stops the reader: its own error comes first
             // only when it ended the stream.
             drop(receive);
-            let read = reading.join().expect("the reader does not panic");
+            // The MCAP reader is another crate's: should it fail on a file in a way its errors do
+            // not cover, that is this file's error, not the program's end.
+            let read =
+                reading.join().unwrap_or_else(|_| Err(FileError::new(file, "the MCAP reader failed on this file")));
             decoded.and(read)
         })?;
         done += std::fs::metadata(file).map_or(0, |m| m.len());
