@@ -230,6 +230,9 @@ fn too_large(path: &Path, size: String) -> FileError {
 
 /// Parse YAML `text` (read from `path`) into `T`, with the lines of its keys.
 pub(crate) fn parse<T: DeserializeOwned>(path: &Path, text: &str) -> Result<(T, KeyLines), FileError> {
+    // A byte-order mark (Windows editors write one) is not part of the document: YAML parsers
+    // would read it as the start of a second one.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let keys = scan(path, text)?;
     let value: T = serde_yaml::from_str(text).map_err(|e| FileError::from_yaml(path, &e))?;
     Ok((value, keys))
