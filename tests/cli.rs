@@ -476,3 +476,26 @@ fn a_parameters_file_calibrate_writes_reads_back_however_poor_the_session() {
     let check = spmcal(&["check", "--params", params.to_str().unwrap()]);
     assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
 }
+
+/// A warning or note printed while loading (here: the recording's last frame, after the last
+/// encoder sample) is a `note:` and in the `--json` envelope's `notes`, for `convert` as for the
+/// commands that calibrate or compare.
+#[test]
+fn convert_says_a_recordings_edge_frame_as_a_note_in_text_and_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let args =
+        |to: &str| ["convert", "--dataset", "datasets/agile_wrist_free_motion_120s", "--to-bag", to].map(String::from);
+    let text = Command::new(env!("CARGO_BIN_EXE_spmcal")).args(args(&bag("a.mcap"))).output().unwrap();
+    assert!(text.status.success(), "{}", String::from_utf8_lossy(&text.stderr));
+    let stderr = String::from_utf8(text.stderr).unwrap();
+    assert!(
+        stderr.starts_with("note: ") && stderr.contains("captures.csv:1708") && !stderr.contains("warning"),
+        "{stderr}"
+    );
+    let json = Command::new(env!("CARGO_BIN_EXE_spmcal")).args(args(&bag("b.mcap"))).arg("--json").output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(v["warnings"].as_array().unwrap().len(), 0, "{v}");
+    let notes = v["notes"].as_array().unwrap();
+    assert!(notes.len() == 1 && notes[0].as_str().unwrap().contains("captures.csv:1708"), "{notes:?}");
+}

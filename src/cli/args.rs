@@ -37,7 +37,7 @@ impl GeometryArgs {
                 // fit (legs in order, the same markers).
                 let (model, warnings) = p.load_model(file, self.model.as_deref())?;
                 for w in warnings {
-                    eprintln!("warning: {w}");
+                    super::output::warn(w);
                 }
                 Ok((model, params))
             }
@@ -138,7 +138,7 @@ impl SessionArgs {
                     None => format!("{}:{}", first.path.display(), first.line),
                 }
             );
-            eprintln!("warning: {warning}");
+            super::output::warn(&warning);
             warnings.push(warning);
         }
         moved
@@ -173,12 +173,8 @@ impl SessionArgs {
         let (notes, warnings): (Vec<_>, Vec<_>) = found.iter().partition(|w| w.note);
         let (notes, warnings): (Vec<String>, Vec<String>) =
             (notes.iter().map(|w| w.to_string()).collect(), warnings.iter().map(|w| w.to_string()).collect());
-        for w in &warnings {
-            eprintln!("warning: {w}");
-        }
-        for n in &notes {
-            eprintln!("note: {n}");
-        }
+        warnings.iter().for_each(super::output::warn);
+        notes.iter().for_each(super::output::note);
         Ok((session, warnings, notes))
     }
 }

@@ -87,9 +87,12 @@ pub(crate) fn run(args: ConvertArgs) -> Result<()> {
     if to_folder {
         spmcal::dataset::Session::check_destination(output)?;
     }
-    let (session, warnings) = load_session(input, args.model.as_deref())?;
-    for w in &warnings {
-        eprintln!("warning: {w}");
+    let (session, found) = load_session(input, args.model.as_deref())?;
+    for w in &found {
+        match w.note {
+            true => super::output::note(w),
+            false => super::output::warn(w),
+        }
     }
     if session.rig.is_some() && args.to_bag.is_some() && !args.points {
         anyhow::bail!(

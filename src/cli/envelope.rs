@@ -41,6 +41,27 @@ impl<T: Serialize> Envelope<T> {
     /// # Panics
     /// Never in practice: reports serialise to JSON.
     pub(crate) fn to_json(&self) -> String {
-        serde_json::to_string(self).expect("reports serialise to JSON")
+        let mut all = self.clone_shape();
+        // Every warning and note printed on the way (loading the session, the model, the
+        // parameters), before the ones the command set itself.
+        let (warnings, notes) = super::output::said();
+        let before = |said: Vec<String>, own: &[String]| -> Vec<String> {
+            said.into_iter().filter(|s| !own.contains(s)).chain(own.iter().cloned()).collect()
+        };
+        all.warnings = before(warnings, &self.warnings);
+        all.notes = before(notes, &self.notes);
+        serde_json::to_string(&all).expect("reports serialise to JSON")
+    }
+
+    /// The envelope with its results borrowed.
+    fn clone_shape(&self) -> Envelope<&T> {
+        Envelope {
+            command: self.command,
+            version: self.version,
+            inputs: self.inputs.clone(),
+            results: &self.results,
+            warnings: Vec::new(),
+            notes: Vec::new(),
+        }
     }
 }

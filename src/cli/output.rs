@@ -2,6 +2,7 @@
 //! changes no file), standard output, recordings and progress bars.
 
 use std::path::Path;
+use std::sync::Mutex;
 
 use anyhow::Result;
 use spmcal::FileError;
@@ -104,4 +105,26 @@ pub(crate) fn progress_bar(total: usize, what: &str) -> indicatif::ProgressBar {
     );
     bar.set_message(what.to_string());
     bar
+}
+
+/// The warnings and notes printed so far, for the `--json` envelope (which carries every one).
+static SAID: Mutex<(Vec<String>, Vec<String>)> = Mutex::new((Vec::new(), Vec::new()));
+
+/// Print a warning (`warning: …` on standard error) and keep it for the `--json` envelope.
+pub(crate) fn warn(message: impl std::fmt::Display) {
+    let message = message.to_string();
+    eprintln!("warning: {message}");
+    SAID.lock().unwrap_or_else(std::sync::PoisonError::into_inner).0.push(message);
+}
+
+/// Print a note (`note: …` on standard error: expected, harmless) and keep it for the envelope.
+pub(crate) fn note(message: impl std::fmt::Display) {
+    let message = message.to_string();
+    eprintln!("note: {message}");
+    SAID.lock().unwrap_or_else(std::sync::PoisonError::into_inner).1.push(message);
+}
+
+/// The warnings and notes [`warn`] and [`note`] printed so far.
+pub(crate) fn said() -> (Vec<String>, Vec<String>) {
+    SAID.lock().unwrap_or_else(std::sync::PoisonError::into_inner).clone()
 }

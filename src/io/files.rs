@@ -123,11 +123,25 @@ impl StagedFile {
         if path.is_dir() {
             return Err(FileError::new(path, "is a folder; an output file was expected"));
         }
+        // A device or a pipe would be replaced by the finished file's rename (as root, even
+        // /dev/null): only a regular file, or a new one, is an output.
+        if path.exists() && !path.is_file() {
+            return Err(FileError::new(
+                path,
+                "is not a regular file (a device or a pipe): outputs are written to a temporary file renamed into \
+                 place, which would replace it; give a file's path",
+            ));
+        }
+        let folder = parent_folder(path);
+        if !folder.is_dir() {
+            let reason = format!("cannot write here: its folder {} does not exist", folder.display());
+            return Err(FileError::new(path, reason));
+        }
         let tmp = tempfile::Builder::new()
             .prefix(".spmcal-")
             .suffix(".tmp")
-            .tempfile_in(parent_folder(path))
-            .map_err(|e| FileError::new(path, format!("cannot write here: {e}")))?;
+            .tempfile_in(folder)
+            .map_err(|e| FileError::new(path, format!("cannot write in its folder: {}", e.kind())))?;
         let unfinished = Unfinished::register(tmp.path());
         Ok(StagedFile { destination: path.to_path_buf(), tmp, _unfinished: unfinished })
     }

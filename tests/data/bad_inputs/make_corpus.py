@@ -106,7 +106,7 @@ case("sim_unknown_shipped_name", {"s.yaml": replace_once(SIM, "model: agile_wris
 case("sim_duplicate_key", {"s.yaml": SIM + "seed: 5\n"}, SIMC, f"s.yaml:{SIM.count(chr(10)) + 1}: duplicate key `seed` (first at line {line_of(SIM, chr(10) + 'seed:') + 1})")
 case("sim_out_is_a_file", {"s.yaml": SIM}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/existing.csv", "--poses", "5"], "{tmp}/existing.csv: is a file; a session is a folder")
 case("sim_out_not_a_session", {"s.yaml": SIM, "notsession/readme.txt": "keep me\n"}, ["simulate", "--config", "{case}/s.yaml", "--out", "{case}/notsession", "--poses", "5"], "{case}/notsession: the folder is not empty and holds no session: refusing to write into it")
-case("sim_bad_rrd_keeps_nothing", {"s.yaml": SIM}, SIMC + ["--rrd", "{tmp}/no/such/folder/r.rrd"], "{tmp}/no/such/folder/r.rrd: cannot write here: No such file or directory")
+case("sim_bad_rrd_keeps_nothing", {"s.yaml": SIM}, SIMC + ["--rrd", "{tmp}/no/such/folder/r.rrd"], "{tmp}/no/such/folder/r.rrd: cannot write here: its folder {tmp}/no/such/folder does not exist")
 case("sim_coincident_companion_markers", {"s.yaml": replace_once(SIM, "model: agile_wrist", "model: m.urdf"), **model(companion=replace_once(COMPANION, "m3: [0.0649519053, -0.0375, 0.06]", "m3: [-0.0649, -0.0375, 0.06]"))}, SIMC, f"m.yaml:{line_of(COMPANION, '  m3:')}: column `markers_m.m3`: markers `m2` and `m3`: markers #2 and #3 are 0.052 mm apart, within 3.0 mm (3 × the 1 mm marker noise): they coincide")
 
 # --- URDF: what check_urdf rejects, named by joint or link -------------------------------------------
@@ -162,11 +162,12 @@ case("ik_serial_singularity", {"o.csv": "pose,qw,qx,qy,qz\n0,0.816496580927726,-
 
 # --- Outputs: checked before the work, written all together ------------------------------------------
 CAL20 = ["calibrate", "--dataset", "datasets/agile_wrist_sim_20"]
-case("out_rrd_folder_missing", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/missing/r.rrd"], "{tmp}/missing/r.rrd: cannot write here: No such file or directory")
+case("out_rrd_folder_missing", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/missing/r.rrd"], "{tmp}/missing/r.rrd: cannot write here: its folder {tmp}/missing does not exist")
 case("out_is_a_folder", {}, CAL20 + ["--out", "{tmp}"], "{tmp}: is a folder; an output file was expected")
 case("out_twice", {}, CAL20 + ["--out", "{tmp}/existing.yaml", "--rrd", "{tmp}/existing.yaml"], "{tmp}/existing.yaml: is given as two different outputs")
-case("estimate_rrd_folder_missing", {}, ["estimate", "--dataset", "datasets/agile_wrist_sim_20", "--out", "{tmp}/existing.csv", "--rrd", "{tmp}/missing/e.rrd"], "{tmp}/missing/e.rrd: cannot write here: No such file or directory")
-case("ik_out_folder_missing", {}, ["ik", "--quat", "1,0,0,0", "--out", "{tmp}/missing/j.csv"], "{tmp}/missing/j.csv: cannot write here: No such file or directory")
+case("estimate_rrd_folder_missing", {}, ["estimate", "--dataset", "datasets/agile_wrist_sim_20", "--out", "{tmp}/existing.csv", "--rrd", "{tmp}/missing/e.rrd"], "{tmp}/missing/e.rrd: cannot write here: its folder {tmp}/missing does not exist")
+case("ik_out_folder_missing", {}, ["ik", "--quat", "1,0,0,0", "--out", "{tmp}/missing/j.csv"], "{tmp}/missing/j.csv: cannot write here: its folder {tmp}/missing does not exist")
+case("ik_out_is_a_device", {}, ["ik", "--quat", "1,0,0,0", "--out", "/dev/null"], "/dev/null: is not a regular file (a device or a pipe): outputs are written to a temporary file renamed into place, which would replace it; give a file's path")
 
 # --- Sessions and vision ---------------------------------------------------------------------------
 still = "pose,theta1_rad,theta2_rad,theta3_rad\n" + "".join(f"{p},0,0,0\n" for p in range(20))
