@@ -28,7 +28,10 @@ impl Session {
         model: Option<&Path>,
         progress: &mut dyn FnMut(u64, u64),
     ) -> Result<(Session, Vec<Warning>), FileError> {
-        if bag::is_bag(path) { bag::load(path, model, progress) } else { Session::load_folder(path, model) }
+        if bag::is_bag(path) {
+            return bag::load(path, model, progress);
+        }
+        not_a_session(path).map_or_else(|| Session::load_folder(path, model), Err)
     }
 
     /// Write the session as a ROS 2 bag (one MCAP file at `path`, written atomically): joint
@@ -49,4 +52,46 @@ impl Session {
         }
         bag::write(self, path)
     }
+}
+
+/// What a dataset path that is neither a bag nor a session folder is, said with what it takes.
+fn not_a_session(path: &Path) -> Option<FileError> {
+    const TAKES: &str = "a session is a folder with session.yaml, or a ROS 2 bag (an .mcap file or its folder)";
+    let reason = if !path.exists() {
+        format!("does not exist ({TAKES})")
+    } else if path.is_file() {
+        let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+        match path.extension().and_then(|x| x.to_str()) {
+            Some("db3") => format!(
+                "is a ROS 2 bag in SQLite, which spmcal does not read: convert it to MCAP (`ros2 bag convert`) ({TAKES})"
+            ),
+            _ if ["session.yaml", "joints.csv", "markers.csv", "captures.csv", "poses.csv", "pixels.csv"]
+                .contains(&name.as_str()) =>
+            {
+                let folder = crate::io::files::parent_folder(path);
+                format!("is a file of a session: give its folder, {}", folder.display())
+            }
+            _ => format!("is a file, not a session ({TAKES})"),
+        }
+    } else if !path.join("session.yaml").exists() {
+        let inside: Vec<String> = std::fs::read_dir(path)
+            .map(|d| {
+                d.filter_map(Result::ok)
+                    .filter(|e| e.path().join("session.yaml").exists() || bag::is_bag(&e.path()))
+                    .map(|e| e.file_name().to_string_lossy().to_string())
+                    .collect()
+            })
+            .unwrap_or_default();
+        match inside.is_empty() {
+            true => format!("is not a session: it has no session.yaml ({TAKES})"),
+            false => {
+                let mut names = inside;
+                names.sort();
+                format!("is not a session but holds sessions: {}; give one of them", names.join(", "))
+            }
+        }
+    } else {
+        return None;
+    };
+    Some(FileError::new(path, reason))
 }

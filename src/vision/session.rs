@@ -16,7 +16,7 @@ use crate::math::so3;
 /// the file and line of the marker row the reason is about (`markers.csv:14: pose 3: …`; a
 /// free-motion recording's `captures.csv` by its path).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{}pose {pose}: {reason}{}", place(.file, *.line), role(*.reference, *.pose))]
+#[error("{}{}{reason}{}", place(.file, *.line), subject(*.pose, .reason), role(*.reference, *.pose))]
 #[non_exhaustive]
 pub struct VisionError {
     /// Pose id.
@@ -43,6 +43,14 @@ fn role(reference: bool, pose: u64) -> String {
     }
 }
 
+/// `pose N: `, unless the reason is about the session as a whole.
+fn subject(pose: u64, reason: &MarkerError) -> String {
+    match reason {
+        MarkerError::NoPoseWithThree { .. } => String::new(),
+        _ => format!("pose {pose}: "),
+    }
+}
+
 /// `file:line: `, `file: ` or nothing.
 fn place(file: &Option<PathBuf>, line: usize) -> String {
     match (file, line) {
@@ -64,9 +72,10 @@ impl VisionError {
             }
             _ => (0..pose.markers.len()).filter(|&k| pose.markers[k].is_some()).find_map(line_of),
         };
+        let whole = matches!(reason, MarkerError::NoPoseWithThree { .. });
         let file = match &session.streams {
             Some(streams) => Some(streams.captures_path.clone()),
-            None if row.is_some() => {
+            None if row.is_some() || (whole && session.folder.is_some()) => {
                 // A pixel session's points are triangulated from its pixels.csv rows.
                 let name = if session.rig.is_some() { "pixels.csv" } else { "markers.csv" };
                 Some(session.folder.as_ref().map_or_else(|| PathBuf::from(name), |f| f.join(name)))

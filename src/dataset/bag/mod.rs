@@ -33,7 +33,13 @@ pub(crate) fn is_bag(path: &Path) -> bool {
         };
         !path.join("session.yaml").exists() && (path.join("metadata.yaml").exists() || has_mcap())
     } else {
-        path.extension().is_some_and(|x| x == "mcap")
+        // By its name, or by its first bytes (an MCAP file renamed, or without an extension).
+        let magic = || {
+            let mut start = [0u8; 8];
+            std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut start)).is_ok()
+                && &start == b"\x89MCAP0\r\n"
+        };
+        path.extension().is_some_and(|x| x == "mcap") || (path.is_file() && magic())
     }
 }
 
