@@ -429,39 +429,6 @@ impl SimConfig {
     /// # Errors
     /// `(key, reason)` for the first value out of its range.
     pub fn check(&self) -> Result<(), (String, String)> {
-        let non_negative = [
-            ("truth.axis_tilt_deg", self.truth.axis_tilt_deg),
-            ("truth.link_angle_deg", self.truth.link_angle_deg),
-            ("truth.joint_offset_deg", self.truth.joint_offset_deg),
-            ("truth.camera_position_m", self.truth.camera_position_m),
-            ("truth.camera_rotation_deg", self.truth.camera_rotation_deg),
-            ("truth.marker_position_m", self.truth.marker_position_m),
-            ("workspace.max_tilt_deg", self.workspace.max_tilt_deg),
-            ("workspace.max_yaw_deg", self.workspace.max_yaw_deg),
-            ("workspace.min_conditioning", self.workspace.min_conditioning),
-            ("workspace.min_branch_margin", self.workspace.min_branch_margin),
-            ("camera.baseline_m", self.camera.baseline_m),
-            ("camera.lateral_sigma_m", self.camera.lateral_sigma_m),
-            ("camera.depth_sigma_m", self.camera.depth_sigma_m),
-            ("camera.outlier_sigma_m", self.camera.outlier_sigma_m),
-            ("camera.marker_radius_m", self.camera.marker_radius_m),
-            ("encoders.noise_deg", self.encoders.noise_deg),
-            ("capture.motion_deg", self.capture.motion_deg),
-            ("capture.interval_s", self.capture.interval_s),
-        ];
-        for (key, value) in non_negative {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err((key.into(), format!("`{key}` must be a finite, non-negative number (got {value})")));
-            }
-        }
-        for (key, value) in [
-            ("camera.height_m", self.camera.height_m),
-            ("camera.reference_distance_m", self.camera.reference_distance_m),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err((key.into(), format!("`{key}` must be positive (got {value})")));
-            }
-        }
         // The conditioning index (the Jacobian's smallest over largest singular value) is at most
         // 1: a threshold of 1 or more rejects every pose, which the simulator would find out only
         // after all its attempts.
@@ -471,6 +438,43 @@ impl SimConfig {
                 self.workspace.min_conditioning
             );
             return Err(("workspace.min_conditioning".into(), reason));
+        }
+        // Each spread, noise and size from 0 to far beyond any real device's (a turn's spread to a
+        // half turn, a noise to a metre or a right angle): a value past it would only make the
+        // simulator write infinities.
+        let bounded = [
+            ("truth.axis_tilt_deg", self.truth.axis_tilt_deg, 90.0),
+            ("truth.link_angle_deg", self.truth.link_angle_deg, 90.0),
+            ("truth.joint_offset_deg", self.truth.joint_offset_deg, 180.0),
+            ("truth.camera_position_m", self.truth.camera_position_m, 10.0),
+            ("truth.camera_rotation_deg", self.truth.camera_rotation_deg, 180.0),
+            ("truth.marker_position_m", self.truth.marker_position_m, 1.0),
+            ("workspace.max_tilt_deg", self.workspace.max_tilt_deg, 180.0),
+            ("workspace.max_yaw_deg", self.workspace.max_yaw_deg, 180.0),
+            ("workspace.min_conditioning", self.workspace.min_conditioning, 1.0),
+            ("workspace.min_branch_margin", self.workspace.min_branch_margin, 1.0),
+            ("camera.baseline_m", self.camera.baseline_m, 10.0),
+            ("camera.lateral_sigma_m", self.camera.lateral_sigma_m, 1.0),
+            ("camera.depth_sigma_m", self.camera.depth_sigma_m, 1.0),
+            ("camera.outlier_sigma_m", self.camera.outlier_sigma_m, 10.0),
+            ("camera.marker_radius_m", self.camera.marker_radius_m, 1.0),
+            ("encoders.noise_deg", self.encoders.noise_deg, 90.0),
+            ("capture.motion_deg", self.capture.motion_deg, 180.0),
+            ("capture.interval_s", self.capture.interval_s, 3600.0),
+        ];
+        for (key, value, most) in bounded {
+            if !(value.is_finite() && (0.0..=most).contains(&value)) {
+                let got = crate::io::files::number(value);
+                return Err((key.into(), format!("`{key}` must be from 0 to {most} (got {got})")));
+            }
+        }
+        for (key, value) in [
+            ("camera.height_m", self.camera.height_m),
+            ("camera.reference_distance_m", self.camera.reference_distance_m),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err((key.into(), format!("`{key}` must be positive (got {value})")));
+            }
         }
         // A degree's sag at 90° of tilt is already a weak mechanism; ten would break the small
         // rotation the simulator applies.
@@ -563,12 +567,13 @@ impl SimConfig {
     /// A rigid body's settings: finite, non-negative noise, a name, no rig beside it.
     fn check_rigid_body(&self) -> Result<(), (String, String)> {
         let Some(b) = &self.camera.rigid_body else { return Ok(()) };
-        for (key, value) in [
-            ("camera.rigid_body.position_sigma_m", b.position_sigma_m),
-            ("camera.rigid_body.orientation_sigma_deg", b.orientation_sigma_deg),
+        for (key, value, most) in [
+            ("camera.rigid_body.position_sigma_m", b.position_sigma_m, 1.0),
+            ("camera.rigid_body.orientation_sigma_deg", b.orientation_sigma_deg, 90.0),
         ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err((key.into(), format!("`{key}` must be a finite, non-negative number (got {value})")));
+            if !(value.is_finite() && (0.0..=most).contains(&value)) {
+                let got = crate::io::files::number(value);
+                return Err((key.into(), format!("`{key}` must be from 0 to {most} (got {got})")));
             }
         }
         let frame = b.origin_m.iter().chain(&b.rotation_deg);

@@ -138,6 +138,9 @@ fn distortion_model(name: &str) -> Option<DistortionModel> {
     [DistortionModel::Radtan, DistortionModel::Equidistant].into_iter().find(|m| m.name() == name)
 }
 
+/// The largest pixel noise a simulated rig takes (px).
+const MAX_PIXEL_SIGMA_PX: f64 = 1000.0;
+
 impl RigSettings {
     /// Values serde accepted but that make no rig, as `(key, reason)`, the key in full
     /// (`camera.rig.cameras[1].baseline_m`).
@@ -149,9 +152,11 @@ impl RigSettings {
         if n == 0 || n > MAX_CAMERAS {
             return Err(problem("cameras", format!("a rig has from 1 to {MAX_CAMERAS} cameras (got {n})")));
         }
+        // A pixel's noise up to a thousand pixels: far past any camera, short of infinities.
         for (key, value) in [("pixel_sigma_px", self.pixel_sigma_px), ("outlier_sigma_px", self.outlier_sigma_px)] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(problem(key, format!("`{key}` must be a finite, non-negative number (got {value})")));
+            if !(value.is_finite() && (0.0..=MAX_PIXEL_SIGMA_PX).contains(&value)) {
+                let got = crate::io::files::number(value);
+                return Err(problem(key, format!("`{key}` must be from 0 to {MAX_PIXEL_SIGMA_PX} px (got {got})")));
             }
         }
         for (c, camera) in self.cameras.iter().enumerate() {
@@ -249,10 +254,11 @@ impl RigCameraSettings {
         if self.resolution.contains(&0) {
             return Err(("resolution".into(), "`resolution` [width, height] must be at least one pixel each".into()));
         }
-        if let Some(s) = self.pixel_sigma_px.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+        if let Some(s) = self.pixel_sigma_px.filter(|s| !(s.is_finite() && (0.0..=MAX_PIXEL_SIGMA_PX).contains(s))) {
+            let got = crate::io::files::number(s);
             return Err((
                 "pixel_sigma_px".into(),
-                format!("`pixel_sigma_px` must be a finite, non-negative number (got {s})"),
+                format!("`pixel_sigma_px` must be from 0 to {MAX_PIXEL_SIGMA_PX} px (got {got})"),
             ));
         }
         let turned = self.toe_in_deg != 0.0 || self.rotation_deg != [0.0; 3];

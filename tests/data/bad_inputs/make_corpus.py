@@ -95,7 +95,7 @@ case("calib_unknown_group", {"c.yaml": "freeze: [camera]\n"}, CAL, "c.yaml:1: fr
 case("calib_partial_config_works", {"c.yaml": "loss: least_squares\n"}, CAL, "wrote {tmp}/existing.yaml", status="ok")
 
 # --- Simulation config ----------------------------------------------------------------------------
-case("sim_negative_sigma", {"s.yaml": replace_once(SIM, "lateral_sigma_m: 0.0002", "lateral_sigma_m: -0.0002")}, SIMC, f"s.yaml:{line_of(SIM, 'lateral_sigma_m')}: column `camera.lateral_sigma_m`: `camera.lateral_sigma_m` must be a finite, non-negative number (got -0.0002)")
+case("sim_negative_sigma", {"s.yaml": replace_once(SIM, "lateral_sigma_m: 0.0002", "lateral_sigma_m: -0.0002")}, SIMC, f"s.yaml:{line_of(SIM, 'lateral_sigma_m')}: column `camera.lateral_sigma_m`: `camera.lateral_sigma_m` must be from 0 to 1 (got -0.0002)")
 case("sim_tilt_over_90", {"s.yaml": replace_once(SIM, "max_tilt_deg: 30", "max_tilt_deg: 95")}, SIMC, f"s.yaml:{line_of(SIM, 'max_tilt_deg')}: column `workspace.max_tilt_deg`: `max_tilt_deg` must be below 90°")
 case("sim_probability_over_one", {"s.yaml": replace_once(SIM, "outlier_probability: 0.0", "outlier_probability: 2")}, SIMC, f"s.yaml:{line_of(SIM, 'outlier_probability')}: column `camera.outlier_probability`: `outlier_probability` must lie in [0, 1]")
 case("sim_zero_poses", {"s.yaml": replace_once(SIM, "poses: 400", "poses: 0")}, ["simulate", "--config", "{case}/s.yaml", "--out", "{tmp}/sim"], f"s.yaml:{line_of(SIM, 'poses: 400')}: column `poses`: `poses` (or `--poses`) must be from 1 to 1000000 (got 0)")
