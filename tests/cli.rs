@@ -499,3 +499,24 @@ fn convert_says_a_recordings_edge_frame_as_a_note_in_text_and_json() {
     let notes = v["notes"].as_array().unwrap();
     assert!(notes.len() == 1 && notes[0].as_str().unwrap().contains("captures.csv:1708"), "{notes:?}");
 }
+
+/// A quaternion typed or printed with four digits (its norm 1 within 10⁻⁴) is normalised, in
+/// `--quat` as in `--orientations`; one whose norm is off by more than 10⁻³ is refused, its norm said.
+#[test]
+fn a_quaternion_with_four_digits_is_read_and_a_wrong_one_is_refused_with_its_norm() {
+    let exact = spmcal(&["ik", "--quat", "0.984807753012208,0.17364817766693,0,0"]);
+    let typed = spmcal(&["ik", "--quat", "0.9848,0.1736,0,0"]);
+    assert!(typed.status.success(), "{}", String::from_utf8_lossy(&typed.stderr));
+    let joints = |o: &std::process::Output| -> Vec<f64> {
+        let text = String::from_utf8_lossy(&o.stdout).to_string();
+        text.lines().nth(1).unwrap().split(',').skip(1).map(|v| v.parse().unwrap()).collect()
+    };
+    // 20° about x typed to four digits: within 2e-5 rad of the exact rotation, so are the joints
+    // (their sensitivity to the orientation is of order one here).
+    for (a, b) in joints(&exact).iter().zip(joints(&typed)) {
+        assert!((a - b).abs() < 1e-4, "{a} {b}");
+    }
+    let wrong = spmcal(&["ik", "--quat", "0.9,0.17,0,0"]);
+    let err = String::from_utf8_lossy(&wrong.stderr);
+    assert!(!wrong.status.success() && err.contains("--quat has norm 0.915915, not 1 (within 1e-3)"), "{err}");
+}

@@ -43,7 +43,13 @@ pub(crate) fn run(args: IkArgs) -> Result<()> {
         (Some(path), _) => (path.display().to_string(), OrientationRecord::read(path)?),
         (None, Some(q)) => {
             let &[w, x, y, z] = q.as_slice() else { bail!("--quat takes four numbers qw,qx,qy,qz, got {}", q.len()) };
-            let rotation = so3::from_wxyz([w, x, y, z]).context("--quat is not a unit quaternion")?;
+            // Typed with four or five digits, a unit quaternion's norm is 1 within 1e-4: normalised,
+            // as orientations.csv's are; further off is a wrong number.
+            let n = (w * w + x * x + y * y + z * z).sqrt();
+            if !((n - 1.0).abs() <= 1e-3) {
+                bail!("--quat has norm {n:.6}, not 1 (within 1e-3): a unit quaternion qw,qx,qy,qz");
+            }
+            let rotation = so3::from_wxyz([w / n, x / n, y / n, z / n]).context("--quat is not a unit quaternion")?;
             ("--quat".to_string(), vec![OrientationRecord { pose: 0, mode: None, rotation, extra: vec![], line: 0 }])
         }
         (None, None) => bail!("give --orientations FILE or --quat qw,qx,qy,qz"),

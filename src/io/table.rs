@@ -158,10 +158,17 @@ impl Row<'_> {
     }
 
     /// The rotation of the unit quaternion `[qw, qx, qy, qz]` in the requested columns `k..k + 4`;
-    /// a quaternion whose norm is not 1 (within 1e-6) is an error in column `k`.
+    /// a quaternion whose norm is not 1 (within what printing it with four digits leaves) is an
+    /// error in column `k`; one within it is normalised.
     pub(crate) fn quaternion(&self, k: usize) -> Result<nalgebra::Rotation3<f64>, FileError> {
         let q = [self.number(k)?, self.number(k + 1)?, self.number(k + 2)?, self.number(k + 3)?];
-        crate::math::so3::from_wxyz(q).ok_or_else(|| self.error(k, format!("quaternion {q:?} does not have unit norm")))
+        crate::math::so3::from_printed_wxyz(q).map_err(|n| {
+            let tolerance = crate::math::so3::PRINTED_QUATERNION_TOLERANCE;
+            self.error(
+                k,
+                format!("quaternion {q:?} has norm {}, not 1 (within {tolerance})", crate::io::files::number(n)),
+            )
+        })
     }
 
     /// The `k`-th field as a pose number (non-negative integer).

@@ -86,6 +86,21 @@ pub fn from_wxyz(q: [f64; 4]) -> Option<Rotation3<f64>> {
     Some(UnitQuaternion::from_quaternion(quat).to_rotation_matrix())
 }
 
+/// How far from 1 the norm of a quaternion a person typed or a tool printed may be: four or five
+/// digits put it within 10⁻⁴ of unit norm; 10⁻³ is a wrong number, not rounding.
+pub(crate) const PRINTED_QUATERNION_TOLERANCE: f64 = 1e-3;
+
+/// Rotation from a quaternion `[qw, qx, qy, qz]` as printed or typed with a few digits: normalised
+/// when its norm is 1 within [`PRINTED_QUATERNION_TOLERANCE`], else `Err(norm)`.
+pub(crate) fn from_printed_wxyz(q: [f64; 4]) -> Result<Rotation3<f64>, f64> {
+    let quat = nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]);
+    let n = quat.norm();
+    if !n.is_finite() || (n - 1.0).abs() > PRINTED_QUATERNION_TOLERANCE {
+        return Err(n);
+    }
+    Ok(UnitQuaternion::from_quaternion(quat).to_rotation_matrix())
+}
+
 /// The right-handed orthonormal frame `[e1, e2, e3]` of two non-parallel vectors: `e1 ∥ a`,
 /// `e2 ∝ b − (e1·b) e1`, `e3 = e1 × e2`.
 pub(crate) fn pair_frame(a: &Vector3<f64>, b: &Vector3<f64>) -> Matrix3<f64> {

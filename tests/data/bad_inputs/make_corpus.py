@@ -157,7 +157,7 @@ case("params_nan_offset", {"p.yaml": replace_once(PARAMS, "delta_deg: 0.15425991
 case("fda_nan_joint", {"j.csv": "pose,theta1_rad,theta2_rad,theta3_rad\n0,0,0,0\n1,NaN,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:3: column `theta1_rad`: `NaN` is not finite")
 case("fda_ragged_row", {"j.csv": "pose,theta1_rad,theta2_rad,theta3_rad\n0,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:2: malformed CSV: CSV error: record 1 (line: 2, byte: 38): found record with 3 fields, but the previous record has 4 fields")
 case("fda_missing_column", {"j.csv": "pose,theta1_rad,theta2_rad\n0,0,0\n"}, ["fda", "--joints", "{case}/j.csv"], "j.csv:1: the header has no column `theta3_rad` (it has: pose,theta1_rad,theta2_rad)")
-case("ik_non_unit_quaternion", {"o.csv": "pose,qw,qx,qy,qz\n0,1,0,0,0\n1,2,0,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:3: column `qw`: quaternion [2.0, 0.0, 0.0, 0.0] does not have unit norm")
+case("ik_non_unit_quaternion", {"o.csv": "pose,qw,qx,qy,qz\n0,1,0,0,0\n1,2,0,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:3: column `qw`: quaternion [2.0, 0.0, 0.0, 0.0] has norm 2.0, not 1 (within 0.001)")
 case("ik_serial_singularity", {"o.csv": "pose,qw,qx,qy,qz\n0,0.816496580927726,-0.5773502691896258,0,0\n"}, ["ik", "--orientations", "{case}/o.csv"], "o.csv:2: pose 0: leg 1 is at a serial singularity: its platform axis lies")
 
 # --- Outputs: checked before the work, written all together ------------------------------------------
