@@ -46,7 +46,7 @@ pub(crate) fn run(args: IkArgs) -> Result<()> {
             // Typed with four or five digits, a unit quaternion's norm is 1 within 1e-4: normalised,
             // as orientations.csv's are; further off is a wrong number.
             let n = (w * w + x * x + y * y + z * z).sqrt();
-            if !((n - 1.0).abs() <= 1e-3) {
+            if !n.is_finite() || (n - 1.0).abs() > 1e-3 {
                 bail!("--quat has norm {n:.6}, not 1 (within 1e-3): a unit quaternion qw,qx,qy,qz");
             }
             let rotation = so3::from_wxyz([w / n, x / n, y / n, z / n]).context("--quat is not a unit quaternion")?;
