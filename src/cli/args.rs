@@ -99,6 +99,16 @@ pub(crate) struct SessionArgs {
     pub(crate) model: Option<PathBuf>,
 }
 
+/// An error of work on the session at `dataset` as a whole, named by it (an error that names one
+/// of its files already is left as it is).
+pub(crate) fn about(dataset: &std::path::Path, error: impl std::fmt::Display) -> anyhow::Error {
+    let (text, place) = (error.to_string(), dataset.display().to_string());
+    match text.starts_with(&place) {
+        true => anyhow::anyhow!(text),
+        false => anyhow::anyhow!("{place}: {text}"),
+    }
+}
+
 impl SessionArgs {
     /// Register the session folder and the files its reader looks for, and, when the command reads
     /// it, the model: `--model`, else the one `session.yaml` names.

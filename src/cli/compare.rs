@@ -80,7 +80,9 @@ pub(crate) fn run(args: CompareArgs) -> Result<()> {
         sets.push((label, params));
     }
     let method: Method = args.method.into();
-    let result = spmcal::compare::compare(&session, &model, &sets, method, args.level.map(Into::into))?;
+    let dataset = &args.session.dataset;
+    let result = spmcal::compare::compare(&session, &model, &sets, method, args.level.map(Into::into))
+        .map_err(|e| super::args::about(dataset, e))?;
     if let Some(slot) = rrd {
         record(&outputs, slot, &spmcal::record::Scene::comparison(&session, &model, &sets, &result, method)?)?;
     }

@@ -85,7 +85,12 @@ pub(crate) fn run(args: PlanArgs) -> Result<()> {
     if !(settings.margin_deg.is_finite() && (0.0..=20.0).contains(&settings.margin_deg)) {
         anyhow::bail!("--margin-deg must be between 0 and 20 degrees (got {})", settings.margin_deg);
     }
-    let plan = Plan::design(&model, params.as_ref(), &config, &settings, augment.as_ref())?;
+    let plan = Plan::design(&model, params.as_ref(), &config, &settings, augment.as_ref()).map_err(|e| match &args
+        .augment
+    {
+        Some(dir) => super::args::about(dir, e),
+        None => e.into(),
+    })?;
     outputs.write(slot, PlannedPose::csv(&plan.poses).as_bytes())?;
     if let Some(slot) = rrd {
         let session = plan.session(&model);

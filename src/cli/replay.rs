@@ -51,7 +51,9 @@ pub(crate) fn run(args: ReplayArgs) -> Result<()> {
         session = SessionArgs::at_latency(session, path, p, &mut warnings);
         session = SessionArgs::corrected(session, path, p)?;
     }
-    let summary = record(&outputs, slot, &spmcal::record::Scene::replay(&session, &model, params.as_ref())?)?;
+    let scene = spmcal::record::Scene::replay(&session, &model, params.as_ref())
+        .map_err(|e| super::args::about(&args.session.dataset, e))?;
+    let summary = record(&outputs, slot, &scene)?;
     outputs.commit()?;
     if args.json {
         let mut envelope = Envelope::new("replay", summary).input("dataset", args.session.dataset.display());
