@@ -271,11 +271,15 @@ impl Session {
             None => check_marker_names(&file.markers).map_err(|(key, reason)| at(&key, reason))?,
         }
         let reference_pose = file.reference_pose;
+        let model_given = model;
         let model = match (model, &file.model) {
             (Some(m), _) => m.to_path_buf(),
             (None, Some(m)) => crate::io::files::resolve_reference(dir, m),
             (None, None) => return Err(at("model", "no `model` given here and no --model on the command line".into())),
         };
+        if let (None, Some(reason)) = (model_given, crate::model::shipped::missing(&model)) {
+            return Err(at("model", reason));
+        }
         let layout = session_kind(dir)?;
         match (layout.body, &file.body) {
             (false, Some(body)) => {

@@ -60,6 +60,25 @@ pub(crate) fn listed() -> String {
     NAMES.join(", ")
 }
 
+/// Why the model a file names as `reference` (resolved against that file's folder) is nowhere: no
+/// model ships under that name and no file has it; `None` when it is found. Said at the key
+/// that names it, before the model is read.
+#[cfg(feature = "full")]
+pub(crate) fn missing(reference: &Path) -> Option<String> {
+    if named(reference).is_some() || reference.is_file() {
+        return None;
+    }
+    let shown = reference.display();
+    Some(match crate::io::files::is_name(reference) {
+        true => format!(
+            "no model ships with spmcal under the name `{shown}` (the shipped models are {}), nor is there a file of \
+             this name",
+            listed()
+        ),
+        false => format!("the model {shown} does not exist (the models that ship with spmcal are named {})", listed()),
+    })
+}
+
 impl Shipped {
     /// Its identity: [`identity`] of its two texts.
     pub(crate) fn sha256(&self) -> String {

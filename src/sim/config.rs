@@ -415,12 +415,16 @@ impl SimConfig {
     pub fn read(path: &Path) -> Result<Self, FileError> {
         let (mut config, keys): (SimConfig, _) = crate::io::yaml::read(path)?;
         config.check().map_err(|(key, reason)| keys.error(path, &key, reason))?;
-        config.source = Source(Some((path.to_path_buf(), keys)));
         config.model = if config.model.as_os_str().is_empty() {
             PathBuf::from(DEFAULT_MODEL)
         } else {
-            crate::io::files::resolve_reference(path.parent().unwrap_or(Path::new("")), &config.model)
+            let model = crate::io::files::resolve_reference(path.parent().unwrap_or(Path::new("")), &config.model);
+            if let Some(reason) = crate::model::shipped::missing(&model) {
+                return Err(keys.error(path, "model", reason));
+            }
+            model
         };
+        config.source = Source(Some((path.to_path_buf(), keys)));
         Ok(config)
     }
 
