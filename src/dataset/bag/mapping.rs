@@ -252,6 +252,9 @@ impl Mapping {
             mapping.body_mapped = true;
         }
         mapping.model = mapping.model.map(|m| crate::io::files::resolve_reference(folder, &m));
+        if let Some(reason) = mapping.model.as_deref().and_then(crate::model::shipped::missing) {
+            return Err(keys.error(&path, "model", reason));
+        }
         mapping.path = Some(path);
         Ok(mapping)
     }
