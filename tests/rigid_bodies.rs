@@ -262,3 +262,25 @@ fn compare_estimate_and_replay_read_a_body_session() {
         assert_eq!(scene.write(&dir.path().join("body.rrd")).unwrap().poses, 40);
     }
 }
+
+/// A body's held-out error is told in its own units: its positions' (mm) at the tracker's noise,
+/// its orientations' (deg) apart — a turn in radians is no position in millimetres, and mixed in
+/// they made the positions' RMS several times the noise — and the verdict says both.
+#[test]
+fn a_body_sessions_held_out_error_keeps_positions_and_orientations_apart() {
+    let (session, model, body) = simulate(60, None, 79);
+    let config = CalibConfig { folds: 5, ..CalibConfig::default() };
+    let c = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
+    let cv = c.report.cross_validation.as_ref().unwrap();
+    // A position's error at its noise (√3·σ, 0.52 mm), a little more held out; not the 2.5 mm the
+    // orientations' milliradians made of it.
+    let noise_mm = 3f64.sqrt() * body.position_sigma_m * 1e3;
+    assert!((0.8 * noise_mm..1.5 * noise_mm).contains(&cv.calibrated_rms), "{} mm", cv.calibrated_rms);
+    let [nominal_deg, calibrated_deg] = cv.orientation_rms_deg.unwrap();
+    // An orientation's error is at least its noise (√3·σ, 0.17°), and calibration takes the
+    // mechanism's share of it away.
+    assert!(calibrated_deg > 3f64.sqrt() * body.orientation_sigma_deg * 0.8 && calibrated_deg < nominal_deg);
+    assert!(cv.clearly_better && cv.observations == 120, "{cv:?}");
+    let summary = c.report.verdict.to_string();
+    assert!(summary.contains("body's positions to") && summary.contains("° RMS"), "{summary}");
+}

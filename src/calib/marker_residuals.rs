@@ -557,6 +557,10 @@ impl Residuals for MarkerResiduals<'_> {
         o.station.map_or((false, o.pose), |s| (true, s))
     }
 
+    fn is_orientation(&self, j: usize) -> bool {
+        self.observations[j].rotation
+    }
+
     fn pose_of(&self, j: usize) -> usize {
         self.pose_of[j]
     }

@@ -130,7 +130,8 @@ impl Verdict {
             };
             let unit = if cv.unit == "deg" { "°".to_string() } else { format!(" {}", cv.unit) };
             if !cv.clearly_better {
-                let worse = cv.reduction < -2.0 * cv.reduction_std_error;
+                let worse = cv.reduction < -2.0 * cv.reduction_std_error
+                    || cv.orientation_reduction_deg2.is_some_and(|[m, s]| m < -2.0 * s);
                 reasons.push(VerdictReason {
                     level: if worse { "FAIL" } else { "WARN" },
                     finding: if worse {
@@ -143,16 +144,22 @@ impl Verdict {
                         .into(),
                 });
             }
-            format!(
-                "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
-                 {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({}; the camera's noise \
-                 included)",
-                cv.folds,
-                cv.observations,
-                cv.calibrated_rms,
-                cv.nominal_rms,
-                if cv.clearly_better { "clearly better" } else { "not clearly better" },
-            )
+            let verdict = if cv.clearly_better { "clearly better" } else { "not clearly better" };
+            match cv.orientation_rms_deg {
+                // A rigid body: its positions and its orientations, each in its own unit.
+                Some([nominal_deg, calibrated_deg]) => format!(
+                    "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
+                     body's positions to {:.3}{unit} and its orientations to {calibrated_deg:.4}° RMS against the \
+                     nominal model's {:.3}{unit} and {nominal_deg:.4}° ({verdict}; the tracker's noise included)",
+                    cv.folds, cv.observations, cv.calibrated_rms, cv.nominal_rms,
+                ),
+                None => format!(
+                    "on unseen poses ({}-fold cross-validation, {} observations) the calibrated model predicts the \
+                     {what} to {:.3}{unit} RMS against the nominal model's {:.3}{unit} ({verdict}; the camera's noise \
+                     included)",
+                    cv.folds, cv.observations, cv.calibrated_rms, cv.nominal_rms,
+                ),
+            }
         } else {
             match (before.held_out, after.held_out) {
                 (Some(b), Some(a)) => {

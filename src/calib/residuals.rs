@@ -128,6 +128,12 @@ pub(crate) trait Residuals {
     /// one group are held out together.
     fn group(&self, j: usize) -> (bool, u64);
 
+    /// Whether observation `j` is a rigid body's orientation (a rotation residual in radians), not
+    /// a position: reported on its own, never in a position's unit.
+    fn is_orientation(&self, _j: usize) -> bool {
+        false
+    }
+
     /// What each observation was (for the model check), its joints where the model at `x` reads
     /// them: in a recording, along the encoder stream at the fitted camera clock, not at the
     /// capture's own time stamp.

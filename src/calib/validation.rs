@@ -45,6 +45,14 @@ pub struct CrossValidation {
     pub clearly_better: bool,
     /// Standard error of the calibrated model's mean squared held-out error (unit²).
     pub calibrated_ms_std_error: f64,
+    /// A rigid body's orientations, held out with its positions (which the fields above are
+    /// about): the nominal and the calibrated model's RMS error (deg).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_rms_deg: Option<[f64; 2]>,
+    /// Their mean reduction of the squared error per orientation (deg²), and its standard error:
+    /// the calibration is clearly better when either kind's reduction exceeds twice its own.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_reduction_deg2: Option<[f64; 2]>,
     /// The calibrated model's residual on each held-out observation, `(observation, residual)`:
     /// what the model check tests.
     #[serde(skip)]
@@ -84,6 +92,8 @@ pub(crate) fn cross_validate<M: Residuals>(
     let fold_of = fold_assignment(model, folds);
     let scale = model.unit_scale();
     let (mut nominal_sq, mut calibrated_sq, mut unpredicted) = (Vec::new(), Vec::new(), 0);
+    // A rigid body's orientations (deg²), apart from its positions.
+    let (mut nominal_turn, mut calibrated_turn) = (Vec::new(), Vec::new());
     let mut held_out = Vec::new();
     let by_fold =
         [FoldNormals::new(nominal, registration, &fold_of, folds), FoldNormals::new(calibrated, free, &fold_of, folds)];
@@ -102,9 +112,18 @@ pub(crate) fn cross_validate<M: Residuals>(
         };
         match (predict(nominal, &by_fold[0], None), predict(calibrated, &by_fold[1], prior)) {
             (Some(n), Some(c)) => {
-                let squared = |r: &nalgebra::Vector3<f64>| (r.norm() * scale).powi(2);
-                nominal_sq.extend(n.residuals.iter().map(squared));
-                calibrated_sq.extend(c.residuals.iter().map(squared));
+                for ((&j, a), b) in rows.iter().zip(&n.residuals).zip(&c.residuals) {
+                    match model.is_orientation(j) {
+                        true => {
+                            nominal_turn.push(a.norm().to_degrees().powi(2));
+                            calibrated_turn.push(b.norm().to_degrees().powi(2));
+                        }
+                        false => {
+                            nominal_sq.push((a.norm() * scale).powi(2));
+                            calibrated_sq.push((b.norm() * scale).powi(2));
+                        }
+                    }
+                }
                 held_out.extend(rows.iter().copied().zip(c.residuals.iter().copied()));
             }
             _ => unpredicted += rows.len(),
@@ -114,16 +133,14 @@ pub(crate) fn cross_validate<M: Residuals>(
     if n == 0 {
         return None;
     }
-    let d: Vec<f64> = nominal_sq.iter().zip(&calibrated_sq).map(|(a, b)| a - b).collect();
-    let mean = d.iter().sum::<f64>() / n as f64;
-    let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
-    let se = (var / n as f64).sqrt();
+    let [mean, se] = mean_reduction(&nominal_sq, &calibrated_sq);
+    let turn = (!nominal_turn.is_empty()).then(|| mean_reduction(&nominal_turn, &calibrated_turn));
     let rms = |v: &[f64]| (v.iter().sum::<f64>() / v.len() as f64).sqrt();
     let cal_mean = calibrated_sq.iter().sum::<f64>() / n as f64;
     let cal_var = calibrated_sq.iter().map(|v| (v - cal_mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
     Some(CrossValidation {
         folds,
-        observations: n,
+        observations: n + nominal_turn.len(),
         unpredicted,
         level: model.level(),
         unit: model.unit(),
@@ -131,10 +148,22 @@ pub(crate) fn cross_validate<M: Residuals>(
         calibrated_rms: rms(&calibrated_sq),
         reduction: mean,
         reduction_std_error: se,
-        clearly_better: mean > 2.0 * se,
+        clearly_better: mean > 2.0 * se || turn.is_some_and(|[m, s]| m > 2.0 * s),
         calibrated_ms_std_error: (cal_var / n as f64).sqrt(),
+        orientation_rms_deg: turn.map(|_| [rms(&nominal_turn), rms(&calibrated_turn)]),
+        orientation_reduction_deg2: turn,
         held_out,
     })
+}
+
+/// The mean reduction of the squared error per observation from `nominal` to `calibrated`, and its
+/// standard error.
+fn mean_reduction(nominal: &[f64], calibrated: &[f64]) -> [f64; 2] {
+    let n = nominal.len();
+    let d: Vec<f64> = nominal.iter().zip(calibrated).map(|(a, b)| a - b).collect();
+    let mean = d.iter().sum::<f64>() / n as f64;
+    let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
+    [mean, (var / n as f64).sqrt()]
 }
 
 /// The full fit's orientation of each of `test`'s poses (`rows` of `model`): where each held-out
