@@ -217,8 +217,15 @@ fn every_number_of_the_parameters_file_is_reported_at_its_own_line() {
         std::fs::write(&path, nan.join("\n")).unwrap();
         let err = Parameters::read(&path).expect_err(line);
         assert_eq!(err.line, Some(k + 1), "{line} → .nan: {err}");
-        // Far out of range: scalars at their line, a vector (a norm) at its key's line.
-        let huge = if value.starts_with('-') { "-1.0e6" } else { "1.0e6" };
+        // Far out of range: scalars at their line, a vector (a norm) at its key's line. A standard
+        // error has no upper bound (a poorly determined term's may exceed any bound on the value):
+        // a negative one is out of its range.
+        let std_error = head.contains("std_error") || lines[key_line - 1].contains("std_error");
+        let huge = match (std_error, value.starts_with('-')) {
+            (true, _) => "-1.0",
+            (false, true) => "-1.0e6",
+            (false, false) => "1.0e6",
+        };
         let far: Vec<String> = lines
             .iter()
             .enumerate()
