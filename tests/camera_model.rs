@@ -381,6 +381,12 @@ fn auto_takes_no_known_camera_term_and_a_frozen_camera_is_rigid() {
     let choice = camera.choice.as_ref().unwrap();
     assert_eq!((camera.model, choice.candidates.len()), (CameraModelKind::Rigid, 0));
     assert!(choice.summary.contains("frozen"), "{}", choice.summary);
+    // Frozen on a camera whose depths read 2 % long: what to do starts with freeing it.
+    let long = simulate(&config(1.02), 10_008, &model);
+    let calibration = calibrate(&long, &model, &frozen, &mut |_| {}).unwrap();
+    let warnings = &calibration.report.warnings;
+    let held = warnings.iter().find(|w| w.contains("`depth_scale` is held")).expect("the held depth scale said");
+    assert!(held.contains("take `camera_model` out of `freeze` and fit it"), "{held}");
 }
 
 #[test]

@@ -97,7 +97,7 @@ fn the_plan_file_round_trips_and_the_simulator_captures_exactly_its_poses() {
     assert!(err.contains("plan.csv:3: column `step`: step 1 appears twice"), "{err}");
     std::fs::write(&path, "step,qw,qx,qy,qz,theta1_rad,theta2_rad,theta3_rad\n1,0.9,0,0,0,0,0,0\n").unwrap();
     let err = PlannedPose::read(&path).unwrap_err().to_string();
-    assert!(err.contains("plan.csv:2: column `qw`") && err.contains("unit norm"), "{err}");
+    assert!(err.contains("plan.csv:2: column `qw`") && err.contains("has norm 0.9, not 1"), "{err}");
 }
 
 #[test]

@@ -879,7 +879,8 @@ impl ModelCheck {
 
     /// The cause of a failed check in words, with the option that models it, for the fitted camera
     /// model `camera` (a pixel session's: `None`).
-    pub(crate) fn diagnose(&mut self, camera: Option<&str>, pixels: bool) {
+    /// `camera_frozen`: the config holds the camera model (`freeze: [camera_model]`).
+    pub(crate) fn diagnose(&mut self, camera: Option<&str>, pixels: bool, camera_frozen: bool) {
         if self.passed {
             return;
         }
@@ -913,6 +914,9 @@ impl ModelCheck {
                     Some("projective") => {
                         "recalibrate the camera: its errors are beyond a projective model".to_string()
                     }
+                    _ if camera_frozen => "take `camera_model` out of `freeze` and fit a fuller camera model \
+                                           (`camera_model: auto`, or `affine` / `projective`)"
+                        .to_string(),
                     _ => "fit a fuller camera model (`camera_model: auto`, or `affine` / `projective`)".to_string(),
                 },
             ),

@@ -487,7 +487,7 @@ fn run<L: Level>(
             .unwrap_or_default();
         check.name_markers(&names);
         let camera = report.markers.as_ref().map(|m| m.camera_model.model.name());
-        check.diagnose(camera, unit == "px");
+        check.diagnose(camera, unit == "px", config.freeze.contains(&Group::CameraModel));
         // Held scales are an alarm only when the residuals show one off: on every small clean
         // session they would ring.
         if let Some(message) = held_scales_message.clone().filter(|_| check.rejects(Structure::Joints)) {

@@ -318,7 +318,8 @@ pub(crate) fn reference_from(folder: &Path, model: &Path) -> PathBuf {
         return PathBuf::from(shipped.name);
     }
     if model.is_absolute() {
-        return model.to_path_buf();
+        // As given, but without the `..` a folder given absolutely leaves in it.
+        return model.canonicalize().unwrap_or_else(|_| model.to_path_buf());
     }
     let (Ok(from), Ok(target)) = (folder.canonicalize(), model.canonicalize()) else {
         return model.to_path_buf();

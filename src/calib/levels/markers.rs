@@ -440,7 +440,9 @@ impl MarkerLevel<'_> {
                 let value = fitted.value(term);
                 let std_error = std_error(cov, free, i);
                 let released = held.and_then(|_| released(&r.calibrated, free, i)).map(|(d, s)| (value + d, s));
-                if let Some(finding) = camera_finding(term, value, std_error, released) {
+                if let Some(finding) =
+                    camera_finding(term, value, std_error, released, self.freeze.contains(&Group::CameraModel))
+                {
                     if held.is_some() {
                         warnings.push(finding.clone());
                     }
@@ -472,6 +474,7 @@ fn camera_finding(
     value: f64,
     std_error: Option<f64>,
     released: Option<(f64, f64)>,
+    frozen: bool,
 ) -> Option<String> {
     let describe = |v: f64, s: f64| match term {
         CameraTerm::DepthScale => format!(
@@ -487,10 +490,11 @@ fn camera_finding(
             describe(value, s)
         )),
         (None, Some((v, s))) if (v - term.perfect()).abs() > CAMERA_SIGNIFICANCE * s => Some(format!(
-            "the residuals follow the camera, not the mechanism: they say {}, {:.1} standard errors from a perfect camera, but `{}` is held — fit it (`camera_model: {}`)",
+            "the residuals follow the camera, not the mechanism: they say {}, {:.1} standard errors from a perfect camera, but `{}` is held — {}fit it (`camera_model: {}`)",
             describe(v, s),
             (v - term.perfect()).abs() / s,
             term.name(),
+            if frozen { "take `camera_model` out of `freeze` and " } else { "" },
             CameraModelKind::smallest(|t| t == term).name()
         )),
         _ => None,
