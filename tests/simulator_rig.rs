@@ -442,7 +442,7 @@ fn bad_rig_settings_are_refused_naming_their_key_and_line() {
         ("    cameras:\n      - {distortion_model: fisheye}", "distortion_model", "`radtan` or `equidistant`"),
         ("    cameras:\n      - {distortion_coeffs: [-0.9, 0, 0, 0]}", "distortion_coeffs", "folds over"),
         ("    cameras:\n      - {intrinsics: [0, 900, 640, 400]}", "intrinsics", "positive focal"),
-        ("    pixel_sigma_px: -1", "camera.rig.pixel_sigma_px", "non-negative"),
+        ("    pixel_sigma_px: -1", "camera.rig.pixel_sigma_px", "must be from 0 to 1000 px"),
         ("    miscalibration:\n      focal_scale: [[1, 1], [1, 1], [1, 1]]", "focal_scale", "lists 3 cameras"),
         ("    miscalibration:\n      baseline_scale: 3", "baseline_scale", "[0.5, 2]"),
         ("    cameras: [{}]\n    miscalibration:\n      rotation_deg: [0, 0.1, 0]", "rotation_deg", "one camera"),
