@@ -88,10 +88,12 @@ pub fn from_wxyz(q: [f64; 4]) -> Option<Rotation3<f64>> {
 
 /// How far from 1 the norm of a quaternion a person typed or a tool printed may be: four or five
 /// digits put it within 10⁻⁴ of unit norm; 10⁻³ is a wrong number, not rounding.
+#[cfg(feature = "full")] // the files that print quaternions are read by the full build
 pub(crate) const PRINTED_QUATERNION_TOLERANCE: f64 = 1e-3;
 
 /// Rotation from a quaternion `[qw, qx, qy, qz]` as printed or typed with a few digits: normalised
 /// when its norm is 1 within [`PRINTED_QUATERNION_TOLERANCE`], else `Err(norm)`.
+#[cfg(feature = "full")]
 pub(crate) fn from_printed_wxyz(q: [f64; 4]) -> Result<Rotation3<f64>, f64> {
     let quat = nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]);
     let n = quat.norm();
