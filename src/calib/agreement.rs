@@ -237,8 +237,8 @@ pub(crate) fn marker_pose_errors(
     if observations.len() < 3 {
         return Err(SetError::TooFewObservations(observations.len()));
     }
-    // A rigid body's origin is the one "marker", named after the body (as the calibration has it).
-    let names: Vec<String> = session.body.iter().cloned().chain(session.markers.iter().cloned()).collect();
+    // A rigid body's origin is the one "marker" (as the calibration has it).
+    let names = session.observed_names();
     let mut markers = match session.body {
         Some(_) => vec![Vector3::zeros()],
         None => model_markers(&session.markers, model)?,

@@ -208,6 +208,12 @@ struct SessionFile {
 }
 
 impl Session {
+    /// What the marker-level fit observes, by name: a rigid body's origin (named after the body,
+    /// marker 0 of its observations), then the markers.
+    pub(crate) fn observed_names(&self) -> Vec<String> {
+        self.body.iter().chain(&self.markers).cloned().collect()
+    }
+
     /// The reference pose.
     ///
     /// # Panics

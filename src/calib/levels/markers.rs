@@ -74,8 +74,8 @@ impl<'s> MarkerLevel<'s> {
         let spm = &robot.spm;
         let (observations, failed) = MarkerObservation::of_session(session, spm);
         let excluded = failed.iter().map(|(pose, e)| format!("pose {pose}: nominal forward kinematics: {e}")).collect();
-        // A rigid body's origin is the one "marker", named after the body, its start fitted below.
-        let names: Vec<String> = session.body.iter().cloned().chain(session.markers.iter().cloned()).collect();
+        // A rigid body's origin is the one "marker", its start fitted below.
+        let names = session.observed_names();
         let markers0 = match session.body {
             Some(_) => vec![Vector3::zeros()],
             None => model_markers(&session.markers, robot).map_err(|e| match e {
