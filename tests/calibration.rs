@@ -173,7 +173,7 @@ fn outliers_are_flagged_and_down_weighted() {
     // degrees of freedom, whose 90% range is 0.63–1.35× the prediction), and far below the
     // nominal model's (the truth's spread).
     let predicted = calibration.report.predicted_error_deg.as_ref().unwrap().rms;
-    let spm = spmcal::model::Spm::new(calibration.parameters.legs).unwrap();
+    let spm = calibration.parameters.spm().unwrap();
     let t = session.truth.as_ref().unwrap();
     let held_out = poses(&calibration).1;
     let fitted: Vec<_> = held_out.iter().map(|o| spm.forward(&o.joints).unwrap()).collect();

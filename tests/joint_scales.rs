@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use spmcal::calib::{CalibConfig, Calibration, JointScales, calibrate};
+use spmcal::calib::{CalibConfig, Calibration, FitChoice, calibrate};
 use spmcal::dataset::Session;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
@@ -27,7 +27,7 @@ fn simulated(poses: usize, seed: u64, scales: [f64; 3]) -> (Session, RobotModel)
     (session, model)
 }
 
-fn calibrated(session: &Session, model: &RobotModel, scales: JointScales) -> Calibration {
+fn calibrated(session: &Session, model: &RobotModel, scales: FitChoice) -> Calibration {
     let config = CalibConfig { folds: 0, joint_scales: scales, ..CalibConfig::default() };
     calibrate(session, model, &config, &mut |_| {}).unwrap()
 }
@@ -47,7 +47,7 @@ fn scale_errors_are_recovered_and_cost_the_mechanism_nothing_while_held_they_cos
     // The truth file carries them (read back as the simulator wrote them).
     let truth = &scaled.truth.as_ref().unwrap().parameters;
     assert_eq!(truth.legs.map(|g| g.scale), SCALES);
-    let fitted = calibrated(&scaled, &model, JointScales::Auto);
+    let fitted = calibrated(&scaled, &model, FitChoice::Auto);
     assert_eq!(fitted.report.joint_scales.len(), 3);
     for s in &fitted.report.joint_scales {
         // 200 poses determine a scale to ~550 ppm: errors of 0.4 and 0.3 % are 7σ and 5σ, and
@@ -63,8 +63,8 @@ fn scale_errors_are_recovered_and_cost_the_mechanism_nothing_while_held_they_cos
     // The calibrated parameters file carries the ones fitted.
     assert_eq!(fitted.parameters.to_yaml().matches("  scale: ").count(), 3);
     let with_scales = held_out_error(&scaled, &fitted);
-    let without_error = held_out_error(&clean, &calibrated(&clean, &model, JointScales::Hold));
-    let held = held_out_error(&scaled, &calibrated(&scaled, &model, JointScales::Hold));
+    let without_error = held_out_error(&clean, &calibrated(&clean, &model, FitChoice::Hold));
+    let held = held_out_error(&scaled, &calibrated(&scaled, &model, FitChoice::Hold));
     // Three more parameters determined to ~550 ppm add variance (the report's predicted error rises
     // 20–25 %; the study pools 20 sessions); one session has room for its spread. Held, the same
     // scale errors cost several times that (the study: 3.5× on 200 poses).
@@ -82,8 +82,8 @@ fn scale_errors_are_recovered_and_cost_the_mechanism_nothing_while_held_they_cos
 #[test]
 fn a_session_without_scale_errors_is_not_hurt_by_fitting_them_by_default() {
     let (clean, model) = simulated(200, 3502, [1.0; 3]);
-    let default = calibrated(&clean, &model, JointScales::Auto);
-    let held = calibrated(&clean, &model, JointScales::Hold);
+    let default = calibrated(&clean, &model, FitChoice::Auto);
+    let held = calibrated(&clean, &model, FitChoice::Hold);
     assert!(held.report.joint_scales.iter().all(|s| s.held.as_deref().is_some_and(|h| h.starts_with("frozen"))));
     // Without a scale error `auto` holds the scales unless their fit differs from 1 by 3σ's worth
     // (0.3 % of sessions): held, the session is calibrated as with `hold`.
@@ -116,17 +116,17 @@ fn a_scale_determined_worse_than_auto_asks_is_fitted_where_its_error_shows() {
         (session, model)
     };
     let (scaled, model) = noisy([1.02, 1.0, 1.0]);
-    let fitted = calibrated(&scaled, &model, JointScales::Auto);
+    let fitted = calibrated(&scaled, &model, FitChoice::Auto);
     let leg1 = &fitted.report.joint_scales[0];
     let se = leg1.std_error_ppm.expect("leg 1's scale fitted");
     assert!(se > 1000.0, "σ {se:.0} ppm: the session must determine it worse than `auto`'s 0.1 %");
     let error_ppm = (leg1.scale - 1.02) * 1e6;
     assert!(error_ppm.abs() < 4.0 * se, "error {error_ppm:.0} ppm, σ {se:.0} ppm");
-    let held = calibrated(&scaled, &model, JointScales::Hold);
+    let held = calibrated(&scaled, &model, FitChoice::Hold);
     let (a, b) = (held_out_error(&scaled, &fitted), held_out_error(&scaled, &held));
     assert!(2.0 * a < b, "auto {a:.4}° against held {b:.4}°");
     let (clean, _) = noisy([1.0; 3]);
-    let clean_fit = calibrated(&clean, &model, JointScales::Auto);
+    let clean_fit = calibrated(&clean, &model, FitChoice::Auto);
     assert!(clean_fit.report.joint_scales.iter().all(|s| s.held.is_some()), "{:?}", clean_fit.report.joint_scales);
 }
 
@@ -140,7 +140,7 @@ fn scales_a_session_cannot_tell_from_the_offsets_are_held_and_said() {
     config.workspace.max_yaw_deg = 4.0;
     let model = RobotModel::load(&config.model).unwrap();
     let (session, _) = config.simulate(&model, &mut |_| {}).unwrap();
-    let fitted = calibrated(&session, &model, JointScales::Auto);
+    let fitted = calibrated(&session, &model, FitChoice::Auto);
     let held: Vec<_> = fitted.report.joint_scales.iter().filter(|s| s.held.is_some()).collect();
     assert!(!held.is_empty(), "{:?}", fitted.report.joint_scales);
     for s in &held {
@@ -162,7 +162,7 @@ fn the_setting_is_read_from_the_config_and_a_wrong_one_is_located() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("calibrate.yaml");
     std::fs::write(&path, "folds: 0\njoint_scales: hold\n").unwrap();
-    assert_eq!(CalibConfig::read(&path).unwrap().joint_scales, JointScales::Hold);
+    assert_eq!(CalibConfig::read(&path).unwrap().joint_scales, FitChoice::Hold);
     std::fs::write(&path, "folds: 0\njoint_scales: maybe\n").unwrap();
     let err = CalibConfig::read(&path).unwrap_err();
     assert_eq!(err.line, Some(2), "{err}");
@@ -180,7 +180,7 @@ fn the_setting_is_read_from_the_config_and_a_wrong_one_is_located() {
 fn fitted_scales_leave_the_model_check_no_joint_columns_in_a_recording() {
     let (session, _) = Session::load(Path::new("datasets/agile_wrist_free_motion_120s"), None).unwrap();
     let model = RobotModel::load(&session.model).unwrap();
-    let config = CalibConfig { folds: 5, joint_scales: JointScales::Fit, ..CalibConfig::default() };
+    let config = CalibConfig { folds: 5, joint_scales: FitChoice::Fit, ..CalibConfig::default() };
     let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
     assert!(calibration.report.joint_scales.iter().all(|s| s.held.is_none()), "all three scales fitted");
     let check = calibration.report.model_check.as_ref().expect("a recording of markers is checked");

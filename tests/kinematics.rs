@@ -69,6 +69,34 @@ fn round_trip_perturbed_geometries_10000_orientations_each() {
 }
 
 #[test]
+fn a_sagging_platform_round_trips_and_turns_down_by_its_sag_times_the_sine_of_its_tilt() {
+    let mut rng = StdRng::seed_from_u64(5);
+    for sag_deg in [0.5, -2.0, 10.0] {
+        let rigid = perturbed(&mut rng);
+        let spm = rigid.clone().with_platform_sag(sag_deg * DEG).unwrap();
+        assert_round_trip(&spm, &mut rng, 2_000);
+        for _ in 0..200 {
+            let r = workspace_orientation(&mut rng, 30.0 * DEG, 30.0 * DEG);
+            let joints = rigid.ik(&r).unwrap();
+            // The same joints: the rigid mechanism's orientation, turned down about the horizontal
+            // axis across the tilt by the sag times the sine of the tilt (the gravity torque's arm).
+            let sagged = spm.forward(&joints).unwrap();
+            let tilt = |r: &Rotation3<f64>| (r * Vector3::z()).z.clamp(-1.0, 1.0).acos();
+            let expected = sag_deg * DEG * tilt(&r).sin();
+            assert!((so3::geodesic_angle(&r, &sagged) - expected.abs()).abs() < 1e-12);
+            assert!((tilt(&sagged) - tilt(&r) - expected).abs() < 1e-12);
+            // `rigid` undoes `sagged`; IK of the platform as it is reads the same joints.
+            assert!(so3::geodesic_angle(&spm.rigid(&sagged), &r) < 1e-12);
+            assert!((spm.ik(&sagged).unwrap() - joints).amax() < 1e-11);
+        }
+    }
+    // Beyond ±10° per unit of arm, or not a number: refused.
+    for bad in [10.5 * DEG, f64::NAN, f64::INFINITY] {
+        assert!(Spm::agile_wrist_nominal().with_platform_sag(bad).is_err());
+    }
+}
+
+#[test]
 fn both_ik_branches_close_the_loop_and_differ_in_sign() {
     let mut rng = StdRng::seed_from_u64(3);
     let spm = perturbed(&mut rng);

@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use spmcal::calib::{CalibConfig, Calibration, CameraModelSetting, Group, JointScales, calibrate};
+use spmcal::calib::{CalibConfig, Calibration, CameraModelSetting, FitChoice, Group, calibrate};
 use spmcal::dataset::Session;
 use spmcal::math::so3;
 use spmcal::model::RobotModel;
@@ -62,7 +62,9 @@ fn a_depth_camera_fitted_rigid_is_flagged_with_the_camera_model_named_and_its_er
         run(&session, &model, &CalibConfig { camera_model: CameraModelSetting::Rigid, ..CalibConfig::default() });
     let report = &rigid.report;
     let check = report.model_check.as_ref().unwrap();
-    assert!(!check.passed && check.p_value < 1e-4, "{}", check.summary());
+    // Rejected at the family's 2 % (p = 2e-3 on this session: `platform_sag: auto` fits a sag
+    // that takes up a little of the camera's error; 4e-7 with the sag held).
+    assert!(!check.passed && check.p_value < 0.02, "{}", check.summary());
     assert_eq!(check.cause, Some("camera volume"));
     assert!(check.finding.as_deref().unwrap().contains("beyond the `rigid` camera model"));
     assert!(check.action.as_deref().unwrap().contains("camera_model: auto"));
@@ -100,7 +102,7 @@ fn a_joint_reading_long_is_fitted_by_default_and_flagged_when_held() {
     assert!(se > 1e-3 && (leg1.scale - 1.0 / 1.03).abs() < 4.0 * se, "{leg1:?}");
     let check = report.model_check.as_ref().unwrap();
     assert!(check.passed && !check.tests.iter().any(|t| t.leg == Some(1)), "{}", check.summary());
-    let held = CalibConfig { joint_scales: JointScales::Hold, ..CalibConfig::default() };
+    let held = CalibConfig { joint_scales: FitChoice::Hold, ..CalibConfig::default() };
     let report = run(&session, &model, &held).report;
     let check = report.model_check.as_ref().unwrap();
     assert!(!check.passed, "{}", check.summary());
@@ -150,27 +152,70 @@ fn the_simulated_sag_turns_the_platform_down_by_the_compliance_times_the_sine_of
 }
 
 #[test]
-fn a_sagging_platform_is_flagged_as_a_sag_with_its_cause_in_words() {
+fn a_sagging_platform_is_fitted_by_default_and_flagged_as_a_sag_when_held() {
     let mut c = realistic("configs/simulate_agile_wrist.yaml");
-    // 1° per unit of arm: 0.5° at 30° of tilt; the study: 3.5 times the error of a rigid one,
-    // caught in 90 % of sessions, named every time.
+    // 1° per unit of arm: 0.5° at 30° of tilt; the study: 3.4 times the error of a rigid one when
+    // held, caught in 90 % of sessions, named every time.
     (c.poses, c.truth.sag_deg) = (200, 1.0);
     let (session, model) = simulate(&c, 36_100);
-    let report = run(&session, &model, &CalibConfig::default()).report;
+    let hold = CalibConfig { platform_sag: FitChoice::Hold, ..CalibConfig::default() };
+    let report = run(&session, &model, &hold).report;
     let check = report.model_check.as_ref().unwrap();
     assert!(!check.passed, "{}", check.summary());
     assert_eq!(check.cause, Some("platform sag"), "{}", check.summary());
     let finding = check.finding.as_deref().unwrap();
-    assert!(finding.contains("sags under gravity") && finding.contains("no term"), "{finding}");
-    assert!(check.action.as_deref().unwrap().contains("limit the workspace's tilt"));
+    assert!(finding.contains("sags under gravity"), "{finding}");
+    assert!(check.action.as_deref().unwrap().contains("platform_sag"), "{:?}", check.action);
     assert_eq!(check.figure_axes.as_ref().unwrap()[0], "platform's tilt (°)");
     assert_eq!(report.verdict.label(), "WARN");
-    // The same mechanism, rigid: passes.
+    // The defaults (`platform_sag: auto`) find the sag and fit it: the true 1° within 3 of its
+    // standard errors, no sag test left in the check, which passes.
+    let fitted = run(&session, &model, &CalibConfig::default());
+    let p = &fitted.parameters;
+    let se = p.platform_sag_std_error_deg.expect("the sag fitted");
+    assert!((p.platform_sag_deg - 1.0).abs() < 3.0 * se && se < 0.2, "{} ± {se}", p.platform_sag_deg);
+    assert!(fitted.report.platform_sag_held.is_none());
+    let check = fitted.report.model_check.as_ref().unwrap();
+    assert!(check.passed && check.tests.iter().all(|t| t.structure != "platform sag"), "{}", check.summary());
+    assert_eq!(fitted.report.verdict.label(), "PASS", "{}", fitted.report.verdict);
+    // The same mechanism, rigid: passes, the sag held by `auto` with its reason.
     c.truth.sag_deg = 0.0;
     let (rigid, _) = simulate(&c, 36_100);
-    let check = run(&rigid, &model, &CalibConfig::default()).report.model_check.unwrap();
+    let calibration = run(&rigid, &model, &CalibConfig::default());
+    let check = calibration.report.model_check.as_ref().unwrap();
     assert!(check.passed, "{}", check.summary());
+    let held = calibration.report.platform_sag_held.as_deref().unwrap_or_default();
+    assert!(held.contains("not shown by this session") || held.contains("not distinguishable"), "{held}");
 }
+
+#[test]
+fn the_fitted_sag_puts_the_platform_where_it_is_on_unseen_poses() {
+    // The calibrated mechanism (its sag included) against where the platform really is at unseen
+    // orientations' joints, as the study measures it (up to the common rotations): about what a
+    // rigid platform's calibration achieves (the study: 1.0–1.1 times), where holding the sag
+    // costs 3.4 times.
+    let mut c = realistic("configs/simulate_agile_wrist.yaml");
+    c.poses = 200;
+    let mut error = |sag_deg: f64, settings: &CalibConfig| {
+        c.truth.sag_deg = sag_deg;
+        let (session, model) = simulate(&c, 36_101);
+        let truth = session.truth.as_ref().unwrap().parameters.spm().unwrap();
+        assert!((truth.platform_sag().to_degrees() - sag_deg).abs() < 1e-12, "the truth carries its sag");
+        let tests = study::test_orientations(&truth, 60, 36_101);
+        study::calibration_error_up_to_common_rotations(&session, &run(&session, &model, settings), &tests)
+    };
+    let rigid = error(0.0, &CalibConfig::default());
+    let fitted = error(1.0, &CalibConfig::default());
+    let held = error(1.0, &CalibConfig { platform_sag: FitChoice::Hold, ..CalibConfig::default() });
+    eprintln!("rigid {rigid:.4}°, sag fitted {fitted:.4}°, sag held {held:.4}°");
+    assert!(fitted < 1.5 * rigid, "fitted {fitted:.4}° against rigid {rigid:.4}°");
+    assert!(held > 2.0 * fitted, "held {held:.4}° against fitted {fitted:.4}°");
+}
+
+/// The study's measure of the achieved error (`examples/verdict`).
+#[allow(dead_code)]
+#[path = "../examples/marker_efficiency/study.rs"]
+mod study;
 
 #[test]
 fn a_camera_clock_running_fast_with_its_rate_frozen_is_flagged_as_time() {
@@ -227,7 +272,9 @@ fn the_json_carries_the_verdict_its_reasons_and_the_checks_statistic_and_p_value
     assert_eq!(check["passed"], false);
     assert_eq!(check["cause"], "camera volume");
     let tests = check["tests"].as_array().unwrap();
-    assert!(tests.iter().any(|t| t["structure"] == "camera volume" && t["p_value"].as_f64().unwrap() < 1e-6));
+    // The camera volume's own test rejects at its share of the family's rate.
+    let rejects = |t: &serde_json::Value| t["p_value"].as_f64().unwrap() < t["alpha"].as_f64().unwrap();
+    assert!(tests.iter().any(|t| t["structure"] == "camera volume" && rejects(t)), "{tests:?}");
     // The parameters file's header says the same word.
     let params = std::fs::read_to_string(dir.path().join("p.yaml")).unwrap();
     assert!(params.contains("verdict: FAIL"), "{params}");

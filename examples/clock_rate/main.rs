@@ -181,7 +181,7 @@ fn run(session: &Session, model: &RobotModel, seed: u64, config: CalibConfig) ->
 /// outer 20 % of the workspace's tilt the hand never does).
 fn own_poses_error(session: &Session, fitted: &spmcal::calib::Calibration) -> f64 {
     let truth = session.truth.as_ref().expect("simulated").parameters.spm().expect("valid");
-    let Ok(spm) = spmcal::model::Spm::new(fitted.parameters.legs) else { return f64::INFINITY };
+    let Ok(spm) = fitted.parameters.spm() else { return f64::INFINITY };
     let (mut fit, mut true_r) = (Vec::new(), Vec::new());
     for pose in session.poses.iter().step_by(5) {
         if let (Ok(f), Ok(t)) = (spm.forward(&pose.joints), truth.forward(&pose.joints)) {

@@ -24,7 +24,7 @@ mod results;
 use std::path::Path;
 
 use rand::{Rng, SeedableRng};
-use spmcal::calib::{CalibConfig, JointScales};
+use spmcal::calib::{CalibConfig, FitChoice};
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
@@ -74,11 +74,11 @@ fn main() {
             c.encoders.scales = std::array::from_fn(|_| 1.0 + rng.random_range(-MOST_SCALE_ERROR..MOST_SCALE_ERROR));
             let (scaled, _) = c.simulate(&model, &mut |_| {}).expect("the simulation succeeds");
             let runs = [
-                (&clean, JointScales::Auto),
-                (&clean, JointScales::Hold),
-                (&scaled, JointScales::Auto),
-                (&scaled, JointScales::Hold),
-                (&clean, JointScales::Fit),
+                (&clean, FitChoice::Auto),
+                (&clean, FitChoice::Hold),
+                (&scaled, FitChoice::Auto),
+                (&scaled, FitChoice::Hold),
+                (&clean, FitChoice::Fit),
             ];
             let outcomes: Vec<Result<Outcome, String>> =
                 runs.iter().map(|(session, setting)| run(session, &model, *setting, c.seed)).collect();
@@ -139,7 +139,7 @@ fn main() {
 fn run(
     session: &spmcal::dataset::Session,
     model: &RobotModel,
-    scales: JointScales,
+    scales: FitChoice,
     seed: u64,
 ) -> Result<Outcome, String> {
     let truth = session.truth.as_ref().expect("simulated");
@@ -157,7 +157,7 @@ fn run(
         .iter()
         .filter_map(|s| s.std_error_ppm.map(|se| (s.scale - true_scales[s.leg - 1]) * 1e6 / se))
         .collect();
-    let held = fitted.report.joint_scales.iter().filter(|s| s.held.is_some() && scales == JointScales::Auto).count();
+    let held = fitted.report.joint_scales.iter().filter(|s| s.held.is_some() && scales == FitChoice::Auto).count();
     Ok(Outcome { achieved, predicted, z, held })
 }
 

@@ -186,13 +186,16 @@ pub fn calibration_error_up_to_common_rotations(
 ) -> f64 {
     let truth = session.truth.as_ref().expect("a simulated session");
     let spm_true = truth.parameters.spm().expect("a valid truth");
-    let Ok(spm) = Spm::new(calibration.parameters.legs) else { return f64::INFINITY };
+    let Ok(spm) = calibration.parameters.spm() else { return f64::INFINITY };
     let (mut fitted, mut true_r) = (Vec::new(), Vec::new());
     for r in tests {
-        let joints = spm_true.ik(r).expect("test orientations are reachable");
+        // The joints put the rigid mechanism at `r`; the platform is where its sag (if the truth
+        // has one) turns it further.
+        let real = spm_true.sagged(r);
+        let joints = spm_true.ik(&real).expect("test orientations are reachable");
         let Ok(f) = spm.forward(&joints) else { return f64::INFINITY };
         fitted.push(f);
-        true_r.push(*r);
+        true_r.push(real);
     }
     up_to_common_rotations(&fitted, &true_r)
 }

@@ -8,7 +8,7 @@
 use nalgebra::Vector3;
 use spmcal::calib::{CalibConfig, Calibration, Group, Kind, MarkerObservation, TruthInGauge, calibrate};
 use spmcal::dataset::Session;
-use spmcal::model::{RobotModel, Spm};
+use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
 /// One session's figures.
@@ -84,7 +84,7 @@ pub fn run(config: &SimConfig, model: &RobotModel, seed: u64, tests: usize) -> A
 fn achieved(calibration: &Calibration, session: &Session, joints: &[Vector3<f64>]) -> (f64, f64) {
     let truth = session.truth.as_ref().expect("a simulated session");
     let spm_true = truth.parameters.spm().expect("a valid truth");
-    let spm_fit = Spm::new(calibration.parameters.legs).expect("a valid fit");
+    let spm_fit = calibration.parameters.spm().expect("a valid fit");
     let true_camera = truth.parameters.camera.expect("a simulated camera");
     let fit_camera = calibration.parameters.camera.expect("a marker-level fit has a registration");
     let (mut fitted, mut true_r, mut sq_mm, mut n_mm) = (Vec::new(), Vec::new(), 0.0, 0usize);

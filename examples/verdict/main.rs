@@ -10,9 +10,10 @@
 //!   mechanism's error against the truth over the same seeds' clean sessions), how often the check
 //!   fails (its power), how often it names the right cause, and the predicted error over the
 //!   achieved one without and with the widening. The joint scales are held (`joint_scales:
-//!   hold`) and the camera clock's rate frozen on the rows of those effects; a platform that sags
-//!   under its weight (`truth.sag_deg`) is scored against where it really is, sag included;
-//! - the same joint scale and clock rate calibrated with the defaults, which model them.
+//!   hold`), the camera clock's rate frozen and the platform's sag held (`platform_sag: hold`) on
+//!   the rows of those effects; a platform that sags under its weight (`truth.sag_deg`) is scored
+//!   against where it really is, sag included;
+//! - the same joint scale, clock rate and sag calibrated with the defaults, which model them.
 //!
 //! Run: `cargo run --release --example verdict [sessions] [recordings] [hours]` (default 40 static
 //! sessions per row and clean recordings of two and ten minutes, 10 recordings per ten-minute row
@@ -24,10 +25,8 @@ mod results;
 use std::path::Path;
 use std::sync::Arc;
 
-use nalgebra::{Rotation3, Vector3};
-use spmcal::calib::{CalibConfig, CameraModelSetting, Group, JointScales};
+use spmcal::calib::{CalibConfig, CameraModelSetting, FitChoice, Group};
 use spmcal::dataset::Session;
-use spmcal::math::so3;
 use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
@@ -121,7 +120,8 @@ fn main() {
     let held = |k: Kind, group: Group| {
         let mut settings = k.settings.clone();
         match group {
-            Group::JointScales => settings.joint_scales = JointScales::Hold,
+            Group::JointScales => settings.joint_scales = FitChoice::Hold,
+            Group::PlatformSag => settings.platform_sag = FitChoice::Hold,
             other => settings.freeze.push(other),
         }
         Kind { settings, ..k }
@@ -280,38 +280,47 @@ fn main() {
             5,
         ),
         (
-            kind(
-                "platform sags 0.5° per unit of arm (0.25° at 30° of tilt)",
-                sagging(0.5),
-                sessions,
-                36_100,
-                Alter::None,
-                auto,
-                "platform sag",
+            held(
+                kind(
+                    "platform sags 0.5° per unit of arm (0.25° at 30° of tilt), sag held",
+                    sagging(0.5),
+                    sessions,
+                    36_100,
+                    Alter::None,
+                    auto,
+                    "platform sag",
+                ),
+                Group::PlatformSag,
             ),
             1,
         ),
         (
-            kind(
-                "platform sags 0.75° per unit of arm (0.375° at 30° of tilt)",
-                sagging(0.75),
-                sessions,
-                36_100,
-                Alter::None,
-                auto,
-                "platform sag",
+            held(
+                kind(
+                    "platform sags 0.75° per unit of arm (0.375° at 30° of tilt), sag held",
+                    sagging(0.75),
+                    sessions,
+                    36_100,
+                    Alter::None,
+                    auto,
+                    "platform sag",
+                ),
+                Group::PlatformSag,
             ),
             1,
         ),
         (
-            kind(
-                "platform sags 1° per unit of arm (0.5° at 30° of tilt)",
-                sagging(1.0),
-                sessions,
-                36_100,
-                Alter::None,
-                auto,
-                "platform sag",
+            held(
+                kind(
+                    "platform sags 1° per unit of arm (0.5° at 30° of tilt), sag held",
+                    sagging(1.0),
+                    sessions,
+                    36_100,
+                    Alter::None,
+                    auto,
+                    "platform sag",
+                ),
+                Group::PlatformSag,
             ),
             1,
         ),
@@ -377,10 +386,15 @@ fn main() {
     );
     out!(results);
 
-    // The same effects calibrated with the defaults (`joint_scales: auto`, the clock rate fitted).
+    // The same effects calibrated with the defaults (`joint_scales: auto`, the clock rate fitted,
+    // `platform_sag: auto`).
     let modelled = [
         (kind("joint 1 reads 1 % long", long_joint(0.01), sessions, 36_100, Alter::None, auto, ""), 1),
         (kind("clock 50 ppm fast, 10 min", clock, recordings, 36_400, Alter::None, auto, ""), 5),
+        (kind("platform sags 0.25° per unit of arm", sagging(0.25), sessions, 36_100, Alter::None, auto, ""), 1),
+        (kind("platform sags 0.5° per unit of arm", sagging(0.5), sessions, 36_100, Alter::None, auto, ""), 1),
+        (kind("platform sags 0.75° per unit of arm", sagging(0.75), sessions, 36_100, Alter::None, auto, ""), 1),
+        (kind("platform sags 1° per unit of arm", sagging(1.0), sessions, 36_100, Alter::None, auto, ""), 1),
     ];
     out!(
         results,
@@ -467,7 +481,7 @@ fn run_kind(k: &Kind, model: &RobotModel) -> Vec<Outcome> {
         c.seed = k.seed0 + s;
         let (session, _) = c.simulate(model, &mut |_| {}).expect("the simulation succeeds");
         let session = alter(session, k.alter);
-        match run(&session, model, c.seed, &k.settings, c.truth.sag_deg, k.cause) {
+        match run(&session, model, c.seed, &k.settings, k.cause) {
             Ok((o, check)) => {
                 if o.flagged && k.cause.is_empty() {
                     eprintln!("  false alarm: {} seed {}: {check}", k.label, c.seed);
@@ -511,15 +525,14 @@ fn alter(mut session: Session, alter: Alter) -> Session {
     session
 }
 
-/// Calibrate `session` with `settings` and score it against the truth (the platform sagging
-/// `sag_deg` per unit of the gravity torque's arm); `cause`: the structure the row's effect
+/// Calibrate `session` with `settings` and score it against the truth (where the platform really
+/// is, its sag included); `cause`: the structure the row's effect
 /// shows in (its one-column test's statistic is kept: joint 1's for a joint).
 fn run(
     session: &Session,
     model: &RobotModel,
     seed: u64,
     settings: &CalibConfig,
-    sag_deg: f64,
     cause: &str,
 ) -> Result<(Outcome, String), String> {
     let truth = session.truth.as_ref().expect("simulated");
@@ -537,37 +550,11 @@ fn run(
         flagged: check.is_some_and(|c| !c.passed),
         cause: check.and_then(|c| c.cause.map(str::to_string)),
         verdict: report.verdict.label(),
-        achieved: error_against_the_platform(session, &fitted, &tests, sag_deg),
+        achieved: study::calibration_error_up_to_common_rotations(session, &fitted, &tests),
         predicted,
         unwidened: report.predicted_error_unwidened_deg.unwrap_or(predicted),
         effect_f: effect.map(|t| t.statistic),
         effect_alpha: effect.map(|t| t.alpha),
     };
     Ok((outcome, summary))
-}
-
-/// The calibrated mechanism's error (deg, up to the common rotations) against where the platform
-/// really is at each test orientation's joints: the joints put it at `r`, its weight turns it
-/// `sag_deg` per unit of the torque's arm `n × (−z)` further (the simulator's `truth.sag_deg`).
-fn error_against_the_platform(
-    session: &Session,
-    calibration: &spmcal::calib::Calibration,
-    tests: &[Rotation3<f64>],
-    sag_deg: f64,
-) -> f64 {
-    if sag_deg == 0.0 {
-        return study::calibration_error_up_to_common_rotations(session, calibration, tests);
-    }
-    let truth = session.truth.as_ref().expect("a simulated session");
-    let spm_true = truth.parameters.spm().expect("a valid truth");
-    let Ok(spm) = spmcal::model::Spm::new(calibration.parameters.legs) else { return f64::INFINITY };
-    let (mut fitted, mut real) = (Vec::new(), Vec::new());
-    for r in tests {
-        let joints = spm_true.ik(r).expect("test orientations are reachable");
-        let Ok(f) = spm.forward(&joints) else { return f64::INFINITY };
-        fitted.push(f);
-        let arm = (r * Vector3::z()).cross(&-Vector3::z());
-        real.push(so3::exp(&(arm * sag_deg.to_radians())) * r);
-    }
-    study::up_to_common_rotations(&fitted, &real)
 }

@@ -1096,7 +1096,7 @@ fn _marker_model<'py>(
     };
 
     // The predictions, from the parameterisation's public parts and the library's FDA.
-    let spm = Spm::new(p.legs(&x)).map_err(raise!(ModelError))?;
+    let spm = p.spm(&x).map_err(raise!(ModelError))?;
     let (camera, translation, k_matrix) = (p.camera(&x), p.translation(&x), p.camera_model(&x));
     let mut orientations = Vec::with_capacity(rows.len());
     let mut predictions = Vec::with_capacity(rows.len());

@@ -183,7 +183,7 @@ pub(crate) fn pose_errors(
     vision: &SessionEstimate,
     params: &Parameters,
 ) -> Result<PoseErrors, SetError> {
-    let spm = Spm::new(params.legs).map_err(SetError::Geometry)?;
+    let spm = params.spm().map_err(SetError::Geometry)?;
     let (kept, failed) = observations(session, vision, &spm);
     let excluded: Vec<String> = failed.iter().map(|(pose, e)| format!("pose {pose}: {e}")).collect();
     let (observations, predicted): (Vec<Observation>, Vec<Rotation3<f64>>) = kept.into_iter().unzip();
@@ -205,7 +205,8 @@ pub(crate) fn pose_errors(
         }
     };
     let config = CalibConfig::default();
-    let p = Parameterisation::new(*spm.geometry(), camera0, reference0, &config.bounds);
+    let p = Parameterisation::new(*spm.geometry(), camera0, reference0, &config.bounds)
+        .with_platform_sag(spm.platform_sag());
     let free: Vec<bool> = p.entries.iter().map(|e| groups.contains(&e.kind.group())).collect();
     let settings = FitSettings { loss: Loss::LeastSquares, ..FitSettings::from_config(&config, free.clone()) };
     let model = OrientationResiduals::new(&p, &observations).with_columns(free);
@@ -229,7 +230,7 @@ pub(crate) fn marker_pose_errors(
     model: &RobotModel,
     params: &Parameters,
 ) -> Result<(PoseErrors, CameraRegistration), SetError> {
-    let spm = Spm::new(params.legs).map_err(SetError::Geometry)?;
+    let spm = params.spm().map_err(SetError::Geometry)?;
     let (session, left_out) = session.at_clock(params.latency_s.unwrap_or(0.0), params.clock_rate_ppm.unwrap_or(0.0));
     let (observations, failed) = MarkerObservation::of_session(&session, &spm);
     let mut excluded: Vec<String> = left_out.iter().map(|w| w.to_string()).collect();
@@ -255,7 +256,7 @@ pub(crate) fn marker_pose_errors(
         .and_then(|b| params.markers.iter().find(|m| &m.name == b))
         .and_then(|m| m.rotation.map(|r| (r.inverse(), m.position)));
     let config = CalibConfig::default();
-    let nominal = || pose_orientations(&params.legs, &observations, &markers).map_err(SetError::Eval);
+    let nominal = || pose_orientations(&spm, &observations, &markers).map_err(SetError::Eval);
     let (registration, body_frame, how) = match (params.camera, &session.body, filed_frame) {
         (Some(c), None, _) => (c, None, "from the parameters file"),
         (Some(c), Some(_), Some((a, _))) => (c, Some(a), "from the parameters file"),
@@ -284,7 +285,8 @@ pub(crate) fn marker_pose_errors(
         &names,
         CameraModel::rigid(),
         &config.bounds,
-    );
+    )
+    .with_platform_sag(params.platform_sag_deg.to_radians());
     let p = match (body_frame, &session.body) {
         (Some(a), Some(body)) => p.with_body_frame(a, body),
         _ => p,
@@ -331,22 +333,23 @@ pub(crate) fn model_markers(names: &[String], model: &RobotModel) -> Result<Vec<
         .collect()
 }
 
-/// The orientation `legs` give each observation's pose (one FDA per pose, not per marker).
+/// The orientation `spm` gives each observation's pose (one FDA per pose, not per marker).
 pub(crate) fn pose_orientations(
-    legs: &[crate::model::LegGeometry; 3],
+    spm: &Spm,
     observations: &[MarkerObservation],
     markers: &[Vector3<f64>],
 ) -> Result<Vec<Rotation3<f64>>, EvalError> {
     let origin = CameraRegistration { rotation: Rotation3::identity(), translation: Vector3::zeros() };
     let names: Vec<String> = (0..markers.len()).map(|k| format!("m{k}")).collect();
     let p = Parameterisation::for_markers(
-        *legs,
+        *spm.geometry(),
         &origin,
         markers,
         &names,
         CameraModel::rigid(),
         &CalibConfig::default().bounds,
-    );
+    )
+    .with_platform_sag(spm.platform_sag());
     let model = MarkerResiduals::new(&p, observations);
     let at_pose = model.evaluate(&DVector::zeros(p.len()), None, false)?.orientations;
     Ok((0..observations.len()).map(|j| at_pose[model.pose_of(j)]).collect())

@@ -26,6 +26,9 @@ pub enum Group {
     /// Joint scales `s_i` (`φ = sθ + δ`): frozen, every scale is held at its start (1 unless the
     /// parameters started from say otherwise); `joint_scales: hold` does the same.
     JointScales,
+    /// The platform's sag under its weight: frozen, held at its start (0 unless the parameters
+    /// started from say otherwise); `platform_sag: hold` does the same.
+    PlatformSag,
     /// Camera rotation `R_CB`.
     CameraRotation,
     /// Orientation of the reference pose's markers in the camera (a property of the session;
@@ -92,18 +95,21 @@ impl From<CameraModelKind> for CameraModelSetting {
     }
 }
 
-/// Whether a calibration fits the joints' scales (`joint_scales`).
+/// Whether a calibration fits a term the mechanism may or may not show: the joints' scales
+/// (`joint_scales`), the platform's sag (`platform_sag`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum JointScales {
-    /// Each scale that the session determines (to ±0.1 %, or worse where its own error shows at
-    /// 3σ) and shows to differ from its start (by 3 standard errors); the others held at their
-    /// start, and said.
+pub enum FitChoice {
+    /// Where the session shows it. Joint scales: each scale that the session determines (to
+    /// ±0.1 %, or worse where its own error shows at 3σ) and shows to differ from its start (by 3
+    /// standard errors); the others held at their start, and said. The sag: when its score at
+    /// the fit without it is beyond 2σ (a 5 % test: a clean session fits it one time in twenty,
+    /// at the cost of one parameter).
     #[default]
     Auto,
-    /// All three, whatever the session.
+    /// Whatever the session.
     Fit,
-    /// None: held at their start.
+    /// Held at its start.
     Hold,
 }
 
@@ -258,7 +264,12 @@ pub struct CalibConfig {
     /// the ones the session determines (to ±0.1 %, or worse where a scale's own error shows at 3σ)
     /// when they show an error (3σ's worth together) and holds the others at their start, saying
     /// so; `fit` fits all three; `hold` holds them (as `freeze: [joint_scales]`).
-    pub joint_scales: JointScales,
+    pub joint_scales: FitChoice,
+    /// The platform's sag under its weight (a rotation `c (n × (−z))` after the rigid mechanism's,
+    /// `n` the platform's axis, `z` the base's up): `auto` (the default) fits it when the session
+    /// shows it (its score beyond 2σ at the fit without it, and the fit with it agreeing); `fit`
+    /// always; `hold` never (as `freeze: [platform_sag]`).
+    pub platform_sag: FitChoice,
     /// A session seen through its cameras' pixels: the rig's terms refined with the mechanism
     /// (`focal_lengths`, `principal_points`, `radial_k1`, `radial_k2`, `other_distortion`,
     /// `extrinsics`); the first baseline's length is always held (the rig's metric scale).
@@ -338,7 +349,8 @@ impl Default for CalibConfig {
             huber_threshold: 3.0,
             outlier_threshold: 4.0,
             freeze: Vec::new(),
-            joint_scales: JointScales::Auto,
+            joint_scales: FitChoice::Auto,
+            platform_sag: FitChoice::Auto,
             rig_terms: RigTermGroup::DEFAULT.to_vec(),
             holdout_every: 4,
             max_iterations: 200,
@@ -352,13 +364,22 @@ impl Default for CalibConfig {
 }
 
 impl CalibConfig {
-    /// The groups held fixed: `freeze`, and the joint scales with `joint_scales: hold`.
+    /// The groups held fixed: `freeze`, the joint scales with `joint_scales: hold` and the sag
+    /// with `platform_sag: hold`.
     pub(crate) fn frozen_groups(&self) -> Vec<Group> {
         let mut groups = self.freeze.clone();
-        if self.joint_scales == JointScales::Hold && !groups.contains(&Group::JointScales) {
-            groups.push(Group::JointScales);
+        for (choice, group) in [(self.joint_scales, Group::JointScales), (self.platform_sag, Group::PlatformSag)] {
+            if choice == FitChoice::Hold && !groups.contains(&group) {
+                groups.push(group);
+            }
         }
         groups
+    }
+
+    /// `platform_sag: auto` and the sag not frozen: the calibration tests whether the session
+    /// shows a sag before fitting it.
+    pub(crate) fn sag_auto(&self) -> bool {
+        self.platform_sag == FitChoice::Auto && !self.freeze.contains(&Group::PlatformSag)
     }
 
     /// The camera model the config names, or for `auto` the one `auto` chooses when there is

@@ -14,7 +14,7 @@
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use super::config::{CalibConfig, JointScales};
+use super::config::{CalibConfig, FitChoice};
 use super::fit::{FitOutcome, weighted_normal};
 use super::parameterisation::{Kind, Parameterisation};
 use super::uncertainty::{residual_scale, std_error};
@@ -66,16 +66,21 @@ pub(crate) fn spans_deg(session: &Session) -> [f64; 3] {
     })
 }
 
-/// `free` as the check of enough observations counts it: under `auto` the scales are fitted only
-/// where the data show them, so a session too small for them is still calibrated without them.
+/// `free` as the check of enough observations counts it: under `auto` the scales (and the sag) are
+/// fitted only where the data show them, so a session too small for them is still calibrated
+/// without them.
 pub(crate) fn counted(p: &Parameterisation, free: &[bool], config: &CalibConfig) -> Vec<bool> {
     let auto = auto(config);
-    free.iter().zip(&p.entries).map(|(f, e)| *f && !(auto && matches!(e.kind, Kind::Scale { .. }))).collect()
+    let sag = config.sag_auto();
+    free.iter()
+        .zip(&p.entries)
+        .map(|(f, e)| *f && !(auto && matches!(e.kind, Kind::Scale { .. })) && !(sag && e.kind == Kind::PlatformSag))
+        .collect()
 }
 
 /// Whether `auto` decides which scales to fit (the setting is `auto` and they are not frozen).
 pub(crate) fn auto(config: &CalibConfig) -> bool {
-    config.joint_scales == JointScales::Auto && !config.freeze.contains(&super::config::Group::JointScales)
+    config.joint_scales == FitChoice::Auto && !config.freeze.contains(&super::config::Group::JointScales)
 }
 
 /// The 99.73 % quantile (3σ's worth) of χ² with 1, 2 and 3 degrees of freedom: `auto` frees the

@@ -35,7 +35,7 @@ use super::config::FitLevel;
 use super::parameterisation::{Kind, Parameterisation};
 use super::residuals::{EvalError, Evaluation, Residuals};
 use super::rig_terms;
-use super::sensitivity::Frames;
+use super::sensitivity::{Frames, through_sag};
 use crate::dataset::{Session, Streams};
 use crate::math::so3;
 use crate::model::{CameraModel, FdaError, Rig, RigProjection, Spm};
@@ -353,7 +353,7 @@ impl<'a> MarkerResiduals<'a> {
     }
 
     fn mechanism_needed(&self) -> bool {
-        self.p.entries.iter().enumerate().any(|(i, e)| e.kind.leg().is_some() && self.column_needed(i))
+        self.p.entries.iter().enumerate().any(|(i, e)| e.kind.moves_platform() && self.column_needed(i))
     }
 
     /// The observations, grouped by pose.
@@ -602,7 +602,7 @@ impl Residuals for MarkerResiduals<'_> {
     ) -> Result<Evaluation, EvalError> {
         let p = self.p;
         let legs = p.legs(x);
-        let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
+        let spm = p.spm(x).map_err(EvalError::Geometry)?;
         let (camera, translation) = (p.camera(x), p.translation(x));
         let camera_model = p.camera_model(x);
         let markers: Vec<Vector3<f64>> = (0..p.markers0.len()).map(|k| p.marker(x, k)).collect();
@@ -637,24 +637,27 @@ impl Residuals for MarkerResiduals<'_> {
             let mechanism = self.mechanism_needed();
             let latency = p.entries.iter().position(|e| e.kind == Kind::Latency);
             let clock_rate = p.entries.iter().position(|e| e.kind == Kind::ClockRate);
+            let sag = p.entries.iter().position(|e| e.kind == Kind::PlatformSag).filter(|_| mechanism);
             let sensitivities: Vec<DMatrix<f64>> = joints
                 .iter()
                 .zip(&eval.orientations)
                 .map(|((theta, per_latency, per_rate), r)| {
+                    let rigid = spm.rigid(r);
                     let mut s = match mechanism {
-                        true => frames.orientation_sensitivity(&spm, &legs, theta, r),
+                        true => frames.orientation_sensitivity(&spm, &legs, theta, &rigid),
                         false => DMatrix::zeros(3, p.len()),
                     };
                     // ∂ω/∂τ = J(θ) ∂θ/∂τ, J = A⁻¹B mapping joint rates to the MP's angular
                     // velocity; the same for the clock's rate.
                     if latency.is_some() || clock_rate.is_some() {
-                        let forward = spm.jacobians(theta, r).forward();
+                        let forward = spm.jacobians(theta, &rigid).forward();
                         for (i, rate) in [(latency, per_latency), (clock_rate, per_rate)] {
                             if let (Some(i), Some(j)) = (i, forward) {
                                 s.set_column(i, &(j * rate));
                             }
                         }
                     }
+                    through_sag(&spm, &rigid, &mut s, sag);
                     s
                 })
                 .collect();

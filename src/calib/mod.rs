@@ -26,6 +26,7 @@ mod identify;
 pub(crate) mod joint_scales;
 mod level;
 mod levels;
+pub(crate) mod platform_sag;
 // Without `internals`, what only the studies and tests use is neither reachable nor used here.
 #[cfg_attr(not(feature = "internals"), allow(unreachable_pub, dead_code))]
 mod marker_residuals;
@@ -51,7 +52,7 @@ pub(crate) use agreement::{PoseErrors, corrected_for, marker_pose_errors, pose_e
 pub use calibration::{CalibError, Calibration, Fitted, Solution};
 pub use camera_choice::{CameraCandidate, CameraModelChoice};
 pub use config::{
-    Bounds, CalibConfig, CameraModelSetting, FitLevel, Group, IfNotBetter, JointScales, Loss, PredictionWorkspace,
+    Bounds, CalibConfig, CameraModelSetting, FitChoice, FitLevel, Group, IfNotBetter, Loss, PredictionWorkspace,
     RigTermGroup, Unidentifiable,
 };
 pub use fit::{Convergence, IterationLog, Solver};

@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use super::config::FitLevel;
 use super::parameterisation::{Kind, Parameterisation};
 use super::residuals::{EvalError, Evaluation, Residuals};
-use super::sensitivity::Frames;
+use super::sensitivity::{Frames, through_sag};
 use crate::dataset::Session;
 use crate::math::so3;
 use crate::model::{FdaError, Spm};
@@ -111,7 +111,7 @@ impl Residuals for OrientationResiduals<'_> {
     }
 
     fn with_columns(mut self, columns: Vec<bool>) -> Self {
-        self.mechanism = self.p.entries.iter().zip(&columns).any(|(e, &c)| c && e.kind.leg().is_some());
+        self.mechanism = self.p.entries.iter().zip(&columns).any(|(e, &c)| c && e.kind.moves_platform());
         self
     }
 
@@ -183,7 +183,8 @@ impl Residuals for OrientationResiduals<'_> {
         let (p, observations) = (self.p, &self.observations[..]);
         let mechanism = self.mechanism;
         let legs = p.legs(x);
-        let spm = Spm::new(legs).map_err(EvalError::Geometry)?;
+        let spm = p.spm(x).map_err(EvalError::Geometry)?;
+        let sag = p.entries.iter().position(|e| e.kind == Kind::PlatformSag).filter(|_| mechanism);
         let (camera, reference) = (p.camera(x), p.reference(x));
         let n = observations.len();
         let mut eval = Evaluation {
@@ -203,7 +204,10 @@ impl Residuals for OrientationResiduals<'_> {
             let residual = so3::log(&m);
             if let (Some(jac), Some(sens)) = (eval.jacobian.as_mut(), eval.orientation_jacobians.as_mut()) {
                 let d_omega = if mechanism {
-                    frames.orientation_sensitivity(&spm, &legs, &obs.joints, &r)
+                    let rigid = spm.rigid(&r);
+                    let mut s = frames.orientation_sensitivity(&spm, &legs, &obs.joints, &rigid);
+                    through_sag(&spm, &rigid, &mut s, sag);
+                    s
                 } else {
                     DMatrix::zeros(3, p.len())
                 };

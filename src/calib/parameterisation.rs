@@ -13,7 +13,8 @@
 //!
 //! Every parameter is measured from its initial value, so that bounds are boxes. Angles (radians):
 //! per leg the axis tilts (tangent coordinates of the rotation vector that carries the nominal
-//! axis), `α1`, `α2`, `δ`, and the joint scale `s` (dimensionless); then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
+//! axis), `α1`, `α2`, `δ`, and the joint scale `s` (dimensionless); the platform's sag (radians
+//! per unit of the gravity torque's arm, `Spm::sagged`); then the camera rotation `R_CB = exp(c) R_CB⁰` and, at the orientation
 //! level, the reference rotation `A = exp(a) A⁰` (see `orientation_residuals.rs`). The marker level
 //! has instead of `A` the camera translation `t_CB` and the markers' positions in P (metres), and
 //! for a free-motion recording the camera's latency (seconds) and its clock's rate difference
@@ -55,6 +56,9 @@ pub enum Kind {
         /// Leg index (0-based).
         leg: usize,
     },
+    /// The platform's sag under its weight, radians per unit of the gravity torque's arm, from
+    /// its start ([`crate::model::Spm::sagged`]).
+    PlatformSag,
     /// Tilt `k` of the platform axis `v0` of a leg.
     PlatformTilt {
         /// Leg index (0-based).
@@ -112,6 +116,7 @@ impl Kind {
             Kind::Alpha2 { .. } => Group::DistalAngles,
             Kind::Offset { .. } => Group::JointOffsets,
             Kind::Scale { .. } => Group::JointScales,
+            Kind::PlatformSag => Group::PlatformSag,
             Kind::PlatformTilt { .. } => Group::PlatformAxes,
             Kind::Camera { .. } => Group::CameraRotation,
             Kind::Reference { .. } => Group::ReferenceRotation,
@@ -133,7 +138,8 @@ impl Kind {
             | Kind::Offset { leg }
             | Kind::Scale { leg }
             | Kind::PlatformTilt { leg, .. } => Some(leg),
-            Kind::Camera { .. }
+            Kind::PlatformSag
+            | Kind::Camera { .. }
             | Kind::Reference { .. }
             | Kind::Translation { .. }
             | Kind::Marker { .. }
@@ -142,6 +148,12 @@ impl Kind {
             | Kind::Latency
             | Kind::ClockRate => None,
         }
+    }
+
+    /// A parameter of the mechanism: it moves the platform at given joint readings (a leg's, or
+    /// the platform's sag).
+    pub(crate) fn moves_platform(self) -> bool {
+        self.leg().is_some() || self == Kind::PlatformSag
     }
 }
 
@@ -162,6 +174,8 @@ pub struct Entry {
 pub struct Parameterisation {
     /// The geometry at `x = 0`.
     pub initial: [LegGeometry; 3],
+    /// The platform's sag at `x = 0` (radians per unit of arm).
+    pub sag0: f64,
     /// Camera rotation at `x = 0`.
     pub camera0: Rotation3<f64>,
     /// Reference-pose orientation at `x = 0`.
@@ -250,6 +264,7 @@ impl Parameterisation {
                 push(Kind::PlatformTilt { leg, k }, name, Some(tilt));
             }
         }
+        push(Kind::PlatformSag, "platform.sag".into(), Some(crate::model::MAX_PLATFORM_SAG));
         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
             push(Kind::Camera { k }, format!("camera.rotation_{axis}"), None);
         }
@@ -258,6 +273,7 @@ impl Parameterisation {
         }
         Parameterisation {
             initial,
+            sag0: 0.0,
             camera0,
             reference0,
             actuated_dirs,
@@ -455,6 +471,25 @@ impl Parameterisation {
         (u, v)
     }
 
+    /// Where the fit starts the platform's sag (radians per unit of arm): a parameters file's.
+    pub(crate) fn with_platform_sag(mut self, sag0: f64) -> Self {
+        self.sag0 = sag0;
+        self
+    }
+
+    /// The platform's sag at `x` (radians per unit of arm).
+    pub fn platform_sag(&self, x: &DVector<f64>) -> f64 {
+        self.sag0 + self.value(x, Kind::PlatformSag)
+    }
+
+    /// The mechanism at `x`: its legs ([`Self::legs`]) and its platform's sag.
+    ///
+    /// # Errors
+    /// The [`SpmError`](crate::model::SpmError) of a geometry or a sag the mechanism cannot have.
+    pub fn spm(&self, x: &DVector<f64>) -> Result<crate::model::Spm, crate::model::SpmError> {
+        crate::model::Spm::new(self.legs(x))?.with_platform_sag(self.platform_sag(x))
+    }
+
     fn value(&self, x: &DVector<f64>, kind: Kind) -> f64 {
         self.entries.iter().position(|e| e.kind == kind).map_or(0.0, |i| x[i])
     }
@@ -525,6 +560,8 @@ impl Parameterisation {
                     zero.dot(&y).atan2(zero.dot(&z)) - self.initial[leg].delta
                 }
                 Kind::Scale { leg } => legs[leg].scale - self.initial[leg].scale,
+                // The sag is set by the caller that knows it (a simulator's truth).
+                Kind::PlatformSag => 0.0,
                 Kind::Camera { k } => c[k],
                 Kind::Reference { k } => a[k],
                 // `t_CB` and the markers are set by `TruthInGauge::for_markers`; the latency stays 0.

@@ -21,7 +21,8 @@ use super::identify::Direction;
 use super::joint_scales;
 use super::level::{Level, LevelResults, MIN_MOTION_DEG, Origin, check_enough};
 use super::model_check::Structure;
-use super::parameterisation::Parameterisation;
+use super::parameterisation::{Kind, Parameterisation};
+use super::platform_sag::{self, Trial};
 use super::report::{CalibrationReport, FlaggedObservation, Verdict};
 use super::residuals::Residuals;
 use super::uncertainty::{covariance, identifiability_at};
@@ -250,10 +251,13 @@ fn run<L: Level>(
         true => scale_legs.iter().map(|(i, _)| *i).filter(|&i| free[i]).collect(),
         false => Vec::new(),
     };
+    // `platform_sag: auto` likewise: the sag held, then tested at the fit without it.
+    let sag_tested: Option<usize> =
+        p.entries.iter().position(|e| e.kind == Kind::PlatformSag).filter(|&i| free[i] && config.sag_auto());
     // The scales held, each with why: the report's lines.
     let mut held_scales: Vec<(usize, String)> = Vec::new();
-    if !held_camera.is_empty() || !tested.is_empty() {
-        held_camera.iter().chain(&tested).for_each(|&i| free[i] = false);
+    if !held_camera.is_empty() || !tested.is_empty() || sag_tested.is_some() {
+        held_camera.iter().chain(&tested).chain(&sag_tested).for_each(|&i| free[i] = false);
         identifiability = identifiability_at(p, &nominal, &free, config);
     }
     let camera_warnings = held_camera.iter().map(|&i| {
@@ -290,52 +294,86 @@ fn run<L: Level>(
     let mut robust = fit(&problem, &nominal.x, &settings, on_iteration).map_err(stage("calibration"))?;
     clock.lap("calibration", robust.log.len());
     // `joint_scales: auto`: the scales the fit without them would determine (to ±0.1 %, or worse
-    // where a scale's own score shows its error at 3σ) are freed
-    // and the fit finished with them when, together, the data show them to differ from their
-    // start (3σ's worth); else the calibration is `hold`'s, each scale's line saying why.
+    // where a scale's own score shows its error at 3σ) are tried, and `platform_sag: auto`'s sag
+    // where its score at the fit without it is beyond 2σ: freed together in one trial fit, each
+    // kept when the trial shows it (the Wald statistic: the score's own is blunted where the fit
+    // without them bent the camera model and the robust weights to the error). Those that do not
+    // show are held, the scales' lines saying why; a trial that keeps only some is fitted again
+    // with those alone.
     let mut undetermined: Vec<(usize, f64, Option<f64>)> = Vec::new();
+    let mut sag_held: Option<String> = None;
+    let lambda = prior.as_ref().map(|(l, _)| l.clone());
+    let mut groups: Vec<Trial> = Vec::new();
     if !tested.is_empty() {
-        let lambda = prior.as_ref().map(|(l, _)| l);
-        let score = joint_scales::score(&robust, &free, &tested, lambda);
+        let score = joint_scales::score(&robust, &free, &tested, lambda.as_ref());
         for &(i, sigma) in &score.undetermined {
             undetermined.push((leg_of(i), spans[leg_of(i)], sigma));
             held_scales.push((i, joint_scales::held_reason(spans[leg_of(i)], sigma)));
         }
-        // The determined scales freed, from the fit without them; kept when they show an error (the
-        // Wald statistic: the score's own is blunted where the fit without them bent the camera
-        // model and the robust weights to a scale error), else the fit without them stands.
         if !score.determined.is_empty() {
-            let mut trial_free = free.clone();
-            score.determined.iter().for_each(|&(i, _, _)| trial_free[i] = true);
-            let trial_id = identifiability_at(p, &nominal, &trial_free, config);
-            let trial_prior = trial_id.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
-            let trial_settings = FitSettings {
-                prior: trial_prior.clone(),
-                stage: "calibration with the joint scales",
-                ..FitSettings::from_config(config, trial_free.clone())
-            };
-            let mut trial = fit(&problem, &robust.x, &trial_settings, &mut |_| {}).map_err(stage("calibration"))?;
+            groups.push(Trial::Scales(score.determined.iter().map(|&(i, _, _)| i).collect()));
+        }
+    }
+    if let Some(i) = sag_tested {
+        match platform_sag::score(&robust, &free, i, lambda.as_ref()) {
+            Some(z) if z.abs() >= platform_sag::AUTO_SCORE => groups.push(Trial::Sag(i)),
+            z => sag_held = Some(platform_sag::held_reason(z)),
+        }
+    }
+    let mut kept: Vec<Trial> = Vec::new();
+    for round in 0..2 {
+        let trying = if round == 0 { groups.clone() } else { kept.clone() };
+        if trying.is_empty() || (round == 1 && kept.len() == groups.len()) {
+            break;
+        }
+        let mut trial_free = free.clone();
+        trying.iter().flat_map(Trial::indices).for_each(|i| trial_free[i] = true);
+        let trial_id = identifiability_at(p, &nominal, &trial_free, config);
+        let trial_prior = trial_id.prior(p.len()).map(|lambda| (lambda, nominal.x.clone()));
+        let trial_settings = FitSettings {
+            prior: trial_prior.clone(),
+            stage: "calibration with the joint scales or the sag",
+            ..FitSettings::from_config(config, trial_free.clone())
+        };
+        let mut trial = fit(&problem, &robust.x, &trial_settings, &mut |_| {}).map_err(stage("calibration"))?;
+        clock.lap("joint-scale and sag test", trial.log.len());
+        if round == 0 {
             let cov = covariance(&trial, &trial_free, trial_prior.as_ref().map(|(l, _)| l));
-            let indices: Vec<usize> = score.determined.iter().map(|&(i, _, _)| i).collect();
-            let wald = joint_scales::wald(&trial.x, &cov, &indices);
-            clock.lap("joint-scale test", trial.log.len());
-            if joint_scales::shows_error(wald, indices.len()) {
-                trial.log.iter().for_each(&mut *on_iteration);
-                trial.log = robust.log.iter().chain(&trial.log).copied().collect();
-                robust = trial;
-                free = trial_free;
-                identifiability = trial_id;
-                regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
-                prior = trial_prior;
-                settings = trial_settings;
-            } else {
-                for &i in &indices {
-                    let sigma = cov[(i, i)].max(0.0).sqrt();
-                    let why = joint_scales::insignificant_reason(trial.x[i] - nominal.x[i], sigma, wald, indices.len());
-                    held_scales.push((i, why));
+            for group in &groups {
+                let indices = group.indices();
+                let wald = joint_scales::wald(&trial.x, &cov, &indices);
+                if group.shows(wald) {
+                    kept.push(group.clone());
+                    continue;
+                }
+                match group {
+                    Trial::Scales(_) => {
+                        for &i in &indices {
+                            let sigma = cov[(i, i)].max(0.0).sqrt();
+                            let change = trial.x[i] - nominal.x[i];
+                            let why = joint_scales::insignificant_reason(change, sigma, wald, indices.len());
+                            held_scales.push((i, why));
+                        }
+                    }
+                    Trial::Sag(i) => {
+                        let sigma = cov[(*i, *i)].max(0.0).sqrt();
+                        sag_held = Some(platform_sag::insignificant_reason(trial.x[*i], sigma));
+                    }
                 }
             }
+            if kept.len() != groups.len() {
+                continue;
+            }
         }
+        trial.log.iter().for_each(&mut *on_iteration);
+        trial.log = robust.log.iter().chain(&trial.log).copied().collect();
+        robust = trial;
+        free = trial_free;
+        identifiability = trial_id;
+        regularised = identifiability.unidentifiable.iter().map(Direction::describe).collect();
+        prior = trial_prior;
+        settings = trial_settings;
+        break;
     }
     // Gross errors (centimetres, tens of degrees) are removed, not only down-weighted: they would
     // still pull. The baseline is refitted on the same observations as the calibration.
@@ -477,6 +515,7 @@ fn run<L: Level>(
         camera_translation_std_error_m: part.camera_translation_std_error_m,
         markers: part.markers,
         joint_scales: scales,
+        platform_sag_held: sag_held,
         stages: clock.stages,
     };
     if let Some(check) = report.model_check.as_mut() {

@@ -519,6 +519,9 @@ pub struct CalibrationReport {
     /// Each leg's joint scale (`φ = sθ + δ`): its change in ppm with its standard error, or why
     /// it was held.
     pub joint_scales: Vec<super::joint_scales::JointScaleReport>,
+    /// Why the platform's sag (`platform.sag` among the parameters) was held at its start by
+    /// `platform_sag: auto`; `None` when it was fitted, or held by the config.
+    pub platform_sag_held: Option<String>,
 }
 
 impl CalibrationReport {

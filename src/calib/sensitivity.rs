@@ -1,7 +1,9 @@
 //! How the MP's orientation moves with the mechanism's parameters at a pose, `∂ω/∂x = −Ã⁻¹ F_x`,
 //! by the implicit function theorem on the closure equations `f_i = w_i · R v0_i − cos α2_i = 0`
 //! (`Ã` rows `(v_i × w_i)ᵀ`, `F_x = ∂f/∂x`; perturbations on the left, `R ← exp(ε) R` in B).
-//! Both fit levels' Jacobians are built on it.
+//! Both fit levels' Jacobians are built on it. The platform's sag turns the rigid mechanism's
+//! orientation once more (`Spm::sagged`): [`through_sag`] carries the rigid derivatives to the
+//! platform as it is and adds the sag's own column.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
@@ -30,7 +32,8 @@ impl<'a> Frames<'a> {
         Frames { p, actuated, platform }
     }
 
-    /// `∂ω/∂x = −Ã⁻¹ F_x` (3 × N; zero columns for the registration).
+    /// `∂ω/∂x = −Ã⁻¹ F_x` (3 × N; zero columns for the registration) of the rigid mechanism at its
+    /// orientation `r` ([`Spm::rigid`]).
     pub(crate) fn orientation_sensitivity(
         &self,
         spm: &Spm,
@@ -82,7 +85,8 @@ impl<'a> Frames<'a> {
                 let dy = du.cross(&g.z) + g.u.cross(&dz);
                 (du * ca + (dz * cp + dy * sp) * sa).dot(v)
             }
-            Kind::Camera { .. }
+            Kind::PlatformSag
+            | Kind::Camera { .. }
             | Kind::Reference { .. }
             | Kind::Translation { .. }
             | Kind::Marker { .. }
@@ -91,5 +95,27 @@ impl<'a> Frames<'a> {
             | Kind::Latency
             | Kind::ClockRate => 0.0,
         }
+    }
+}
+
+/// The rigid mechanism's sensitivity `s` (3 × N, at its orientation `rigid`) carried to the
+/// platform as it is, `R_obs = exp(c·a(R)) R` with `a(R) = (R z) × (−z)`: a turn `ω` of the rigid
+/// platform turns it by `(E + c J_l(c a) D) ω`, `E = exp(c a)`, `D = ∂a/∂ω = [−z]× [R z]×`; the sag's
+/// own column (`sag`, its index) is `J_l(c a) a`. Nothing to do for a rigid mechanism without the
+/// sag among the parameters.
+pub(crate) fn through_sag(spm: &Spm, rigid: &Rotation3<f64>, s: &mut DMatrix<f64>, sag: Option<usize>) {
+    let c = spm.platform_sag();
+    let arm = crate::model::sag_arm(rigid);
+    if c != 0.0 {
+        let jl = so3::left_jacobian(&(arm * c));
+        let up: Vector3<f64> = Vector3::z();
+        let d: Matrix3<f64> = (-up).cross_matrix() * (rigid * up).cross_matrix();
+        let m: Matrix3<f64> = so3::exp(&(arm * c)).matrix() + jl * d * c;
+        let turned: DMatrix<f64> = DMatrix::from_fn(3, 3, |a, b| m[(a, b)]) * &*s;
+        s.copy_from(&turned);
+    }
+    if let Some(i) = sag {
+        let column = so3::left_jacobian(&(arm * c)) * arm;
+        s.set_column(i, &column);
     }
 }

@@ -112,17 +112,22 @@ fn analytic_jacobian_matches_finite_differences() {
 #[test]
 fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
     let (session, model) = load("datasets/agile_wrist_sim_400");
-    // The joint scales fitted whatever the data say, so that their identifiability is tested too.
-    let config = CalibConfig { joint_scales: super::JointScales::Fit, ..orientation_config() };
+    // The joint scales and the platform's sag fitted whatever the data say, so that their
+    // identifiability is tested too.
+    let config = CalibConfig {
+        joint_scales: super::FitChoice::Fit,
+        platform_sag: super::FitChoice::Fit,
+        ..orientation_config()
+    };
     let calibration = calibrate(&session, &model, &config, &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (24, 24), "{id:?}");
+    assert_eq!((id.rank, id.parameters), (25, 25), "{id:?}");
     assert!(calibration.report.regularised.is_empty());
     // Add the six gauge directions as extra columns: tilts of u_1 (2), of u_2 out of its plane (1),
     // of v0_1 (2), of v0_2 out of its plane (1). They must be null: numerically differentiate the
     // residuals along each and check the augmented Jacobian has exactly six zero singular values.
     let p = &calibration.parameterisation;
-    let x = &calibration.calibrated.x;
+    let x = &without_sag(p, &calibration.calibrated.x);
     let obs = fitted_poses(&calibration);
     let base = evaluate(p, x, obs, None, true).unwrap();
     let augmented = augmented_with_gauge(base.jacobian.as_ref().unwrap(), &p.legs(x), |legs| {
@@ -132,7 +137,7 @@ fn the_gauge_leaves_no_null_direction_and_its_six_directions_are_null() {
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 24, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.rank, 25, "the 6 gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
 
@@ -319,22 +324,23 @@ fn a_coaxial_spm_leaves_free_only_its_own_gauges() {
     assert_only_the_gauges_are_free(&session, &model);
 }
 
-/// The marker-level calibration of `session` with the depth-scale model identifies all 37
-/// parameters (36 of the mechanism with its joint scales, registration and markers, and the
-/// camera's depth scale), and
+/// The marker-level calibration of `session` with the depth-scale model identifies all 38
+/// parameters (37 of the mechanism with its joint scales and its platform's sag, registration and
+/// markers, and the camera's depth scale), and
 /// the six directions its parameterisation fixes add nothing: exactly six null directions.
 fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let config = CalibConfig {
         camera_model: super::CameraModelSetting::DepthScale,
-        joint_scales: super::JointScales::Fit,
+        joint_scales: super::FitChoice::Fit,
+        platform_sag: super::FitChoice::Fit,
         ..CalibConfig::default()
     };
     let calibration = calibrate(session, model, &config, &mut |_| {}).unwrap();
     let id = &calibration.report.identifiability;
-    assert_eq!((id.rank, id.parameters), (37, 37), "{id:?}");
+    assert_eq!((id.rank, id.parameters), (38, 38), "{id:?}");
     assert!(calibration.parameterisation.entries.iter().any(|e| e.name == "camera.depth_scale"));
     let p = &calibration.parameterisation;
-    let x = &calibration.calibrated.x;
+    let x = &without_sag(p, &calibration.calibrated.x);
     let Fitted::Markers(obs) = &calibration.fitted else { panic!("a marker-level calibration") };
     let base = MarkerResiduals::new(p, obs).evaluate(x, None, true).unwrap();
     let camera = CameraRegistration { rotation: p.camera(x), translation: p.translation(x) };
@@ -350,7 +356,7 @@ fn assert_only_the_gauges_are_free(session: &Session, model: &RobotModel) {
     let names: Vec<String> = (0..augmented.ncols()).map(|i| format!("c{i}")).collect();
     let all: Vec<usize> = (0..augmented.ncols()).collect();
     let analysis = Identifiability::analyse(&augmented, &all, &names, 1e-5);
-    assert_eq!(analysis.rank, 37, "the six gauge directions must add nothing: {:?}", analysis.weakest);
+    assert_eq!(analysis.rank, 38, "the six gauge directions must add nothing: {:?}", analysis.weakest);
     assert_eq!(analysis.unidentifiable.len(), 6);
 }
 
@@ -483,6 +489,16 @@ fn the_clock_rate_and_latency_columns_match_central_differences_on_a_drifting_cl
 /// of `u_1` (2), of `u_2` out of its plane with `u_1` (1; for a coaxial SPM, a turn of leg 1's
 /// zero direction about `u_1`, which its fixed offset holds), of `v0_1` (2) and of `v0_2` out of
 /// its plane (1). `residuals_of` evaluates the model with the legs so moved.
+/// `x` with the platform's sag at 0. The gauge's six directions are null for a rigid platform
+/// only: a sag turns it about the arm `(R z) × (−z)`, which ties B's up and P's axis to gravity,
+/// so that with a sag `c` a turn of either frame moves the model by `c` times the turn.
+fn without_sag(p: &Parameterisation, x: &DVector<f64>) -> DVector<f64> {
+    let mut x = x.clone();
+    let i = p.entries.iter().position(|e| e.kind == crate::calib::parameterisation::Kind::PlatformSag).unwrap();
+    x[i] = -p.sag0;
+    x
+}
+
 fn augmented_with_gauge(
     jac: &DMatrix<f64>,
     legs: &[LegGeometry; 3],

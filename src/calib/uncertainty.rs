@@ -138,6 +138,12 @@ pub(crate) fn parameter_reports(
         .collect()
 }
 
+/// The platform's sag's standard error (degrees per unit of arm) when it was fitted.
+pub(crate) fn platform_sag_std_error_deg(p: &Parameterisation, cov: &DMatrix<f64>, free: &[bool]) -> Option<f64> {
+    let i = p.entries.iter().position(|e| e.kind == super::parameterisation::Kind::PlatformSag)?;
+    std_error(cov, free, i).map(f64::to_degrees)
+}
+
 /// The parameters whose change from nominal is under twice its standard error.
 pub(crate) fn not_significant(reports: &[ParameterReport]) -> Vec<String> {
     reports

@@ -51,6 +51,8 @@ pub use rig::{Projection, RigProjection, RigTerm};
 pub(crate) use rig::{RigProjection, RigTerm};
 pub use spm::{Branch, FdaError, FdaSettings, IkError, Jacobians, Spm, SpmError};
 #[cfg(feature = "full")]
+pub(crate) use spm::{MAX_PLATFORM_SAG, sag_arm};
+#[cfg(feature = "full")]
 pub use survey::ModelSurvey;
 #[cfg(feature = "full")]
 pub(crate) use urdf::reference_from;

@@ -114,6 +114,11 @@ pub struct Parameters {
     /// simulated, or held) with the latency: a capture stamped `t` was taken at
     /// `(t − latency) / (1 + rate·10⁻⁶)` on the encoders' clock. Absent: 0.
     pub clock_rate_ppm: Option<f64>,
+    /// How far the platform sags under its weight, degrees per unit of the gravity torque's arm
+    /// ([`Spm::sagged`]): 0 for a rigid mechanism (absent from the file).
+    pub platform_sag_deg: f64,
+    /// Its standard error (degrees per unit of arm), when fitted.
+    pub platform_sag_std_error_deg: Option<f64>,
     /// Statistics of the fit that produced the file (informational).
     pub fit: Option<serde_yaml::Value>,
 }
@@ -378,6 +383,10 @@ struct ParametersRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     clock_rate_ppm: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    platform_sag_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    platform_sag_std_error_deg: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     fit: Option<serde_yaml::Value>,
 }
 
@@ -394,6 +403,8 @@ impl Parameters {
             markers: Vec::new(),
             latency_s: None,
             clock_rate_ppm: None,
+            platform_sag_deg: spm.platform_sag().to_degrees(),
+            platform_sag_std_error_deg: None,
             fit: None,
         }
     }
@@ -414,9 +425,9 @@ impl Parameters {
     /// The manipulator these parameters describe (validated).
     ///
     /// # Errors
-    /// An [`SpmError`](super::SpmError) when the legs do not make a usable manipulator.
+    /// An [`SpmError`](super::SpmError) when the legs (or the sag) do not make a usable manipulator.
     pub fn spm(&self) -> Result<Spm, super::SpmError> {
-        Spm::new(self.legs)
+        Spm::new(self.legs)?.with_platform_sag(self.platform_sag_deg.to_radians())
     }
 
     /// Read and validate a parameters file. Every number is checked against its range (see
@@ -537,6 +548,21 @@ impl Parameters {
             );
             return Err(check.error("clock_rate_ppm", reason));
         }
+        let platform_sag_deg = record.platform_sag_deg.unwrap_or(0.0);
+        if !(platform_sag_deg.is_finite() && platform_sag_deg.to_radians().abs() <= super::spm::MAX_PLATFORM_SAG) {
+            let reason = format!(
+                "`platform_sag_deg` = {platform_sag_deg}: a platform's sag must be a finite number of degrees per \
+                 unit of arm within ±10 (a rigid mechanism's is 0)"
+            );
+            return Err(check.error("platform_sag_deg", reason));
+        }
+        if let Some(se) = record.platform_sag_std_error_deg
+            && !(se.is_finite() && se >= 0.0)
+        {
+            let reason =
+                format!("`platform_sag_std_error_deg` = {se}: a standard error must be finite and not negative");
+            return Err(check.error("platform_sag_std_error_deg", reason));
+        }
         Ok(Parameters {
             source: record.source,
             model: record.model.map(|m| {
@@ -550,6 +576,8 @@ impl Parameters {
             markers,
             latency_s: record.latency_s,
             clock_rate_ppm: record.clock_rate_ppm,
+            platform_sag_deg,
+            platform_sag_std_error_deg: record.platform_sag_std_error_deg,
             fit: record.fit,
         })
     }
@@ -592,6 +620,8 @@ impl Parameters {
                 .collect(),
             latency_s: self.latency_s,
             clock_rate_ppm: self.clock_rate_ppm,
+            platform_sag_deg: (self.platform_sag_deg != 0.0).then_some(self.platform_sag_deg),
+            platform_sag_std_error_deg: self.platform_sag_std_error_deg,
             fit: self.fit.clone(),
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");
@@ -601,7 +631,9 @@ impl Parameters {
              # axis v0 in P, encoder offset delta and scale (phi = scale * theta + delta; scale 1 when\n\
              # absent), home_branch (the sign of (u x w).v at home, which the working mode keeps).\n\
              # Camera: x_C = R_CB x_B + t_CB.\n\
-             # Markers (when fitted): positions in P, metres.\n{body}"
+             # Markers (when fitted): positions in P, metres.\n\
+             # platform_sag_deg (when not 0): the platform's turn under its weight, degrees per unit of\n\
+             # the arm n x (-z) (n its axis, z the base's up), after the rigid mechanism's orientation.\n{body}"
         )
     }
 }

@@ -173,7 +173,15 @@ pub struct Spm {
     home_joints: Vector3<f64>,
     /// Settings of the forward displacement analysis.
     pub settings: FdaSettings,
+    /// The platform's sag under its weight, radians per unit of the gravity torque's arm (see
+    /// [`Spm::sagged`]); 0 for a rigid mechanism.
+    platform_sag: f64,
 }
+
+/// The largest platform sag a mechanism may have, radians per unit of arm (10°): beyond it the
+/// platform is no longer the rigid mechanism's plus a small bend, and [`Spm::rigid`]'s fixed point
+/// would contract slowly.
+pub(crate) const MAX_PLATFORM_SAG: f64 = 10.0 * std::f64::consts::PI / 180.0;
 
 /// Why a geometry does not make a usable manipulator.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -210,6 +218,12 @@ pub enum SpmError {
     #[error("platform axes v0 of legs {} and {} are parallel", .0 + 1, .1 + 1)]
     /// Two platform axes are parallel (leg indices, 0-based).
     ParallelPlatformAxes(usize, usize),
+    #[error("the platform's sag must be finite and within ±10° per unit of arm (got {value_deg}°)")]
+    /// The platform's sag is not finite or beyond 10° per unit of arm.
+    PlatformSag {
+        /// The sag given, degrees per unit of arm.
+        value_deg: f64,
+    },
 }
 
 impl Spm {
@@ -232,9 +246,10 @@ impl Spm {
             legs: checked.map(|g| Leg::new(&g)),
             home_joints: Vector3::zeros(),
             settings: FdaSettings::default(),
+            platform_sag: 0.0,
         };
         let home = Rotation3::identity();
-        spm.home_joints = spm.ik(&home).map_err(SpmError::NoHomeClosure)?;
+        spm.home_joints = spm.ik_rigid(&home).map_err(SpmError::NoHomeClosure)?;
         spm.check_home()?;
         Ok(spm)
     }
@@ -266,6 +281,54 @@ impl Spm {
             .expect("the nominal Agile Wrist is a valid geometry")
     }
 
+    /// The same mechanism with a platform that sags under its weight by `per_unit_rad` radians per
+    /// unit of the gravity torque's arm ([`Spm::sagged`]).
+    ///
+    /// # Errors
+    /// [`SpmError::PlatformSag`] for a sag that is not finite or beyond 10° per unit of arm.
+    pub fn with_platform_sag(mut self, per_unit_rad: f64) -> Result<Self, SpmError> {
+        if !(per_unit_rad.is_finite() && per_unit_rad.abs() <= MAX_PLATFORM_SAG) {
+            return Err(SpmError::PlatformSag { value_deg: per_unit_rad.to_degrees() });
+        }
+        self.platform_sag = per_unit_rad;
+        Ok(self)
+    }
+
+    /// The platform's sag, radians per unit of the gravity torque's arm (0: rigid).
+    pub fn platform_sag(&self) -> f64 {
+        self.platform_sag
+    }
+
+    /// Where the platform is when the rigid mechanism puts it at `rigid`: turned under its weight
+    /// by `c (n × (−z))`, `c` the sag ([`Spm::platform_sag`]), `n = R z` the platform's axis and `z`
+    /// the base's up (the gravity torque's arm: zero when the platform is level, one when it is
+    /// horizontal). [`Spm::forward`] and [`Spm::track`] return this orientation; [`Spm::ik`] takes it.
+    pub fn sagged(&self, rigid: &Rotation3<f64>) -> Rotation3<f64> {
+        if self.platform_sag == 0.0 {
+            return *rigid;
+        }
+        so3::exp(&(sag_arm(rigid) * self.platform_sag)) * rigid
+    }
+
+    /// The rigid mechanism's orientation whose [`Spm::sagged`] one is `observed` (the identity for
+    /// a rigid mechanism): the fixed point of `R ← exp(−c·arm(R)) R_obs`, a contraction by `|c|`.
+    /// The orientation [`Spm::jacobians`], [`Spm::branch_margins`] and [`Spm::ik_leg`] take.
+    pub fn rigid(&self, observed: &Rotation3<f64>) -> Rotation3<f64> {
+        if self.platform_sag == 0.0 {
+            return *observed;
+        }
+        let mut r = *observed;
+        for _ in 0..60 {
+            let next = so3::exp(&(sag_arm(&r) * -self.platform_sag)) * observed;
+            let step = so3::geodesic_angle(&next, &r);
+            r = next;
+            if !(step > 1e-15) {
+                break;
+            }
+        }
+        r
+    }
+
     /// The validated per-leg geometry.
     pub fn geometry(&self) -> &[LegGeometry; 3] {
         &self.geometry
@@ -294,11 +357,20 @@ impl Spm {
 
     // ----- inverse kinematics -------------------------------------------------------------
 
-    /// Joint readings (rad, in `(−π, π]`) that put the MP at `r`, every leg in the working branch.
+    /// Joint readings (rad, in `(−π, π]`) that put the MP at `r`, every leg in the working branch
+    /// (`r` as the platform is, its sag included: [`Spm::rigid`] takes it back to the mechanism's).
     ///
     /// # Errors
     /// An [`IkError`] when a leg cannot reach `r`, `r` is not finite or a leg is at a serial singularity.
     pub fn ik(&self, r: &Rotation3<f64>) -> Result<Vector3<f64>, IkError> {
+        if !r.matrix().iter().all(|v| v.is_finite()) {
+            return Err(IkError::NotFinite);
+        }
+        self.ik_rigid(&self.rigid(r))
+    }
+
+    /// [`Spm::ik`] at the rigid mechanism's orientation.
+    fn ik_rigid(&self, r: &Rotation3<f64>) -> Result<Vector3<f64>, IkError> {
         let mut joints = Vector3::zeros();
         for i in 0..3 {
             joints[i] = self.ik_leg(i, r, Branch::Working)?;
@@ -306,7 +378,8 @@ impl Spm {
         Ok(joints)
     }
 
-    /// Joint reading of leg `i` (0-based) for orientation `r` on the chosen branch.
+    /// Joint reading of leg `i` (0-based) for the rigid mechanism's orientation `r` ([`Spm::rigid`])
+    /// on the chosen branch.
     ///
     /// The closure `w(φ)·v = cos α2` reads `A cos φ + B sin φ = C` with
     /// `A = sin α1 z·v`, `B = sin α1 (u×z)·v`, `C = cos α2 − cos α1 u·v`; writing
@@ -348,7 +421,8 @@ impl Spm {
 
     // ----- Jacobians and singularities ----------------------------------------------------
 
-    /// Velocity Jacobians at joints `θ` and orientation `r` (assumed to close the loops).
+    /// Velocity Jacobians at joints `θ` and the rigid mechanism's orientation `r` (assumed to close
+    /// the loops; [`Spm::rigid`] of what [`Spm::forward`] returns).
     pub fn jacobians(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Jacobians {
         let w = self.intermediate_axes(joints);
         let v = self.platform_axes(r);
@@ -359,8 +433,9 @@ impl Spm {
         Jacobians { a, b }
     }
 
-    /// Branch margins `−s_i (u_i×w_i)·v_i / sin α1_i` in `[−1, 1]`, with `s_i` the leg's home
-    /// sign: negative in the working branch, zero at a serial singularity of the leg.
+    /// Branch margins `−s_i (u_i×w_i)·v_i / sin α1_i` in `[−1, 1]` at the rigid mechanism's
+    /// orientation `r`, with `s_i` the leg's home sign: negative in the working branch, zero at a
+    /// serial singularity of the leg.
     pub fn branch_margins(&self, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Vector3<f64> {
         let w = self.intermediate_axes(joints);
         Vector3::from_fn(|i, _| {
@@ -428,7 +503,8 @@ impl Spm {
     }
 
     /// Tracking FDA, the haptic-loop path: Newton from the `previous` orientation, then checks
-    /// that the result is near it, regular and in the working mode. No heap allocation.
+    /// that the result is near it, regular and in the working mode. No heap allocation. Both
+    /// orientations are the platform's as it is, its sag included ([`Spm::sagged`]).
     ///
     /// # Errors
     /// An [`FdaError`] for non-finite readings, no convergence, a near-singular pose, a jump from `previous` or a solution off the working mode.
@@ -437,18 +513,20 @@ impl Spm {
             return Err(FdaError::NotFinite);
         }
         let w = self.intermediate_axes(joints);
-        let (r, _) = self.newton(&w, previous, self.settings.max_iterations)?;
-        let jump = so3::geodesic_angle(previous, &r);
+        let previous = self.rigid(previous);
+        let (r, _) = self.newton(&w, &previous, self.settings.max_iterations)?;
+        let jump = so3::geodesic_angle(&previous, &r);
         if jump > self.settings.max_track_jump {
             return Err(FdaError::JumpTooLarge { jump_deg: jump.to_degrees() });
         }
         self.check_pose(joints, &r)?;
-        Ok(r)
+        Ok(self.sagged(&r))
     }
 
     /// FDA in the working mode: the solution continuously connected to home, followed along the
     /// straight joint-space path from the home readings by predictor–corrector continuation with
-    /// step halving. Fails with a typed error at or near a singularity.
+    /// step halving, then turned by the platform's sag ([`Spm::sagged`]). Fails with a typed error
+    /// at or near a singularity.
     ///
     /// # Errors
     /// An [`FdaError`] for non-finite readings, a path through or near a singularity, or a solution off the working mode.
@@ -480,7 +558,7 @@ impl Spm {
             }
         }
         self.check_pose(joints, &r)?;
-        Ok(r)
+        Ok(self.sagged(&r))
     }
 
     /// One predictor–corrector step of `forward`: first-order predictor `A ω = B Δθ`, Newton corrector.
@@ -514,6 +592,11 @@ impl Spm {
         }
         Ok(corrected)
     }
+}
+
+/// The gravity torque's arm on a platform at `r`: `n × (−z)`, `n = R z` its axis, `z` the base's up.
+pub(crate) fn sag_arm(r: &Rotation3<f64>) -> Vector3<f64> {
+    (r * Vector3::z()).cross(&-Vector3::z())
 }
 
 /// Wrap an angle to `(−π, π]`.

@@ -104,6 +104,9 @@ impl fmt::Display for CalibrationReport {
                 None => writeln!(f, "  {:<26} {:+12.5}         frozen", p.name, p.change_deg)?,
             }
         }
+        if let Some(why) = &r.platform_sag_held {
+            writeln!(f, "  platform.sag held at its start: {why}")?;
+        }
         for s in &r.joint_scales {
             let name = format!("leg{}.scale", s.leg);
             match (s.std_error_ppm, &s.held) {

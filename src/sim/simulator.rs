@@ -649,6 +649,8 @@ impl Simulator<'_> {
             markers,
             latency_s,
             clock_rate_ppm,
+            platform_sag_deg: self.config.truth.sag_deg,
+            platform_sag_std_error_deg: None,
             fit: None,
         }
     }
@@ -913,8 +915,7 @@ impl Simulator<'_> {
         if compliance == 0.0 {
             return *r;
         }
-        let arm = (r * Vector3::z()).cross(&-Vector3::z());
-        so3::exp(&(arm * compliance)) * r
+        so3::exp(&(crate::model::sag_arm(r) * compliance)) * r
     }
 
     /// Encoder readings and camera measurements of the markers `which` at a pose (the joints put

@@ -20,7 +20,9 @@ use crate::calib::report::{
 };
 use crate::calib::residuals::Residuals;
 use crate::calib::rig_terms;
-use crate::calib::uncertainty::{parameter_reports, predicted_marker_error, released, std_error};
+use crate::calib::uncertainty::{
+    parameter_reports, platform_sag_std_error_deg, predicted_marker_error, released, std_error,
+};
 use crate::calib::workspace::PredictionPoses;
 use crate::dataset::{Session, Streams};
 use crate::math::stats::Stats;
@@ -101,7 +103,7 @@ impl<'s> MarkerLevel<'s> {
                 )
             })
             .collect();
-        let nominal_r = pose_orientations(spm.geometry(), &observations, &markers0).map_err(CalibError::Nominal)?;
+        let nominal_r = pose_orientations(&spm, &observations, &markers0).map_err(CalibError::Nominal)?;
         let (registration, body_frame, markers0) = match (session.rig.as_deref(), &session.body) {
             (Some(rig), _) => (registration::from_pixels(&observations, &nominal_r, &markers0, rig), None, markers0),
             (None, Some(_)) => match registration::from_body(&observations, &nominal_r) {
@@ -124,7 +126,8 @@ impl<'s> MarkerLevel<'s> {
         };
         let start = config.camera_terms.model(carried);
         let mut p =
-            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &names, start, &config.bounds);
+            Parameterisation::for_markers(*spm.geometry(), &registration, &markers0, &names, start, &config.bounds)
+                .with_platform_sag(spm.platform_sag());
         if let (Some(a), Some(body)) = (body_frame, &session.body) {
             p = p.with_body_frame(a, body);
         }
@@ -255,6 +258,8 @@ impl Level for MarkerLevel<'_> {
                 .collect(),
             latency_s: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.latency(x)),
             clock_rate_ppm: p.entries.iter().any(|e| e.kind == Kind::Latency).then(|| p.clock_rate_ppm(x)),
+            platform_sag_deg: p.platform_sag(x).to_degrees(),
+            platform_sag_std_error_deg: platform_sag_std_error_deg(p, cov, free),
             fit: None,
         };
         // Per pose, in degrees, where the per-pose estimator has something to work on: the nominal
@@ -282,7 +287,7 @@ impl Level for MarkerLevel<'_> {
             .into_iter()
             .zip(&p.entries)
             .filter(|(_, e)| {
-                (e.kind.leg().is_some() || matches!(e.kind, Kind::Camera { .. }))
+                (e.kind.moves_platform() || matches!(e.kind, Kind::Camera { .. }))
                     && !matches!(e.kind, Kind::Scale { .. })
             })
             .map(|(r, _)| r)

@@ -67,7 +67,8 @@ impl OrientationLevel {
         let predicted: Vec<Rotation3<f64>> = fit_set.iter().map(|(_, (_, r))| *r).collect();
         let (camera0, reference0) =
             registration::from_rotations(&fitted, &predicted, vision.reference_pose).ok_or(CalibError::Registration)?;
-        let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds);
+        let p = Parameterisation::new(*nominal_spm.geometry(), camera0, reference0, &config.bounds)
+            .with_platform_sag(nominal_spm.platform_sag());
         // The correction applied, written with the result (a perfect camera's is no model at all).
         let camera_model = match config.camera_terms.model(config.camera_model_or_rigid()) {
             m if m.is_perfect() => CameraModel::rigid(),
@@ -148,6 +149,8 @@ impl Level for OrientationLevel {
             camera: centre
                 .map(|c| CameraRegistration { rotation: p.camera(x), translation: Vector3::from(c.position_m) }),
             camera_model: self.camera_model,
+            platform_sag_deg: p.platform_sag(x).to_degrees(),
+            platform_sag_std_error_deg: crate::calib::uncertainty::platform_sag_std_error_deg(p, cov, &r.free),
             fit: None,
         };
         let eval = &r.calibrated.evaluation;
