@@ -256,7 +256,11 @@ impl Model {
     fn jacobians_at(&self, rows: &[Vector3<f64>]) -> PyResult<Vec<spmcal::model::Jacobians>> {
         rows.iter()
             .enumerate()
-            .map(|(k, j)| Ok(self.spm.jacobians(j, &self.spm.forward(j).map_err(|e| row_error(k, &e))?)))
+            .map(|(k, j)| {
+                // The closure's Jacobians are the rigid mechanism's, at its own orientation.
+                let r = self.spm.forward(j).map_err(|e| row_error(k, &e))?;
+                Ok(self.spm.jacobians(j, &self.spm.rigid(&r)))
+            })
             .collect()
     }
 

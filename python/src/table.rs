@@ -30,7 +30,8 @@ pub(crate) fn internal_unit(kind: Kind) -> &'static str {
         | Kind::Offset { .. }
         | Kind::PlatformTilt { .. }
         | Kind::Camera { .. }
-        | Kind::Reference { .. } => "rad",
+        | Kind::Reference { .. }
+        | Kind::PlatformSag => "rad",
         Kind::Translation { .. } | Kind::Marker { .. } => "m",
         Kind::Latency => "s",
         Kind::ClockRate => "s",
@@ -82,15 +83,18 @@ fn angles(c: &Calibration) -> Vec<Row> {
                 Some(Kind::Alpha1 { leg }) => legs[leg].alpha1.to_degrees(),
                 Some(Kind::Alpha2 { leg }) => legs[leg].alpha2.to_degrees(),
                 Some(Kind::Offset { leg }) => legs[leg].delta.to_degrees(),
+                Some(Kind::PlatformSag) => c.parameters.platform_sag_deg,
                 _ => p.change_deg,
             };
+            let held = kind_of(&p.name) == Some(Kind::PlatformSag) && c.report.platform_sag_held.is_some();
             Row {
                 name: p.name.clone(),
                 value,
                 change: p.change_deg,
                 std_error: p.std_error_deg,
-                unit: "deg",
-                status: status(p.std_error_deg, p.at_bound),
+                // The sag's degrees are per unit of the gravity torque's arm.
+                unit: if kind_of(&p.name) == Some(Kind::PlatformSag) { "deg per unit of arm" } else { "deg" },
+                status: if held { "held".to_string() } else { status(p.std_error_deg, p.at_bound) },
             }
         })
         .collect()

@@ -293,6 +293,8 @@ def parse_name(name: str) -> tuple[str, int, int]:
                 return (axis, leg, int(k) - 1 if k else 0)
         if tail in ("alpha1", "alpha2", "delta", "scale"):
             return (tail, leg, 0)
+    elif head == "platform" and tail == "sag":
+        return ("sag", 0, 0)
     elif head == "camera":
         if tail.startswith("rotation_"):
             return ("rotation", 0, axes[tail[-1]])
@@ -314,6 +316,15 @@ class State:
     camera_translation: Array
     markers: Array
     k: Array
+    sag: Any = 0.0
+
+
+def sagged(sag: Any, r: Array) -> Array:
+    """The platform where its weight turns the rigid mechanism's ``r`` ``(n, 3, 3)``: by ``sag``
+    times the gravity torque's arm ``(R z) × (−z)`` (docs/conventions.md), in B."""
+    arm = np.cross(r[:, :, 2], np.array([0.0, 0.0, -1.0]))
+    out: Array = expm(sag * arm) @ r
+    return out
 
 
 def state(start: Start, x: Array) -> State:
@@ -326,6 +337,7 @@ def state(start: Start, x: Array) -> State:
     translation = np.zeros(3, dtype)
     markers = np.zeros(start.markers.shape, dtype)
     terms = np.zeros(5, dtype)
+    sag = dtype.type(0)
     if len(x) != len(start.parsed):
         raise ValueError(f"x has {len(x)} entries for {len(start.parsed)} parameters")
     for value, (what, i, k) in zip(x, start.parsed):
@@ -341,6 +353,8 @@ def state(start: Start, x: Array) -> State:
             translation[k] = value
         elif what == "marker":
             markers[i, k] = value
+        elif what == "sag":
+            sag = sag + value
         else:
             terms[k] = value
     legs = []
@@ -352,7 +366,7 @@ def state(start: Start, x: Array) -> State:
                         scale=leg.scale + add["scale"][i]))
     return State(legs=legs, camera_rotation=expm(rotation) @ start.camera_rotation,
                  camera_translation=start.camera_translation + translation, markers=start.markers + markers,
-                 k=camera_matrix(start.camera_model, start.camera_terms + terms))
+                 k=camera_matrix(start.camera_model, start.camera_terms + terms), sag=sag)
 
 
 def camera_points(s: State, r: Array, markers: Array) -> Array:
@@ -367,7 +381,7 @@ def predict(start: Start, x: Array, joints: Array, markers: Array,
     """The predicted camera points ``(n, 3)`` and the FDA's rotations ``(n, 3, 3)`` at ``x`` (from
     the rotations ``near`` of a nearby ``x`` when given)."""
     s = state(start, np.asarray(x, dtype=float))
-    r = fda(s.legs, joints, start=near)
+    r = sagged(s.sag, fda(s.legs, joints, start=near))
     return camera_points(s, r, markers), r
 
 
@@ -381,9 +395,11 @@ def sensitivities(start: Start, x: Array, joints: Array, markers: Array) -> tupl
     """Predictions ``(n, 3)``, rotations ``(n, 3, 3)``, the predictions' Jacobian ``(n, 3, p)`` and
     the orientations' ``(n, 3, p)`` (``dR = [dω]× R``, ``dω`` in B)."""
     x = np.asarray(x, dtype=float)
-    predictions, r = predict(start, x, joints, markers)
     s = state(start, x)
-    a, _ = closure_jacobian(s.legs, joints, r)
+    rigid = fda(s.legs, joints)
+    r = sagged(s.sag, rigid)
+    predictions = camera_points(s, r, markers)
+    a, _ = closure_jacobian(s.legs, joints, rigid)
     a_inverse = np.linalg.inv(a)
     rp = np.einsum("nab,nb->na", r, s.markers[markers])
     lever = np.einsum("ab,bc,ncd->nad", s.k, s.camera_rotation, hat(rp))  # K R_CB [R p]×
@@ -394,8 +410,13 @@ def sensitivities(start: Start, x: Array, joints: Array, markers: Array) -> tupl
         xc = x.astype(complex)
         xc[i] += 1j * COMPLEX_STEP
         sc = state(start, xc)
-        f_x = closure(sc.legs, joints, r.astype(complex)).imag / COMPLEX_STEP
-        d_omega = implicit_step(a_inverse, f_x)
+        f_x = closure(sc.legs, joints, rigid.astype(complex)).imag / COMPLEX_STEP
+        # The rigid mechanism turns by the implicit step; the platform, by what the sag (at the
+        # complex x) makes of that turn: the complex step through the composition, not a formula.
+        d_rigid = implicit_step(a_inverse, f_x)
+        turned = sagged(sc.sag, expm(1j * COMPLEX_STEP * d_rigid) @ rigid.astype(complex))
+        step = np.einsum("nab,ncb->nac", turned, r).imag / COMPLEX_STEP
+        d_omega = np.stack([step[:, 2, 1], step[:, 0, 2], step[:, 1, 0]], axis=1)
         explicit = camera_points(sc, r.astype(complex), markers).imag / COMPLEX_STEP
         jac[:, :, i] = explicit - np.einsum("nab,nb->na", lever, d_omega)
         omega[:, :, i] = d_omega

@@ -339,9 +339,18 @@ fn run<L: Level>(
         clock.lap("joint-scale and sag test", trial.log.len());
         if round == 0 {
             let cov = covariance(&trial, &trial_free, trial_prior.as_ref().map(|(l, _)| l));
+            // A misfit of another kind (a camera beyond its model, a joint's scale) leans on the
+            // sag's column too, which the geometry leaves free to take it: a sag is kept only when,
+            // fitted, it leaves no other structure for the model check to find.
+            let other = sag_tested.is_some().then(|| other_structure(&problem, &trial, &trial_free, &cov)).flatten();
             for group in &groups {
                 let indices = group.indices();
                 let wald = joint_scales::wald(&trial.x, &cov, &indices);
+                if let (Trial::Sag(i), Some(cause)) = (group, other) {
+                    let sigma = cov[(*i, *i)].max(0.0).sqrt();
+                    sag_held = Some(platform_sag::other_cause_reason(trial.x[*i], sigma, cause));
+                    continue;
+                }
                 if group.shows(wald) {
                     kept.push(group.clone());
                     continue;
@@ -611,6 +620,19 @@ pub(super) fn unidentified_camera_terms(
 }
 
 /// The free parameters that end at their bound.
+/// The first structure other than the sag's (and the overall test) whose test in the model check of
+/// `outcome` (a fit of the `free` parameters, covariance `cov`) rejects.
+fn other_structure<M: Residuals>(
+    problem: &M,
+    outcome: &FitOutcome<M::Noise>,
+    free: &[bool],
+    cov: &nalgebra::DMatrix<f64>,
+) -> Option<&'static str> {
+    let (check, _) = super::model_check::check(problem, outcome, free, cov, None)?;
+    let ignored = [Structure::Sag.name(), Structure::Overall.name()];
+    check.tests.iter().find(|t| !ignored.contains(&t.structure) && t.p_value < t.alpha).map(|t| t.structure)
+}
+
 fn at_bounds(p: &Parameterisation, x: &DVector<f64>, free: &[bool]) -> Vec<bool> {
     (0..p.len()).map(|i| free[i] && p.at_bound(x, i)).collect()
 }

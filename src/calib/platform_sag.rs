@@ -6,7 +6,10 @@
 //! so a small sag is a faint effect; left out, it still costs the mechanism's accuracy far more
 //! than it shows in the residuals (the verdict study: 0.5° per unit of arm, 1.7 times the error).
 //! `platform_sag: auto` (the default) fits without it, and tries it when its score at that fit is
-//! beyond [`AUTO_SCORE`] standard deviations; the trial keeps it when its Wald statistic is too.
+//! beyond [`AUTO_SCORE`] standard deviations; the trial keeps it when its Wald statistic is beyond
+//! [`AUTO_SCORE`] too and, fitted, it leaves no other structure for the model check to find (a
+//! camera beyond its model or a joint's scale leans on the sag's column too, often more than on
+//! its own test's: fitted, the sag would take up their misfit and hide it).
 
 use nalgebra::DMatrix;
 
@@ -89,6 +92,18 @@ pub(crate) fn held_reason(z: Option<f64>) -> String {
         ),
         None => "not determined by this session: the poses cannot tell it from the geometry".to_string(),
     }
+}
+
+/// Why `auto` held the sag although the trial's Wald statistic may show it (`change` and `sigma`
+/// what the trial gave, radians per unit of arm): with it fitted, the model check's test of another
+/// structure (`cause`) still rejects, so that the misfit is not (only) a sag.
+pub(crate) fn other_cause_reason(change: f64, sigma: f64, cause: &str) -> String {
+    format!(
+        "not kept: freed, it moved {:+.3} ± {:.3}° per unit of arm, but the residuals still follow the {cause} (the \
+         model check's test rejects), whose misfit leans on the sag's column too",
+        change.to_degrees(),
+        sigma.to_degrees()
+    )
 }
 
 /// Why `auto` held the sag after trying it (`change` from its start and `sigma`, radians per unit

@@ -8,11 +8,11 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Rotation3, Unit, Vector3};
 
 use super::config::PredictionWorkspace;
+use super::parameterisation::Kind;
 use super::parameterisation::Parameterisation;
-use super::sensitivity::Frames;
+use super::sensitivity::{Frames, through_sag};
 use super::uncertainty::{PredictedError, predicted_orientation_error};
 use crate::math::so3;
-use crate::model::Spm;
 
 /// How many orientations the predicted error is averaged over: its RMS is then within about 3 % of
 /// the workspace's (measured: 400 against 4,000 on the Agile Wrist).
@@ -59,12 +59,18 @@ impl PredictionWorkspace {
     /// fit the common rotations.
     fn poses(&self, p: &Parameterisation, x: &DVector<f64>) -> Option<PredictionPoses<'static>> {
         let legs = p.legs(x);
-        let spm = Spm::new(legs).ok()?;
+        let spm = p.spm(x).ok()?;
         let frames = Frames::new(p, x);
+        let sag = p.entries.iter().position(|e| e.kind == Kind::PlatformSag);
         let (mut sens, mut rotations) = (Vec::new(), Vec::new());
+        // Each orientation is the platform's (the sag included); the sensitivity is the platform's
+        // too, the sag's own column with it.
         for r in self.orientations(SAMPLES) {
             if let Ok(joints) = spm.ik(&r) {
-                sens.push(frames.orientation_sensitivity(&spm, &legs, &joints, &r));
+                let rigid = spm.rigid(&r);
+                let mut s = frames.orientation_sensitivity(&spm, &legs, &joints, &rigid);
+                through_sag(&spm, &rigid, &mut s, sag);
+                sens.push(s);
                 rotations.push(r);
             }
         }

@@ -8,7 +8,8 @@
 //! the platform axis `v0` of each leg. The calibrated mechanism reaches home at encoder readings
 //! `θ_home` (not 0 in general), so the URDF's joint value of `theta_i` is `s_i (θ_i − θ_home,i)`:
 //! the companion's `encoder_scales[i] = s_i` (written when a scale is not 1) times the reading plus
-//! its `encoder_offsets_deg[i] = −s_i θ_home,i`.
+//! its `encoder_offsets_deg[i] = −s_i θ_home,i`. A fitted platform sag, which no URDF term can
+//! hold, is the companion's `platform_sag_deg`.
 
 use std::collections::HashMap;
 
@@ -105,6 +106,8 @@ pub fn export(model: &RobotModel, params: &Parameters, provenance: &[String]) ->
     let scales = params.legs.map(|g| g.scale);
     companion.encoder_offsets_deg = Some([0, 1, 2].map(|i| -(scales[i] * home[i]).to_degrees()));
     companion.encoder_scales = scales.iter().any(|&s| s != 1.0).then_some(scales);
+    // A URDF has no term for the sag: the companion carries it, and the model loads it back.
+    companion.platform_sag_deg = (params.platform_sag_deg != 0.0).then_some(params.platform_sag_deg);
     companion.camera = (!params.camera_model.is_perfect()).then(|| CameraRecord::of(None, &params.camera_model));
     let comments: String = provenance.iter().map(|l| format!("  {l}\n")).collect();
     let body = urdf_rs::write_to_string(&robot).map_err(|e| export(format!("the URDF cannot be written: {e}")))?;
@@ -144,6 +147,11 @@ fn companion_text(c: &Companion, provenance: &[String]) -> String {
     }
     if let Some(s) = c.encoder_scales {
         text += &format!("encoder_scales: [{:?}, {:?}, {:?}]\n", s[0], s[1], s[2]);
+    }
+    if let Some(sag) = c.platform_sag_deg {
+        text += "# The platform's sag under its weight (no URDF term holds it): degrees per unit of the arm\n";
+        text += "# n x (-z) (n the platform's axis, z the base's up), after the rigid mechanism's orientation.\n";
+        text += &format!("platform_sag_deg: {sag:?}\n");
     }
     if let Some(camera) = &c.camera {
         text += "# The camera model the calibration fitted: the camera reports K x for x in its frame.\n";

@@ -205,6 +205,10 @@ pub(super) struct Companion {
     /// scale × reading + offset); absent: 1 (a calibrated URDF has them when a scale is not 1).
     #[serde(default)]
     pub(super) encoder_scales: Option<[f64; 3]>,
+    /// The platform's sag under its weight, degrees per unit of the gravity torque's arm
+    /// (`Spm::sagged`; a URDF has no term for it): absent, 0 (an export writes a fitted one).
+    #[serde(default)]
+    pub(super) platform_sag_deg: Option<f64>,
     /// The camera model a calibration fitted (an export writes it; the model carries it).
     #[serde(default)]
     pub(super) camera: Option<CameraRecord>,
@@ -465,6 +469,14 @@ pub(super) fn parse_companion(path: &Path, text: &str) -> Result<(Companion, Key
                 .map_err(companion_error)?;
         }
     }
+    if let Some(sag) = companion.platform_sag_deg
+        && !(sag.is_finite() && sag.to_radians().abs() <= super::spm::MAX_PLATFORM_SAG)
+    {
+        let reason = format!(
+            "`platform_sag_deg` = {sag}: a platform's sag must be a finite number of degrees per unit of arm within ±10"
+        );
+        return Err(companion_error(check.error("platform_sag_deg", reason)));
+    }
     if let Some(camera) = &companion.camera {
         if camera.has_registration() {
             let reason = "a model's `camera` holds its camera model only: the registration (`r_cb_wxyz`, `t_cb_m`) belongs to a parameters file";
@@ -621,7 +633,9 @@ impl<'a> Loader<'a> {
             };
             leg_links.push([actuated.joint.child.link.clone(), intermediate.joint.child.link.clone()]);
         }
-        let spm = Spm::new(legs).map_err(|source| ModelError::Geometry { path: self.path.to_path_buf(), source })?;
+        let spm = Spm::new(legs)
+            .and_then(|spm| spm.with_platform_sag(companion.platform_sag_deg.unwrap_or(0.0).to_radians()))
+            .map_err(|source| ModelError::Geometry { path: self.path.to_path_buf(), source })?;
         let markers =
             companion.markers_m.into_iter().map(|(name, p)| Marker { name, position: Vector3::from(p) }).collect();
         let shapes = self.shapes(&frames, &leg_links, &companion.platform_link)?;

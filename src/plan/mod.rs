@@ -281,8 +281,11 @@ impl Plan {
         let (p, info, prior, with_scales) = loop {
             let kind = if camera_note.is_some() { CameraModelKind::Rigid } else { settings.camera_model };
             let camera_model = params.camera_model.with_kind(kind);
-            let p_all =
+            let mut p_all =
                 Parameterisation::for_markers(*spm.geometry(), &camera, &markers, &names, camera_model, &bounds);
+            // A sag is fitted only where a session shows it (`platform_sag: auto`): planned for
+            // without it, as the scales below.
+            p_all.entries.retain(|e| e.kind != Kind::PlatformSag);
             let info_all =
                 Information::of(&p_all, &camera, &pool, workspace, &noise).map_err(crate::calib::SetError::Eval)?;
             let prior_all = match augment {

@@ -147,6 +147,10 @@ pub(crate) fn parameters(title: &str, p: &Parameters) -> String {
         ]);
     }
     s += &table.markdown();
+    if p.platform_sag_deg != 0.0 {
+        let se = p.platform_sag_std_error_deg.map_or(String::new(), |se| format!(" ± {se:.4}"));
+        let _ = write!(s, "\nPlatform sag: {:.4}{se}° per unit of the gravity torque's arm\n", p.platform_sag_deg);
+    }
     if !p.camera_model.is_perfect() {
         let terms: Vec<String> = p
             .camera_model
