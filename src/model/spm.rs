@@ -322,7 +322,8 @@ impl Spm {
             let next = so3::exp(&(sag_arm(&r) * -self.platform_sag)) * observed;
             let step = so3::geodesic_angle(&next, &r);
             r = next;
-            if !(step > 1e-15) {
+            // Converged, or not a number (a non-finite orientation): either way, done.
+            if step.is_nan() || step <= 1e-15 {
                 break;
             }
         }

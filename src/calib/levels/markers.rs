@@ -103,7 +103,7 @@ impl<'s> MarkerLevel<'s> {
                 )
             })
             .collect();
-        let nominal_r = pose_orientations(&spm, &observations, &markers0).map_err(CalibError::Nominal)?;
+        let nominal_r = pose_orientations(spm, &observations, &markers0).map_err(CalibError::Nominal)?;
         let (registration, body_frame, markers0) = match (session.rig.as_deref(), &session.body) {
             (Some(rig), _) => (registration::from_pixels(&observations, &nominal_r, &markers0, rig), None, markers0),
             (None, Some(_)) => match registration::from_body(&observations, &nominal_r) {
