@@ -316,7 +316,19 @@ fn run<L: Level>(
     }
     if let Some(i) = sag_tested {
         match platform_sag::score(&robust, &free, i, lambda.as_ref()) {
-            Some(z) if z.abs() >= platform_sag::AUTO_SCORE => groups.push(Trial::Sag(i)),
+            Some(z) if z.abs() >= platform_sag::AUTO_SCORE => {
+                // The model check at this fit names the misfit's likeliest cause: a joint's scale
+                // or a camera beyond its model raise the sag's score too, and a sag fitted then
+                // takes up part of their misfit and hides it.
+                let cov = covariance(&robust, &free, lambda.as_ref());
+                let named = super::model_check::check(&problem, &robust, &free, &cov, None)
+                    .and_then(|(c, _)| (!c.passed).then_some(c.cause).flatten())
+                    .filter(|cause| ![Structure::Sag.name(), Structure::Overall.name()].contains(cause));
+                match named {
+                    Some(cause) => sag_held = Some(platform_sag::named_cause_reason(z, cause)),
+                    None => groups.push(Trial::Sag(i)),
+                }
+            }
             z => sag_held = Some(platform_sag::held_reason(z)),
         }
     }

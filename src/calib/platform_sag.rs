@@ -6,10 +6,11 @@
 //! so a small sag is a faint effect; left out, it still costs the mechanism's accuracy far more
 //! than it shows in the residuals (the verdict study: 0.5° per unit of arm, 1.7 times the error).
 //! `platform_sag: auto` (the default) fits without it, and tries it when its score at that fit is
-//! beyond [`AUTO_SCORE`] standard deviations; the trial keeps it when its Wald statistic is beyond
-//! [`AUTO_SCORE`] too and, fitted, it leaves no other structure for the model check to find (a
-//! camera beyond its model or a joint's scale leans on the sag's column too, often more than on
-//! its own test's: fitted, the sag would take up their misfit and hide it).
+//! beyond [`AUTO_SCORE`] standard deviations and the model check at that fit names no other cause;
+//! the trial keeps it when its Wald statistic is beyond [`AUTO_SCORE`] too and, fitted, it leaves
+//! no other structure for the model check to find. A camera beyond its model or a joint's scale
+//! leans on the sag's column too (a camera's error can even raise the sag's test above its own):
+//! fitted, the sag would take up their misfit and hide it.
 
 use nalgebra::DMatrix;
 
@@ -92,6 +93,15 @@ pub(crate) fn held_reason(z: Option<f64>) -> String {
         ),
         None => "not determined by this session: the poses cannot tell it from the geometry".to_string(),
     }
+}
+
+/// Why `auto` did not try the sag although its score `z` is beyond [`AUTO_SCORE`]: the model
+/// check at the fit without it names another `cause`.
+pub(crate) fn named_cause_reason(z: f64, cause: &str) -> String {
+    format!(
+        "not tried: its score at the fit without it is {z:+.2}σ, but the model check names the {cause} as the \
+         residuals' likeliest cause, whose misfit leans on the sag's column too"
+    )
 }
 
 /// Why `auto` held the sag although the trial's Wald statistic may show it (`change` and `sigma`
