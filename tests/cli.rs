@@ -208,9 +208,9 @@ fn calibrate_writes_parameters_and_compare_reports_both_sets() {
         spmcal(&["calibrate", "--dataset", "datasets/agile_wrist_sim_20", "--out", params.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
     let report = &v["results"];
-    // Angles in `parameters` (18: mechanism and camera rotation); t_CB and the markers (metres) in
-    // their own fields.
-    assert_eq!(report["parameters"].as_array().unwrap().len(), 18);
+    // Angles in `parameters` (19: mechanism, the platform's sag and camera rotation); t_CB and the
+    // markers (metres) in their own fields.
+    assert_eq!(report["parameters"].as_array().unwrap().len(), 19);
     assert_eq!(report["markers"]["markers"].as_array().unwrap().len(), 4);
     assert!(report["cross_validation"]["calibrated_rms"].as_f64().is_some());
     assert!(report["markers"]["stereo_noise"]["depth_m"].as_f64().is_some());

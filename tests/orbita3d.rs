@@ -213,6 +213,8 @@ fn a_simulated_orbita3d_calibrates_at_the_cramer_rao_bound_with_honest_standard_
     // Per session: the marker-level fit's error, the Cramér–Rao prediction and the nominal model's
     // error over 60 fresh workspace orientations (as `study::run_session`, without its
     // orientation-level fit), and every parameter's z.
+    // Sessions where `platform_sag: auto` fitted a sag (a 5 % test: about one in twenty): one z more.
+    let mut sags = 0;
     let rows: Vec<[f64; 3]> = (0..20)
         .map(|s| {
             let mut c = config.clone();
@@ -223,6 +225,7 @@ fn a_simulated_orbita3d_calibrates_at_the_cramer_rao_bound_with_honest_standard_
             let tests = study::test_orientations(&spm_true, 60, c.seed ^ 0x5eed);
             let fit = spmcal::calib::calibrate(&session, &model, &settings, &mut |_| {}).unwrap();
             z.add_marker_fit(&fit, &session);
+            sags += usize::from(fit.parameters.platform_sag_std_error_deg.is_some());
             let gauge = spmcal::calib::TruthInGauge::new(
                 &fit.parameterisation,
                 &truth.legs,
@@ -246,7 +249,8 @@ fn a_simulated_orbita3d_calibrates_at_the_cramer_rao_bound_with_honest_standard_
     assert!((markers / bound - 1.0).abs() < 0.10, "{markers} vs {bound}");
     // Honest standard errors: 33 parameters and the camera's depth scale per session, each
     // statistic within the band honest σ's keep with probability 99.9% (`z_scores`).
-    assert_eq!(z.len(), 20 * 34);
+    assert_eq!(z.len(), 20 * 34 + sags);
+    assert!(sags <= 4, "a sag fitted in {sags} of 20 clean sessions (5 % expected)");
     z.assert_honest("Orbita3d, 20 sessions");
     assert!(nominal > 5.0 * markers, "calibration gains: nominal {nominal} vs {markers}");
 }

@@ -625,15 +625,20 @@ impl Parameters {
             fit: self.fit.clone(),
         };
         let body = serde_yaml::to_string(&record).expect("parameters serialise to YAML");
+        let sag = match self.platform_sag_deg != 0.0 {
+            true => {
+                "# platform_sag_deg: the platform's turn under its weight, degrees per unit of the arm\n\
+                     # n x (-z) (n its axis, z the base's up), after the rigid mechanism's orientation.\n"
+            }
+            false => "",
+        };
         format!(
             "# spmcal parameters of a spherical parallel manipulator (conventions: docs/conventions.md).\n\
              # Per leg: actuated axis u and zero direction z in B, link angles alpha1/alpha2, platform\n\
              # axis v0 in P, encoder offset delta and scale (phi = scale * theta + delta; scale 1 when\n\
              # absent), home_branch (the sign of (u x w).v at home, which the working mode keeps).\n\
              # Camera: x_C = R_CB x_B + t_CB.\n\
-             # Markers (when fitted): positions in P, metres.\n\
-             # platform_sag_deg (when not 0): the platform's turn under its weight, degrees per unit of\n\
-             # the arm n x (-z) (n its axis, z the base's up), after the rigid mechanism's orientation.\n{body}"
+             # Markers (when fitted): positions in P, metres.\n{sag}{body}"
         )
     }
 }
