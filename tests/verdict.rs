@@ -105,7 +105,8 @@ fn a_joint_reading_long_is_fitted_by_default_and_flagged_when_held() {
     let check = report.model_check.as_ref().unwrap();
     assert!(check.passed && !check.tests.iter().any(|t| t.leg == Some(1)), "{}", check.summary());
     let held = CalibConfig { joint_scales: FitChoice::Hold, ..CalibConfig::default() };
-    let report = run(&session, &model, &held).report;
+    let calibration = run(&session, &model, &held);
+    let report = &calibration.report;
     let check = report.model_check.as_ref().unwrap();
     assert!(!check.passed, "{}", check.summary());
     assert_eq!(check.cause, Some("joint angles"), "{}", check.summary());
@@ -117,6 +118,13 @@ fn a_joint_reading_long_is_fitted_by_default_and_flagged_when_held() {
     // The joint's misfit raises the sag's score too; `platform_sag: auto` does not take it up.
     let held = report.platform_sag_held.as_deref().expect("the sag held");
     assert!(held.starts_with("not shown") || held.contains("joint angles"), "{held}");
+    // The HTML report says why, as the text does.
+    assert!(calibration.html("").contains(&format!("platform.sag held at its start: {}", escaped(held))));
+}
+
+/// Text as the HTML report escapes it.
+fn escaped(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
 #[test]

@@ -11,7 +11,8 @@
 //! `marker_residuals` (its two implementations), `registration` (starting registrations), `fit`
 //! (the trust-region fit), `identify`, `uncertainty`, `validation`, `agreement` (how far a
 //! parameter set and the camera disagree), `camera_choice` (which camera model `auto` fits),
-//! `joint_scales` (which joint scales a session identifies), `model_check` (are the residuals what
+//! `joint_scales` (which joint scales a session identifies), `platform_sag` (whether a session
+//! shows the platform's sag), `model_check` (are the residuals what
 //! the noise model says, and if not, why), `report` (the one report and its verdict),
 //! `calibration` (what a calibration produces, and its errors), `level` (the trait of a fit level
 //! and what a level hands back), `levels/` (its two implementations) and `pipeline` (the one flow,

@@ -319,8 +319,8 @@ fn rig_terms(rig: &crate::calib::RigReport) -> String {
     note(&format!("Pixel noise (σ per coordinate): {}. The rig is {scale}.", noise.join(", "))) + &t.html()
 }
 
-/// Which changes are not distinguishable from nominal and which ended at a bound (the
-/// regularised directions are under the identifiability chart).
+/// Which changes are not distinguishable from nominal, which ended at a bound, and why the
+/// platform's sag was held (the regularised directions are under the identifiability chart).
 fn parameter_notes(r: &CalibrationReport) -> String {
     let mut html = String::new();
     if !r.not_significant.is_empty() {
@@ -336,6 +336,9 @@ fn parameter_notes(r: &CalibrationReport) -> String {
             "AT A BOUND (held there, no standard error; the data want them further — widen `bounds` if the device can be that far off): {}",
             r.at_bound.join(", ")
         ));
+    }
+    if let Some(why) = &r.platform_sag_held {
+        html += &note(&format!("platform.sag held at its start: {why}"));
     }
     html
 }
