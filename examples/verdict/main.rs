@@ -2,7 +2,8 @@
 //! of realistic noise (1 mm across and 3 mm along the line of sight at the reference distance; a
 //! new true geometry per seed), calibrated with the defaults (`camera_model: auto`, 5-fold
 //! cross-validation):
-//! - clean sessions of every kind: how often the model check fails (a false alarm; it holds to
+//! - clean sessions of every kind (a pixel session's points triangulated through the true rig
+//!   among them: the reference of a rig file's points): how often the model check fails (a false alarm; it holds to
 //!   2 %) and how often the verdict is not PASS;
 //! - sessions with an effect the model does not have (a camera beyond the fitted camera model, a
 //!   stereo rig's ordinary miscalibration, a joint whose encoder reads 1 % or 2 % long, markers
@@ -25,9 +26,10 @@ mod results;
 use std::path::Path;
 use std::sync::Arc;
 
+use nalgebra::Vector3;
 use spmcal::calib::{CalibConfig, CameraModelSetting, FitChoice, Group};
-use spmcal::dataset::Session;
-use spmcal::model::RobotModel;
+use spmcal::dataset::{SeenPixel, Session};
+use spmcal::model::{Rig, RobotModel};
 use spmcal::sim::SimConfig;
 
 #[path = "../marker_efficiency/study.rs"]
@@ -68,6 +70,15 @@ struct Kind {
     cause: &'static str,
 }
 
+/// Which rig triangulates a pixel session's points.
+#[derive(Clone, Copy, PartialEq)]
+enum Through {
+    /// The rig file the session came with.
+    File,
+    /// The rig as it really is.
+    Truth,
+}
+
 /// What the study does to a simulated session before calibrating it.
 #[derive(Clone, Copy, PartialEq)]
 enum Alter {
@@ -75,8 +86,9 @@ enum Alter {
     None,
     /// A pixel session seen through the true rig (a perfect rig file).
     PerfectRig,
-    /// A pixel session's points as its (miscalibrated) rig file triangulates them.
-    Triangulated,
+    /// A pixel session's points as a rig triangulates them, its pixels dropped: the session's
+    /// (miscalibrated) rig file, or the true rig (`Through::Truth`).
+    Triangulated(Through),
     /// Written as a ROS 2 bag and read back (the truth, which a bag does not carry, kept).
     Bag,
     /// Markers 1 and 2 swapped at every n-th capture.
@@ -146,6 +158,16 @@ fn main() {
         kind("free motion, 10 min", free_motion(600.0), sessions, 36_400, Alter::None, auto, ""),
         kind("free motion, 60 min", free_motion(3600.0), hours, 36_500, Alter::None, auto, ""),
         kind("pixels, 200 poses, perfect rig", stereo.clone(), sessions, 36_600, Alter::PerfectRig, auto, ""),
+        // The reference of the rig file's points: the same pixels triangulated through the true rig.
+        kind(
+            "stereo points, 200 poses, perfect rig",
+            stereo.clone(),
+            sessions,
+            36_600,
+            Alter::Triangulated(Through::Truth),
+            auto,
+            "",
+        ),
     ];
     out!(
         results,
@@ -243,11 +265,11 @@ fn main() {
                 stereo.clone(),
                 sessions,
                 36_600,
-                Alter::Triangulated,
+                Alter::Triangulated(Through::File),
                 auto,
                 "camera volume",
             ),
-            7,
+            8,
         ),
         (
             kind(
@@ -502,7 +524,13 @@ fn alter(mut session: Session, alter: Alter) -> Session {
             let truth = session.truth.as_ref().expect("simulated");
             session.rig = truth.rig.clone().map(Arc::new);
         }
-        Alter::Triangulated => {
+        Alter::Triangulated(through) => {
+            if through == Through::Truth {
+                let rig = session.truth.as_ref().and_then(|t| t.rig.clone()).expect("a simulated pixel session");
+                for pose in session.poses.iter_mut() {
+                    pose.markers = triangulated(&rig, &pose.pixels, pose.markers.len());
+                }
+            }
             session.rig = None;
             session.poses.iter_mut().for_each(|p| p.pixels.clear());
             session.poses.retain(|p| p.seen() > 0);
@@ -523,6 +551,16 @@ fn alter(mut session: Session, alter: Alter) -> Session {
         }
     }
     session
+}
+
+/// The points `rig` triangulates from `pixels`: one per marker two cameras or more saw.
+fn triangulated(rig: &Rig, pixels: &[SeenPixel], markers: usize) -> Vec<Option<Vector3<f64>>> {
+    (0..markers)
+        .map(|k| {
+            let rays: Vec<_> = pixels.iter().filter(|p| p.marker == k).map(|p| (p.camera, p.pixel)).collect();
+            if rays.len() < 2 { None } else { rig.triangulate(&rays) }
+        })
+        .collect()
 }
 
 /// Calibrate `session` with `settings` and score it against the truth (where the platform really

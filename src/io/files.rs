@@ -48,9 +48,12 @@ impl FileError {
         self
     }
 
-    /// A YAML error: serde_yaml gives line and column except for a missing field.
+    /// A YAML error: serde_yaml gives line and column except for a missing field. Every setting
+    /// of ours that takes one of several words is an enum of unit variants, which serde_yaml, given
+    /// a list or a map, says wants "a YAML tag starting with '!'": a word is what it wants.
     pub(crate) fn from_yaml(path: &Path, e: &serde_yaml::Error) -> Self {
-        let err = FileError::new(path, e.to_string());
+        let message = e.to_string().replace("expected a YAML tag starting with '!'", "expected one word (its value)");
+        let err = FileError::new(path, message);
         match e.location() {
             Some(loc) => err.at_line(loc.line()),
             None => err,
