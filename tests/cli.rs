@@ -520,3 +520,19 @@ fn a_quaternion_with_four_digits_is_read_and_a_wrong_one_is_refused_with_its_nor
     let err = String::from_utf8_lossy(&wrong.stderr);
     assert!(!wrong.status.success() && err.contains("--quat has norm 0.915915, not 1 (within 1e-3)"), "{err}");
 }
+
+/// An orientation whose legs' working branches give readings the working-mode FDA does not bring
+/// back (the MP upside down: another assembly mode's) is warned of, its pose named, in text and
+/// JSON; one the working mode reaches is not.
+#[test]
+fn ik_warns_of_an_orientation_beyond_the_working_mode() {
+    let upside_down = spmcal(&["ik", "--quat", "0,1,0,0", "--json"]);
+    assert!(upside_down.status.success(), "{}", String::from_utf8_lossy(&upside_down.stderr));
+    let err = String::from_utf8_lossy(&upside_down.stderr);
+    assert!(err.contains("warning: 1 of 1 orientations lie beyond the working mode") && err.contains("--quat: pose 0"), "{err}");
+    let json: serde_json::Value = serde_json::from_slice(&upside_down.stdout).unwrap();
+    assert!(json["warnings"][0].as_str().unwrap().contains("beyond the working mode"), "{json}");
+    // 20° about x: reached, and nothing said.
+    let tilted = spmcal(&["ik", "--quat", "0.984807753012208,0.17364817766693,0,0"]);
+    assert!(tilted.status.success() && tilted.stderr.is_empty(), "{}", String::from_utf8_lossy(&tilted.stderr));
+}

@@ -6,11 +6,13 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use spmcal::dataset::{JointReading, OrientationRecord};
 use spmcal::math::so3;
+use spmcal::model::Spm;
+use nalgebra::{Rotation3, Vector3};
 
 use super::args::GeometryArgs;
 use super::envelope::Envelope;
 use super::files::Files;
-use super::output::{Outputs, out, reserve, table_to};
+use super::output::{Outputs, out, reserve, table_to, warn};
 
 #[derive(Args)]
 pub(crate) struct IkArgs {
@@ -28,6 +30,23 @@ pub(crate) struct IkArgs {
     /// Print a machine-readable summary (JSON) instead of the table.
     #[arg(long)]
     pub(crate) json: bool,
+}
+
+/// The orientations beyond the working mode a warning lists.
+const LISTED: usize = 5;
+
+/// Why the working-mode FDA of `joints` does not return `r` (the IK takes each leg's working
+/// branch, which a pose beyond a parallel singularity of the working mode has too), or `None`.
+fn beyond_working_mode(spm: &Spm, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Option<String> {
+    // The FDA converges to 1e-12 rad; an orientation of another assembly mode is degrees away.
+    const SAME_RAD: f64 = 1e-6;
+    match spm.forward(joints) {
+        Err(e) => Some(format!("its FDA: {e}")),
+        Ok(back) if so3::geodesic_angle(&back, r) > SAME_RAD => {
+            Some(format!("its FDA gives an orientation {:.3}° away", so3::geodesic_angle(&back, r).to_degrees()))
+        }
+        Ok(_) => None,
+    }
 }
 
 pub(crate) fn run(args: IkArgs) -> Result<()> {
@@ -55,9 +74,24 @@ pub(crate) fn run(args: IkArgs) -> Result<()> {
         (None, None) => bail!("give --orientations FILE or --quat qw,qx,qy,qz"),
     };
     let mut readings = Vec::with_capacity(orientations.len());
+    let mut beyond = Vec::new();
     for o in &orientations {
-        let joints = spm.ik(&o.rotation).with_context(|| format!("{source}:{}: pose {}", o.line, o.pose))?;
+        let at = if o.line > 0 { format!("{source}:{}", o.line) } else { source.clone() };
+        let joints = spm.ik(&o.rotation).with_context(|| format!("{at}: pose {}", o.pose))?;
+        if let Some(why) = beyond_working_mode(&spm, &joints, &o.rotation) {
+            beyond.push(format!("{at}: pose {} ({why})", o.pose));
+        }
         readings.push(JointReading { pose: o.pose, line: o.line, joints, time_s: None, station: None });
+    }
+    if !beyond.is_empty() {
+        let more = beyond.len().saturating_sub(LISTED);
+        warn(format!(
+            "{} of {} orientations lie beyond the working mode: each leg's reading is on its working branch, but the working-mode FDA of the readings does not return the orientation: it lies beyond a singularity of the working mode, or the FDA's path from home passes near one: {}{}",
+            beyond.len(),
+            orientations.len(),
+            beyond[..beyond.len().min(LISTED)].join("; "),
+            if more > 0 { format!("; and {more} more") } else { String::new() }
+        ));
     }
     table_to(&mut outputs, slot, args.json, &JointReading::csv(&readings))?;
     outputs.commit()?;
