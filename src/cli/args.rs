@@ -163,7 +163,12 @@ impl SessionArgs {
                 path.display(),
                 self.dataset.display()
             ),
-            Some(path) => Ok(session.seen_through(&spmcal::model::Rig::read(path)?)),
+            Some(path) => {
+                let rig = spmcal::model::Rig::read(path)?;
+                let own = session.rig.as_deref().expect("a pixel session");
+                same_cameras(own, &rig).map_err(|why| anyhow::anyhow!("--cameras {}: {why}", path.display()))?;
+                Ok(session.seen_through(&rig))
+            }
             None => Ok(session),
         }
     }
@@ -187,6 +192,30 @@ impl SessionArgs {
         notes.iter().for_each(super::output::note);
         Ok((session, warnings, notes))
     }
+}
+
+/// Whether `other` is a camchain of the cameras of the session's `own` (its `cameras.yaml`): the
+/// same cameras, in order, of the same image sizes — its pixels were read against that size, and
+/// a camera's pixels seen through another's lens would make points of nothing, without a word.
+fn same_cameras(own: &spmcal::model::Rig, other: &spmcal::model::Rig) -> std::result::Result<(), String> {
+    let names = |rig: &spmcal::model::Rig| rig.cameras.iter().map(|c| c.name.clone()).collect::<Vec<_>>().join(", ");
+    if names(own) != names(other) {
+        return Err(format!(
+            "its cameras ({}) are not the session's ({}, its cameras.yaml): a camchain of the same rig is needed",
+            names(other),
+            names(own)
+        ));
+    }
+    for (a, b) in own.cameras.iter().zip(&other.cameras) {
+        let ([w, h], [w0, h0]) = (b.lens.resolution, a.lens.resolution);
+        if [w, h] != [w0, h0] {
+            return Err(format!(
+                "camera `{}`'s image is {w} × {h} pixels in it, {w0} × {h0} in the session's cameras.yaml, whose pixels.csv was read at that size: a camchain of the same rig is needed",
+                b.name
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]

@@ -51,7 +51,7 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
     let model_path = model.urdf_path.clone();
     let mut provenance = vec![
         format!("Calibrated model exported by spmcal {} from {}", env!("CARGO_PKG_VERSION"), args.params.display()),
-        format!("(parameters: {:?}; copied from the model {})", params.source, model_path.display()),
+        format!("(parameters: {}; copied from the model {})", source_word(params.source), model_path.display()),
     ];
     if let Some(serde_yaml::Value::Mapping(fit)) = &params.fit {
         for (key, value) in fit {
@@ -75,4 +75,9 @@ pub(crate) fn run(args: ExportArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     out(&format!("wrote {urdf} and {companion} (load it with --model {urdf})\n"))
+}
+
+/// Where the parameters came from, as their file spells it (`source: calibrated`).
+fn source_word(source: spmcal::model::ParameterSource) -> String {
+    serde_json::to_value(source).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()
 }

@@ -140,10 +140,9 @@ fn fit(r: &CalibrationReport) -> String {
             t.row([
                 "fast captures".to_string(),
                 format!(
-                    "{} taken while a joint turned faster than `max_joint_speed_deg_s`, down-weighted (e.g. captures.csv line {}, {:.0} deg/s)",
+                    "{} taken while a joint turned faster than `max_joint_speed_deg_s`, down-weighted ({})",
                     m.fast_captures.len(),
-                    first.line,
-                    first.speed_deg_s
+                    super::tables::fast_capture(first)
                 ),
             ]);
         }
@@ -196,8 +195,9 @@ fn convergence(r: &CalibrationReport) -> String {
             let to = r.iterations.last().map_or(String::new(), |l| {
                 let clarabel = r.iterations.iter().filter(|l| l.solver == crate::calib::Solver::Clarabel).count();
                 format!(
-                    " ({} Gauss–Newton, {clarabel} clarabel steps; the last {:.1e} standard errors from the optimum)",
+                    " ({} Gauss–Newton, {clarabel} clarabel step{}; the last {:.1e} standard errors from the optimum)",
                     iterations - clarabel,
+                    if clarabel == 1 { "" } else { "s" },
                     l.decrement
                 )
             });
@@ -407,7 +407,12 @@ fn flagged(r: &CalibrationReport) -> String {
     let mut t = Table::new(caption, &columns);
     for o in r.flagged.iter().take(LISTED) {
         let place = match markers {
-            true => vec![o.pose.to_string(), o.marker.clone().unwrap_or_default(), o.line.to_string()],
+            // A bag's observation has no line: a dash.
+            true => vec![
+                o.pose.to_string(),
+                o.marker.clone().unwrap_or_default(),
+                if o.line > 0 { o.line.to_string() } else { "—".to_string() },
+            ],
             false => vec![o.pose.to_string()],
         };
         let excluded = (if o.excluded { "excluded" } else { "" }).to_string();

@@ -18,28 +18,33 @@ fn error_line(f: &mut fmt::Formatter<'_>, label: &str, e: &Stats) -> fmt::Result
     writeln!(f, "  {label:<26} {:8.4} {:8.4} {:8.4}", e.rms, e.median, e.max)
 }
 
+/// A setting's value as the config file spells it (`least_squares`, `paper`).
+fn word(value: impl serde::Serialize) -> String {
+    serde_json::to_value(value).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()
+}
+
 impl fmt::Display for CalibrationReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let r = self;
         match r.fit {
             FitLevel::Markers => writeln!(
                 f,
-                "{}: {} poses, {} excluded; marker-level fit, loss {:?}",
+                "{}: {} poses, {} excluded; marker-level fit, loss {}",
                 r.session,
                 r.poses,
                 r.excluded.len(),
-                r.loss
+                word(r.loss)
             )?,
             FitLevel::Orientations => writeln!(
                 f,
-                "{}: {} poses, {} fitted, {} held out, {} excluded; orientation-level fit, vision {:?}, loss {:?}",
+                "{}: {} poses, {} fitted, {} held out, {} excluded; orientation-level fit, vision {}, loss {}",
                 r.session,
                 r.poses,
                 r.fit_poses,
                 r.held_out_poses,
                 r.excluded.len(),
-                r.vision_method,
-                r.loss
+                word(r.vision_method),
+                word(r.loss)
             )?,
         }
         for e in r.excluded.iter().take(LISTED) {
@@ -306,10 +311,9 @@ fn marker_details(f: &mut fmt::Formatter<'_>, m: &MarkerFitReport) -> fmt::Resul
     if !m.fast_captures.is_empty() {
         writeln!(
             f,
-            "fast captures: {} taken while a joint turned faster than `max_joint_speed_deg_s`, down-weighted (e.g. captures.csv line {}, {:.0} deg/s)",
+            "fast captures: {} taken while a joint turned faster than `max_joint_speed_deg_s`, down-weighted ({})",
             m.fast_captures.len(),
-            m.fast_captures[0].line,
-            m.fast_captures[0].speed_deg_s
+            super::tables::fast_capture(&m.fast_captures[0])
         )?;
     }
     Ok(())
@@ -352,7 +356,10 @@ fn flagged(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
     let source = r.observations_file();
     for o in r.flagged.iter().take(LISTED) {
         let place = match &o.marker {
-            Some(marker) => format!("pose {} marker {marker} ({source} line {})", o.pose, o.line),
+            Some(marker) => match super::tables::file_line(source, o.line) {
+                Some(at) => format!("pose {} marker {marker} ({at})", o.pose),
+                None => format!("pose {} marker {marker}", o.pose),
+            },
             None => format!("pose {}", o.pose),
         };
         writeln!(
