@@ -184,6 +184,9 @@ fn body_topic(source: &BodySource) -> &str {
 #[serde(deny_unknown_fields, default)]
 pub(crate) struct Mapping {
     pub(crate) model: Option<PathBuf>,
+    /// Why `model` names no model, said only when the bag is read with it (`--model` wins).
+    #[serde(skip)]
+    pub(crate) model_missing: Option<FileError>,
     pub(crate) joints: Joints,
     pub(crate) markers: Markers,
     /// The rigid body as written (checked into `body`).
@@ -209,6 +212,7 @@ impl Default for Mapping {
     fn default() -> Self {
         Mapping {
             model: None,
+            model_missing: None,
             joints: Joints::default(),
             markers: Markers::default(),
             body_keys: None,
@@ -252,9 +256,11 @@ impl Mapping {
             mapping.body_mapped = true;
         }
         mapping.model = mapping.model.map(|m| crate::io::files::resolve_reference(folder, &m));
-        if let Some(reason) = mapping.model.as_deref().and_then(crate::model::shipped::missing) {
-            return Err(keys.error(&path, "model", reason));
-        }
+        mapping.model_missing = mapping
+            .model
+            .as_deref()
+            .and_then(crate::model::shipped::missing)
+            .map(|reason| keys.error(&path, "model", reason));
         mapping.path = Some(path);
         Ok(mapping)
     }

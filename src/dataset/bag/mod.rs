@@ -60,6 +60,7 @@ pub(crate) fn load(
     let mapping = mapping::Mapping::beside(bag)?;
     let model = match (model, &mapping.model) {
         (Some(m), _) => m.to_path_buf(),
+        (None, Some(_)) if let Some(missing) = &mapping.model_missing => return Err(missing.clone()),
         (None, Some(m)) => m.clone(),
         // The command line's default model.
         (None, None) => PathBuf::from(crate::model::shipped::DEFAULT_MODEL),
