@@ -339,3 +339,22 @@ fn a_corrupt_bag_container_is_an_error_naming_the_file() {
         assert!(e.contains(&format!("{name}.mcap")) && e.contains("not a readable MCAP file"), "{name}: {e}");
     }
 }
+
+/// Two encoder times less than a nanosecond apart are two samples in `encoders.csv` but one stamp
+/// in a bag, which would not read back: writing it is refused, saying why.
+#[test]
+fn a_recording_whose_encoder_times_share_a_nanosecond_is_not_written_as_a_bag() {
+    let dir = tmp("same-ns");
+    let source = Path::new("datasets/agile_wrist_free_motion_120s");
+    for file in ["captures.csv", "session.yaml"] {
+        std::fs::copy(source.join(file), dir.join(file)).unwrap();
+    }
+    let encoders = std::fs::read_to_string(source.join("encoders.csv")).unwrap();
+    // The second sample 0.3 ns after the first (was 1 ms).
+    let encoders = encoders.replacen("\n0.001,", "\n0.0000000003,", 1);
+    std::fs::write(dir.join("encoders.csv"), encoders).unwrap();
+    let (session, _) = Session::load(&dir, Some(Path::new(MODEL))).unwrap();
+    let err = session.write_bag(&dir.join("out.mcap")).unwrap_err().to_string();
+    assert!(err.contains("out.mcap") && err.contains("encoder samples 1 and 2") && err.contains("same nanosecond"), "{err}");
+    assert!(!dir.join("out.mcap").exists(), "nothing written");
+}

@@ -102,11 +102,16 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
             for s in &streams.encoders {
                 out.push(joint_state(s.time_s, &s.joints)?);
             }
+            same_nanosecond(&out, "encoder samples")?;
+            let bodies = out.len();
             for c in &streams.captures {
                 out.push(point(c.time_s, c.marker, &c.position)?);
             }
             for (t, pose) in streams.body_poses() {
                 out.push(body(t, pose)?);
+            }
+            if session.body.is_some() {
+                same_nanosecond(&out[bodies..], "body poses")?;
             }
         }
         None => {
@@ -132,4 +137,19 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
     }
     out.sort_by_key(|&(ns, channel, _)| (ns, channel));
     Ok(out)
+}
+
+/// Refuse `messages` of one stream (in time order) of which two share a stamp: a ROS stamp holds
+/// whole nanoseconds, and the reader wants this stream's times to increase, as the session's
+/// files did — two times less than 1 ns apart would write a bag that does not read back.
+fn same_nanosecond(messages: &[Message], what: &str) -> Result<(), String> {
+    match messages.windows(2).position(|w| w[0].0 >= w[1].0) {
+        Some(k) => Err(format!(
+            "{what} {} and {} (in time order) fall on the same nanosecond ({} ns after the epoch): a ROS stamp holds whole nanoseconds, so the bag would not read back; space them 1 ns or more apart",
+            k + 1,
+            k + 2,
+            messages[k].0
+        )),
+        None => Ok(()),
+    }
 }
