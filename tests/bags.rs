@@ -355,6 +355,9 @@ fn a_recording_whose_encoder_times_share_a_nanosecond_is_not_written_as_a_bag() 
     std::fs::write(dir.join("encoders.csv"), encoders).unwrap();
     let (session, _) = Session::load(&dir, Some(Path::new(MODEL))).unwrap();
     let err = session.write_bag(&dir.join("out.mcap")).unwrap_err().to_string();
-    assert!(err.contains("out.mcap") && err.contains("encoder samples 1 and 2") && err.contains("same nanosecond"), "{err}");
+    assert!(
+        err.contains("out.mcap") && err.contains("encoder samples 1 and 2") && err.contains("same nanosecond"),
+        "{err}"
+    );
     assert!(!dir.join("out.mcap").exists(), "nothing written");
 }

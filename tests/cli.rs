@@ -529,7 +529,10 @@ fn ik_warns_of_an_orientation_beyond_the_working_mode() {
     let upside_down = spmcal(&["ik", "--quat", "0,1,0,0", "--json"]);
     assert!(upside_down.status.success(), "{}", String::from_utf8_lossy(&upside_down.stderr));
     let err = String::from_utf8_lossy(&upside_down.stderr);
-    assert!(err.contains("warning: 1 of 1 orientations lie beyond the working mode") && err.contains("--quat: pose 0"), "{err}");
+    assert!(
+        err.contains("warning: 1 of 1 orientations lie beyond the working mode") && err.contains("--quat: pose 0"),
+        "{err}"
+    );
     let json: serde_json::Value = serde_json::from_slice(&upside_down.stdout).unwrap();
     assert!(json["warnings"][0].as_str().unwrap().contains("beyond the working mode"), "{json}");
     // 20° about x: reached, and nothing said.

@@ -729,13 +729,27 @@ fn compare_measures_a_pixel_session_in_pixels_through_the_rig_it_is_given() {
     // A camchain of other cameras, or of other image sizes, is refused, naming what differs.
     let text = std::fs::read_to_string(&cameras).unwrap();
     for (name, changed, says) in [
-        ("renamed.yaml", text.replacen("cam1:", "cam9:", 1), "its cameras (cam0, cam9) are not the session's (cam0, cam1"),
-        ("smaller.yaml", text.replacen("[1280, 800]", "[640, 400]", 1), "camera `cam0`'s image is 640 × 400 pixels in it, 1280 × 800"),
+        (
+            "renamed.yaml",
+            text.replacen("cam1:", "cam9:", 1),
+            "its cameras (cam0, cam9) are not the session's (cam0, cam1",
+        ),
+        (
+            "smaller.yaml",
+            text.replacen("[1280, 800]", "[640, 400]", 1),
+            "camera `cam0`'s image is 640 × 400 pixels in it, 1280 × 800",
+        ),
     ] {
         assert_ne!(changed, text, "{name} differs");
         let other = cameras.with_file_name(name);
         std::fs::write(&other, changed).unwrap();
-        let run = spmcal().args(["compare", "--dataset", dataset, "--params"]).arg(&params).arg("--cameras").arg(&other).output().unwrap();
+        let run = spmcal()
+            .args(["compare", "--dataset", dataset, "--params"])
+            .arg(&params)
+            .arg("--cameras")
+            .arg(&other)
+            .output()
+            .unwrap();
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert!(!run.status.success() && stderr.contains(says) && stderr.contains(name), "{stderr}");
     }

@@ -4,10 +4,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use nalgebra::{Rotation3, Vector3};
 use spmcal::dataset::{JointReading, OrientationRecord};
 use spmcal::math::so3;
 use spmcal::model::Spm;
-use nalgebra::{Rotation3, Vector3};
 
 use super::args::GeometryArgs;
 use super::envelope::Envelope;
