@@ -73,20 +73,24 @@ fn a_static_bag_calibrates_exactly_as_its_csv_session_in_either_byte_order_and_l
 #[test]
 fn a_static_bags_flagged_observation_names_its_pose_and_marker_without_a_line() {
     let (mut csv, _) = Session::load(Path::new("datasets/agile_wrist_sim_20"), None).unwrap();
-    // A gross error: 5 cm, some hundred standard deviations.
-    *csv.poses[7].markers[1].as_mut().unwrap() += nalgebra::Vector3::new(0.05, 0.0, 0.0);
+    // A gross error on marker m2 of the first pose from the 8th that sees it: 5 cm, some hundred standard deviations.
+    let seen = (7..csv.poses.len()).find(|&k| csv.poses[k].markers[1].is_some()).unwrap();
+    *csv.poses[seen].markers[1].as_mut().unwrap() += nalgebra::Vector3::new(0.05, 0.0, 0.0);
     let bag = tmp("flagged").join("static.mcap");
     write_bag(&bag, &static_bag(&csv, false, false), "cdr");
     let (session, _) = Session::load(&bag, Some(Path::new(MODEL))).unwrap();
     let model = RobotModel::load(Path::new(MODEL)).unwrap();
     let fit = calibrate(&session, &model, &CalibConfig::default(), &mut |_| {}).unwrap();
-    let flagged = fit.report.flagged.iter().find(|o| o.pose == session.poses[7].id).expect("the gross error flagged");
+    let flagged =
+        fit.report.flagged.iter().find(|o| o.pose == session.poses[seen].id).expect("the gross error flagged");
     assert_eq!((flagged.marker.as_deref(), flagged.line), (Some("m2"), 0));
     let text = fit.report.to_string();
-    let place = format!("pose {} marker m2:", session.poses[7].id);
+    let place = format!("pose {} marker m2:", session.poses[seen].id);
     assert!(text.contains(&place) && !text.contains("line 0"), "{text}");
+    assert!(text.contains(&format!("excluded pose {} marker m2: gross error", session.poses[seen].id)), "{text}");
     let html = fit.html(&text);
-    assert!(!html.contains("markers.csv line</th>") || html.contains("<td>—</td>"), "a dash for the line");
+    // The flagged table's line column: a dash.
+    assert!(html.contains("markers.csv line</th>") && html.contains(">—</td>"), "a dash for the line");
 }
 
 #[test]

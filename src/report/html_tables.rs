@@ -195,9 +195,8 @@ fn convergence(r: &CalibrationReport) -> String {
             let to = r.iterations.last().map_or(String::new(), |l| {
                 let clarabel = r.iterations.iter().filter(|l| l.solver == crate::calib::Solver::Clarabel).count();
                 format!(
-                    " ({} Gauss–Newton, {clarabel} clarabel step{}; the last {:.1e} standard errors from the optimum)",
+                    " ({} Gauss–Newton, {clarabel} clarabel steps; the last {:.1e} standard errors from the optimum)",
                     iterations - clarabel,
-                    if clarabel == 1 { "" } else { "s" },
                     l.decrement
                 )
             });

@@ -112,7 +112,6 @@ impl Table {
     }
 }
 
-/// `&`, `<`, `>` and quotes escaped for HTML text and attributes.
 /// Where an observation is in its file, for a message: `markers.csv line 12`; `None` for one read
 /// from a bag, whose messages have no line (line 0).
 pub(crate) fn file_line(file: &str, line: usize) -> Option<String> {
@@ -126,6 +125,7 @@ pub(crate) fn fast_capture(c: &crate::calib::FastCapture) -> String {
     format!("e.g. {at}, {:.0} deg/s", c.speed_deg_s)
 }
 
+/// `&`, `<`, `>` and quotes escaped for HTML text and attributes.
 pub(crate) fn escape(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }

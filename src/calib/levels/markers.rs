@@ -372,7 +372,10 @@ impl Level for MarkerLevel<'_> {
         };
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
-            format!("pose {} marker {marker} ({} line {}): gross error", f.pose, source, f.line)
+            match crate::report::tables::file_line(source, f.line) {
+                Some(at) => format!("pose {} marker {marker} ({at}): gross error", f.pose),
+                None => format!("pose {} marker {marker}: gross error", f.pose),
+            }
         });
         Ok(LevelReport {
             parameters,
