@@ -73,8 +73,13 @@ impl Default for PlanSettings {
     }
 }
 
-/// The most candidates a plan draws (each holds an N × N information matrix, 9 kB at N = 33).
-const MAX_CANDIDATES: usize = 200_000;
+/// The most candidates a plan draws: each holds its information (about 27 kB of memory in all at
+/// N = 33 parameters), and every iteration of the continuous design visits each.
+const MAX_CANDIDATES: usize = 20_000;
+
+/// The most poses a plan chooses: each sweep of the exchanges tries every chosen pose, so the
+/// time grows as the square of the poses (400 poses: a minute and a half on 2,000 candidates).
+const MAX_POSES: usize = 1_000;
 
 impl PlanSettings {
     /// Every setting within its range, in the command line's terms.
@@ -82,6 +87,9 @@ impl PlanSettings {
         let setting = |option, reason| Err(PlanError::Setting { option, reason });
         if self.poses == 0 {
             return setting("--poses", "a plan needs at least one pose".into());
+        }
+        if self.poses > MAX_POSES {
+            return setting("--poses", format!("must be at most {MAX_POSES} (got {}): plan a session of at most {MAX_POSES} poses, and `--augment` it with another plan if more are wanted", self.poses));
         }
         if !(1..=MAX_CANDIDATES).contains(&self.candidates) {
             return setting("--candidates", format!("must be from 1 to {MAX_CANDIDATES} (got {})", self.candidates));
