@@ -440,7 +440,11 @@ fn bad_rig_settings_are_refused_naming_their_key_and_line() {
         ("    cameras:\n      - {}\n      - {baseline_m: 0.0}", "camera.rig.cameras[1].baseline_m", "(0, 10]"),
         ("    cameras:\n      - {baseline_m: 0.1}", "camera.rig.cameras[0].baseline_m", "defines the camera frame"),
         ("    cameras:\n      - {distortion_model: fisheye}", "distortion_model", "`radtan` or `equidistant`"),
-        ("    cameras:\n      - {distortion_coeffs: [-0.9, 0, 0, 0]}", "distortion_coeffs", "folds over"),
+        (
+            "    cameras:\n      - {distortion_coeffs: [-0.9, 0, 0, 0]}",
+            "distortion_coeffs",
+            "folds the image back on itself",
+        ),
         ("    cameras:\n      - {intrinsics: [0, 900, 640, 400]}", "intrinsics", "positive focal"),
         ("    pixel_sigma_px: -1", "camera.rig.pixel_sigma_px", "must be from 0 to 1000 px"),
         ("    miscalibration:\n      focal_scale: [[1, 1], [1, 1], [1, 1]]", "focal_scale", "lists 3 cameras"),

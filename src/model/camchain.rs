@@ -279,6 +279,16 @@ impl File<'_> {
         let resolution = self.resolution(m, name)?;
         let from_previous = self.pose(m, k, name)?;
         let lens = Lens { intrinsics, distortion_model, distortion, resolution };
+        if let Some((angle, share)) = lens.radial_fold() {
+            let reason = format!(
+                "`{name}`: these {} coefficients {:?} fold the image back on itself: its distorted radius stops growing {angle:.1}° off the axis, {:.0} % of the way to the image's farthest corner, which no lens does (a sign or the order [{}] wrong?)",
+                distortion_model.name(),
+                distortion,
+                100.0 * share,
+                distortion_model.coefficient_names().join(", ")
+            );
+            return Err(self.error(&at("distortion_coeffs"), reason));
+        }
         Ok(RigCamera { name: name.clone(), lens, from_previous })
     }
 
@@ -515,7 +525,7 @@ mod tests {
                 },
                 RigCamera {
                     name: "cam1".into(),
-                    lens: lens(DistortionModel::Radtan, [0.01, -1.5e22, 0.0, -0.0]),
+                    lens: lens(DistortionModel::Radtan, [0.01, -1.5e-22, 0.0, -0.0]),
                     from_previous: second,
                 },
                 RigCamera {
@@ -658,6 +668,15 @@ mod tests {
         let (at, message) = error(&GOOD.replacen("cam0:\n", &format!("cam0:\n{pose}"), 1));
         assert_eq!(at, Some(2));
         assert!(message.contains("`cam0` has a `T_cn_cnm1`: cam0 is the rig's frame"), "{message}");
+        // Coefficients that fold the image: θ(1 - 5θ²) stops growing at θ = 1/√15 (14.8°).
+        let (at, message) =
+            error(&GOOD.replace("distortion_coeffs: [0.1, 0.0, 0.0, 0.0]", "distortion_coeffs: [-5.0, 0.0, 0.0, 0.0]"));
+        assert_eq!(at, Some(18), "{message}");
+        assert!(
+            message.contains("`cam1`: these equidistant coefficients [-5.0, 0.0, 0.0, 0.0] leave pixel (-0.5, -0.5)"),
+            "{message}"
+        );
+        assert!(message.contains("folds the image back on itself"), "{message}");
         let (at, message) = error("# nothing\n");
         assert_eq!(at, Some(1));
         assert!(message.contains("no cameras"), "{message}");

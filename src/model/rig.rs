@@ -163,6 +163,47 @@ impl Lens {
         let (d, _, _) = self.distort(xy.x, xy.y);
         ((d - target).norm() < 1e-10).then_some(xy)
     }
+
+    /// Where the radial distortion folds the image back on itself, if it does before the image's
+    /// farthest corner: `(angle off the optical axis in degrees, the share of the way to that
+    /// corner the distorted radius reached)`. A lens's distorted radius grows with the angle all
+    /// the way to the corner (or to 90°, beyond which the pinhole has no ray); coefficients with a
+    /// wrong sign or order (`k1 = -5`) turn it back first, and the pixels beyond have no ray, or
+    /// only one through the other side of the image. (The tangential terms, a few thousandths
+    /// in a real lens, are left out.)
+    pub(crate) fn radial_fold(&self) -> Option<(f64, f64)> {
+        let [fu, fv, pu, pv] = self.intrinsics;
+        let [width, height] = self.resolution.map(f64::from);
+        let corner = [(-0.5, -0.5), (width - 0.5, -0.5), (-0.5, height - 0.5), (width - 0.5, height - 0.5)]
+            .iter()
+            .map(|(u, v)| ((u - pu) / fu).hypot((v - pv) / fv))
+            .fold(0.0, f64::max);
+        let [k1, k2, k3, k4] = self.distortion;
+        let radius = |theta: f64| match self.distortion_model {
+            DistortionModel::Radtan => {
+                let r2 = theta.tan().powi(2);
+                theta.tan() * (1.0 + k1 * r2 + k2 * r2 * r2)
+            }
+            DistortionModel::Equidistant => {
+                let t2 = theta * theta;
+                theta * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+            }
+        };
+        // Steps of 0.05° up to 89.95°.
+        let mut previous = 0.0;
+        for step in 1..1800 {
+            let theta = (f64::from(step) * 0.05).to_radians();
+            let r = radius(theta);
+            if r >= corner {
+                return None;
+            }
+            if r <= previous {
+                return Some(((theta.to_degrees() - 0.05), previous / corner));
+            }
+            previous = r;
+        }
+        None
+    }
 }
 
 /// One camera of a rig.
@@ -326,6 +367,35 @@ mod tests {
 
     fn lens(model: DistortionModel, distortion: [f64; 4]) -> Lens {
         Lens { intrinsics: [900.0, 905.0, 640.0, 400.0], distortion_model: model, distortion, resolution: [1280, 800] }
+    }
+
+    /// Real lenses, a wide one and a fisheye seeing beyond 90° among them, distort a radius that
+    /// grows all the way to the image's corner; coefficients of a wrong sign or order turn it back.
+    #[test]
+    fn a_real_lens_does_not_fold_the_image_and_a_wrong_one_is_found() {
+        let wide =
+            |distortion| Lens { intrinsics: [600.0, 600.0, 640.0, 400.0], ..lens(DistortionModel::Radtan, distortion) };
+        for real in [
+            lens(DistortionModel::Radtan, [0.0; 4]),
+            lens(DistortionModel::Radtan, [-0.12, 0.05, 0.001, -0.002]),
+            wide([-0.3, 0.1, 0.001, -0.001]),
+            lens(DistortionModel::Equidistant, [0.02, -0.01, 0.003, -0.001]),
+            Lens {
+                intrinsics: [400.0, 400.0, 640.0, 400.0],
+                ..lens(DistortionModel::Equidistant, [-0.05, 0.01, 0.0, 0.0])
+            },
+        ] {
+            assert_eq!(real.radial_fold(), None, "{real:?}");
+        }
+        // k1 = -1 on the wide lens: r_d = r (1 - r²) stops growing at r = 0.58 (r_d 0.38), short of
+        // the corner's 1.25.
+        for folded in [
+            wide([-1.0, 0.0, 0.0, 0.0]),
+            lens(DistortionModel::Radtan, [-5.0, 0.0, 0.0, 0.0]),
+            lens(DistortionModel::Equidistant, [-5.0, 0.0, 0.0, 0.0]),
+        ] {
+            assert!(folded.radial_fold().is_some(), "{folded:?}");
+        }
     }
 
     fn lenses() -> [Lens; 3] {

@@ -89,7 +89,13 @@ impl PlanSettings {
             return setting("--poses", "a plan needs at least one pose".into());
         }
         if self.poses > MAX_POSES {
-            return setting("--poses", format!("must be at most {MAX_POSES} (got {}): plan a session of at most {MAX_POSES} poses, and `--augment` it with another plan if more are wanted", self.poses));
+            return setting(
+                "--poses",
+                format!(
+                    "must be at most {MAX_POSES} (got {}): plan a session of at most {MAX_POSES} poses, and `--augment` it with another plan if more are wanted",
+                    self.poses
+                ),
+            );
         }
         if !(1..=MAX_CANDIDATES).contains(&self.candidates) {
             return setting("--candidates", format!("must be from 1 to {MAX_CANDIDATES} (got {})", self.candidates));

@@ -166,7 +166,13 @@ impl RigSettings {
         // The file's lenses must be invertible over their images too (a triangulation unprojects).
         for (c, (truth, file)) in self.true_rig().cameras.iter().zip(&self.file_rig().cameras).enumerate() {
             for lens in [&truth.lens, &file.lens] {
-                if let Some(reason) = folds(lens) {
+                if let Some((angle, share)) = lens.radial_fold() {
+                    let reason = format!(
+                        "the {} distortion {:?} folds the image back on itself: its distorted radius stops growing {angle:.1}° off the axis, {:.0} % of the way to the image's farthest corner, which no lens does",
+                        lens.distortion_model.name(),
+                        lens.distortion,
+                        100.0 * share
+                    );
                     return Err(problem(format!("cameras[{c}].distortion_coeffs"), reason));
                 }
             }
@@ -327,33 +333,6 @@ impl Miscalibration {
         }
         Ok(())
     }
-}
-
-/// Why `lens`'s distortion cannot be inverted over its image, or `None` when it can: the rays to
-/// its border's corners and edge midpoints must unproject, and the distortion keep a positive
-/// Jacobian determinant all the way out along each (else the image folds over, and a pixel there
-/// is two directions, or none).
-fn folds(lens: &Lens) -> Option<String> {
-    let [w, h] = lens.resolution.map(|r| f64::from(r) - 0.5);
-    let border =
-        [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h), (w / 2.0, -0.5), (w / 2.0, h), (-0.5, h / 2.0), (w, h / 2.0)];
-    const STEPS: u32 = 64;
-    for (u, v) in border {
-        let folded = lens.unproject(&Vector2::new(u, v)).is_none_or(|xy| {
-            (1..=STEPS).any(|k| {
-                let at = xy * (f64::from(k) / f64::from(STEPS));
-                lens.distort(at.x, at.y).1.determinant() <= 0.0
-            })
-        });
-        if folded {
-            return Some(format!(
-                "the {} distortion {:?} cannot be inverted out to pixel ({u}, {v}) of its image: the image folds over",
-                lens.distortion_model.name(),
-                lens.distortion
-            ));
-        }
-    }
-    None
 }
 
 /// What a simulated rig's cameras do: the true rig images, pixel noise (and, rarely, an outlier)
