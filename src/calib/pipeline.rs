@@ -63,6 +63,20 @@ pub fn calibrate(
         None => (session, Vec::new()),
     };
     let latency_free = resampled.is_some() && range.0 < range.1;
+    // Every frame left out (a recording shorter than the latency window, or clocks that do not
+    // overlap): said in those terms, not as a registration that cannot start from no observation.
+    if let Some(streams) = session.streams.as_deref().filter(|_| resampled.is_some() && session.poses.is_empty()) {
+        let frames = streams.frames().count();
+        let (key, within) = match latency_free {
+            true => ("latency_bound_s", format!("for some latency within ±{} s", config.latency_bound_s)),
+            false => ("latency_s", format!("at the latency of {} s", clock.latency_s)),
+        };
+        let reason = format!(
+            "every one of the recording's {frames} camera frames falls outside the encoder stream {within}, so none is left to calibrate from: the encoders must cover each frame's time less the latency (a recording of {:.2} s of camera time is too short for that window, or its clocks do not overlap)",
+            streams.camera_span_s()
+        );
+        return Err(CalibError::Config { key: key.into(), reason });
+    }
     // The orientation level cannot estimate the camera robot: it corrects the markers by the one
     // the config gives (the marker level fits it, starting there).
     let corrected;
