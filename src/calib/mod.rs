@@ -74,6 +74,7 @@ pub use parameterisation::{Entry, Kind, Parameterisation, TruthInGauge};
 #[cfg(not(feature = "internals"))]
 pub(crate) use parameterisation::{Kind, Parameterisation};
 pub use pipeline::calibrate;
+pub(crate) use report::file_line;
 pub use report::{
     CalibrationReport, CameraModelReport, CameraTermReport, ClockRate, ErrorStats, FastCapture, FlaggedObservation,
     Latency, MarkerFitReport, MarkerReport, RigReport, RigTermReport, StageReport, Verdict, VerdictReason,

@@ -535,6 +535,12 @@ impl CalibrationReport {
     }
 }
 
+/// Where an observation is in its file, for a message: `markers.csv line 12`; `None` for one read
+/// from a bag, whose messages have no line (line 0).
+pub(crate) fn file_line(file: &str, line: usize) -> Option<String> {
+    (line > 0).then(|| format!("{file} line {line}"))
+}
+
 /// The file marker observations come from, for messages: a pixel session's `pixels.csv`, a
 /// free-motion recording's (it has a latency) `captures.csv`, else `markers.csv`.
 pub(crate) fn observations_file(recording: bool, pixels: bool) -> &'static str {

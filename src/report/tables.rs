@@ -112,16 +112,11 @@ impl Table {
     }
 }
 
-/// Where an observation is in its file, for a message: `markers.csv line 12`; `None` for one read
-/// from a bag, whose messages have no line (line 0).
-pub(crate) fn file_line(file: &str, line: usize) -> Option<String> {
-    (line > 0).then(|| format!("{file} line {line}"))
-}
-
 /// A fast capture, as the text and HTML reports give the first: its line of `captures.csv`, or
 /// its frame and marker when it came from a bag.
 pub(crate) fn fast_capture(c: &crate::calib::FastCapture) -> String {
-    let at = file_line("captures.csv", c.line).unwrap_or_else(|| format!("frame {}, marker {}", c.pose, c.marker));
+    let at = crate::calib::file_line("captures.csv", c.line)
+        .unwrap_or_else(|| format!("frame {}, marker {}", c.pose, c.marker));
     format!("e.g. {at}, {:.0} deg/s", c.speed_deg_s)
 }
 

@@ -356,7 +356,7 @@ fn flagged(f: &mut fmt::Formatter<'_>, r: &CalibrationReport) -> fmt::Result {
     let source = r.observations_file();
     for o in r.flagged.iter().take(LISTED) {
         let place = match &o.marker {
-            Some(marker) => match super::tables::file_line(source, o.line) {
+            Some(marker) => match crate::calib::file_line(source, o.line) {
                 Some(at) => format!("pose {} marker {marker} ({at})", o.pose),
                 None => format!("pose {} marker {marker}", o.pose),
             },

@@ -372,7 +372,7 @@ impl Level for MarkerLevel<'_> {
         };
         let gross = r.flagged.iter().filter(|f| f.excluded).map(|f| {
             let marker = f.marker.as_deref().unwrap_or("");
-            match crate::report::tables::file_line(source, f.line) {
+            match crate::calib::report::file_line(source, f.line) {
                 Some(at) => format!("pose {} marker {marker} ({at}): gross error", f.pose),
                 None => format!("pose {} marker {marker}: gross error", f.pose),
             }
