@@ -26,10 +26,9 @@ mod results;
 use std::path::Path;
 use std::sync::Arc;
 
-use nalgebra::Vector3;
 use spmcal::calib::{CalibConfig, CameraModelSetting, FitChoice, Group};
-use spmcal::dataset::{SeenPixel, Session};
-use spmcal::model::{Rig, RobotModel};
+use spmcal::dataset::Session;
+use spmcal::model::RobotModel;
 use spmcal::sim::SimConfig;
 
 #[path = "../marker_efficiency/study.rs"]
@@ -527,9 +526,7 @@ fn alter(mut session: Session, alter: Alter) -> Session {
         Alter::Triangulated(through) => {
             if through == Through::Truth {
                 let rig = session.truth.as_ref().and_then(|t| t.rig.clone()).expect("a simulated pixel session");
-                for pose in session.poses.iter_mut() {
-                    pose.markers = triangulated(&rig, &pose.pixels, pose.markers.len());
-                }
+                session = session.seen_through(&rig);
             }
             session.rig = None;
             session.poses.iter_mut().for_each(|p| p.pixels.clear());
@@ -551,16 +548,6 @@ fn alter(mut session: Session, alter: Alter) -> Session {
         }
     }
     session
-}
-
-/// The points `rig` triangulates from `pixels`: one per marker two cameras or more saw.
-fn triangulated(rig: &Rig, pixels: &[SeenPixel], markers: usize) -> Vec<Option<Vector3<f64>>> {
-    (0..markers)
-        .map(|k| {
-            let rays: Vec<_> = pixels.iter().filter(|p| p.marker == k).map(|p| (p.camera, p.pixel)).collect();
-            if rays.len() < 2 { None } else { rig.triangulate(&rays) }
-        })
-        .collect()
 }
 
 /// Calibrate `session` with `settings` and score it against the truth (where the platform really

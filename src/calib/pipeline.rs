@@ -645,7 +645,6 @@ pub(super) fn unidentified_camera_terms(
     held
 }
 
-/// The free parameters that end at their bound.
 /// The first structure other than the sag's (and the overall test) whose test in the model check of
 /// `outcome` (a fit of the `free` parameters, covariance `cov`) rejects.
 fn other_structure<M: Residuals>(
@@ -659,6 +658,7 @@ fn other_structure<M: Residuals>(
     check.tests.iter().find(|t| !ignored.contains(&t.structure) && t.p_value < t.alpha).map(|t| t.structure)
 }
 
+/// The free parameters that end at their bound.
 fn at_bounds(p: &Parameterisation, x: &DVector<f64>, free: &[bool]) -> Vec<bool> {
     (0..p.len()).map(|i| free[i] && p.at_bound(x, i)).collect()
 }

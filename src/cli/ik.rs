@@ -40,11 +40,9 @@ const LISTED: usize = 5;
 fn beyond_working_mode(spm: &Spm, joints: &Vector3<f64>, r: &Rotation3<f64>) -> Option<String> {
     // The FDA converges to 1e-12 rad; an orientation of another assembly mode is degrees away.
     const SAME_RAD: f64 = 1e-6;
-    match spm.forward(joints) {
+    match spm.forward(joints).map(|back| so3::geodesic_angle(&back, r)) {
         Err(e) => Some(format!("its FDA: {e}")),
-        Ok(back) if so3::geodesic_angle(&back, r) > SAME_RAD => {
-            Some(format!("its FDA gives an orientation {:.3}° away", so3::geodesic_angle(&back, r).to_degrees()))
-        }
+        Ok(away) if away > SAME_RAD => Some(format!("its FDA gives an orientation {:.3}° away", away.to_degrees())),
         Ok(_) => None,
     }
 }
