@@ -118,8 +118,8 @@ pub(crate) fn wald(x: &DVector<f64>, cov: &DMatrix<f64>, indices: &[usize]) -> f
     let k = indices.len();
     let c = DMatrix::from_fn(k, k, |a, b| cov[(indices[a], indices[b])]);
     let d = DVector::from_fn(k, |a, _| x[indices[a]]);
-    let eps = 1e-14 * c.amax();
-    c.pseudo_inverse(eps).map_or(f64::INFINITY, |inv| (d.transpose() * inv * &d)[(0, 0)])
+    crate::math::linalg::symmetric_pseudo_inverse(&c, 1e-14)
+        .map_or(f64::INFINITY, |inv| (d.transpose() * inv * &d)[(0, 0)])
 }
 
 /// The score test of the scales `tested` at `outcome`, a fit of the `free` parameters (with the
@@ -146,7 +146,7 @@ pub(crate) fn score<N>(
         let hff = h.view((0, 0), (nf, nf)).clone_owned();
         let hfs = h.view((0, nf), (nf, ns)).clone_owned();
         let hss = h.view((nf, nf), (ns, ns)).clone_owned();
-        let inv = hff.clone().pseudo_inverse(1e-14 * hff.amax()).ok()?;
+        let inv = crate::math::linalg::symmetric_pseudo_inverse(&hff, 1e-14)?;
         let s = hss - hfs.transpose() * &inv * &hfs;
         let gs = g.rows(nf, ns) - hfs.transpose() * &inv * g.rows(0, nf);
         Some((s, gs))
@@ -157,7 +157,7 @@ pub(crate) fn score<N>(
         return out;
     };
     // Each scale's standard error, were all the tested ones freed.
-    let cov = s.clone().pseudo_inverse(1e-12 * s.amax().max(f64::MIN_POSITIVE)).ok();
+    let cov = crate::math::linalg::symmetric_pseudo_inverse(&s, 1e-12);
     let mut determined = Vec::new();
     for (a, &i) in tested.iter().enumerate() {
         let sigma = cov.as_ref().map(|c| (sigma2 * c[(a, a)]).sqrt()).filter(|s| s.is_finite() && *s > 0.0);
@@ -172,7 +172,7 @@ pub(crate) fn score<N>(
         return out;
     }
     let Some((s, gs)) = schur(&determined) else { return out };
-    let Some(inv) = s.clone().pseudo_inverse(1e-12 * s.amax().max(f64::MIN_POSITIVE)).ok() else { return out };
+    let Some(inv) = crate::math::linalg::symmetric_pseudo_inverse(&s, 1e-12) else { return out };
     let step = -(&inv * &gs);
     out.chi2 = (gs.transpose() * &inv * &gs)[(0, 0)] / sigma2;
     out.determined = determined.iter().enumerate().map(|(a, &i)| (i, step[a], (sigma2 * inv[(a, a)]).sqrt())).collect();

@@ -357,7 +357,7 @@ pub(crate) fn check<M: Residuals>(
     // The projection off the Jacobian's columns is the data's alone: a weak prior's directions are
     // the data's null space, which no regression column enters.
     let (h, jte) = weighted_normal(&outcome.evaluation, &outcome.weighting, &idx);
-    let h_inv = scaled_inverse(&h)?;
+    let h_inv = crate::math::linalg::symmetric_pseudo_inverse(&h, 1e-12)?;
     // The residuals with the Jacobian's share taken out too: at a fit with a prior, or stopped
     // short of the exact minimum, `Jᵀe` is not quite zero, and a column nearly in the Jacobian's
     // span would amplify what is left.
@@ -646,22 +646,6 @@ fn weight(structure: Structure) -> f64 {
         Structure::Joints | Structure::Sag => FAINT_EFFECT_WEIGHT,
         Structure::Overall | Structure::Camera | Structure::Time | Structure::Marker => 1.0,
     }
-}
-
-/// `H⁻¹` of a symmetric positive semi-definite `H` whose columns differ in scale by orders of
-/// magnitude (metres, radians, seconds): inverted with unit diagonal (`D H D`, `D = diag(H)^{-1/2}`),
-/// pseudo-inverted there when singular.
-fn scaled_inverse(h: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let d = DVector::from_iterator(
-        h.nrows(),
-        (0..h.nrows()).map(|i| if h[(i, i)] > 0.0 { h[(i, i)].sqrt().recip() } else { 0.0 }),
-    );
-    let scaled = DMatrix::from_fn(h.nrows(), h.ncols(), |i, k| h[(i, k)] * d[i] * d[k]);
-    let inverse = match scaled.clone().cholesky() {
-        Some(c) => c.inverse(),
-        None => scaled.pseudo_inverse(1e-10).ok()?,
-    };
-    Some(DMatrix::from_fn(h.nrows(), h.ncols(), |i, k| inverse[(i, k)] * d[i] * d[k]))
 }
 
 /// The score test of one group of columns (`X̃ᵀX̃`, `X̃ᵀe` and its sums per cluster in `group`),

@@ -76,7 +76,7 @@ pub(crate) fn score<N>(
     let n = fitted.len();
     let hff = h.view((0, 0), (n, n)).clone_owned();
     let hfs = h.view((0, n), (n, 1)).clone_owned();
-    let inv = hff.clone().pseudo_inverse(1e-14 * hff.amax()).ok()?;
+    let inv = crate::math::linalg::symmetric_pseudo_inverse(&hff, 1e-14)?;
     let s = h[(n, n)] - (hfs.transpose() * &inv * &hfs)[(0, 0)];
     let gs = g[n] - (hfs.transpose() * &inv * g.rows(0, n))[(0, 0)];
     // Relative to its own curvature, a Schur complement this small is the sag mimicked exactly.

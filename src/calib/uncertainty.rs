@@ -71,7 +71,7 @@ pub(crate) fn covariance<N>(outcome: &FitOutcome<N>, free: &[bool], prior: Optio
     }
     let scale = residual_scale(outcome, idx.len());
     let inv = if h.iter().all(|x| x.is_finite()) {
-        h.clone().pseudo_inverse(1e-14 * h.amax()).unwrap_or_else(|_| DMatrix::zeros(idx.len(), idx.len()))
+        crate::math::linalg::symmetric_pseudo_inverse(&h, 1e-14).unwrap_or_else(|| DMatrix::zeros(idx.len(), idx.len()))
     } else {
         DMatrix::from_element(idx.len(), idx.len(), f64::NAN)
     };
@@ -335,7 +335,7 @@ pub(crate) fn common_rotations<'a>(
         btb += b.transpose() * &b;
         bts += b.transpose() * masked(s, fda);
     }
-    let common = btb.pseudo_inverse(1e-10).ok()? * bts;
+    let common = crate::math::linalg::symmetric_pseudo_inverse(&btb, 1e-12)? * bts;
     Some(CommonRotations { common, fda })
 }
 

@@ -262,11 +262,7 @@ impl Leg {
     /// the offset before the scale divides it).
     #[inline]
     pub(crate) fn reading(&self, phi: f64) -> f64 {
-        let two_pi = 2.0 * std::f64::consts::PI;
-        let a = phi - self.delta;
-        // Wrapped to (−π, π] as `spm::wrap_angle` does (that file imports this one).
-        let w = a - two_pi * (a / two_pi).round();
-        (if w <= -std::f64::consts::PI { w + two_pi } else { w }) / self.scale
+        wrap(phi - self.delta) / self.scale
     }
 
     /// Intermediate axis `w(θ)` in B.
@@ -274,5 +270,30 @@ impl Leg {
     pub(crate) fn w(&self, theta: f64) -> Vector3<f64> {
         let (s, c) = self.phi(theta).sin_cos();
         self.u * self.cos_a1 + (self.z * c + self.y * s) * self.sin_a1
+    }
+}
+
+/// An angle wrapped to `(−π, π]`. IK's angles are within a turn or two of that range: a step or
+/// two of `2π` there, `round` (a library call on the baseline x86-64) only beyond.
+#[inline]
+pub(crate) fn wrap(a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    let w = if a.abs() <= 3.0 * PI {
+        if a > PI {
+            a - TAU
+        } else if a <= -PI {
+            a + TAU
+        } else {
+            a
+        }
+    } else {
+        a - TAU * (a / TAU).round()
+    };
+    if w <= -PI {
+        w + TAU
+    } else if w > PI {
+        w - TAU
+    } else {
+        w
     }
 }

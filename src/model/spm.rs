@@ -386,7 +386,8 @@ impl Spm {
     /// `A = sin α1 z·v`, `B = sin α1 (u×z)·v`, `C = cos α2 − cos α1 u·v`; writing
     /// `A = ρ cos ψ`, `B = ρ sin ψ` gives `φ = ψ ± acos(C/ρ)`. Since
     /// `(u×w)·v = ρ sin(ψ − φ)`, the branch where it has sign `s` is `φ = ψ − s acos(C/ρ)`:
-    /// the working branch takes the leg's home sign, the other its opposite.
+    /// the working branch takes the leg's home sign, the other its opposite. It is computed as
+    /// one angle, `atan2(BC − sAH, AC + sBH)` with `H = √(ρ² − C²)`.
     ///
     /// # Errors
     /// An [`IkError`] as for [`Spm::ik`], for leg `i`.
@@ -396,7 +397,8 @@ impl Spm {
         let a = leg.sin_a1 * leg.z.dot(&v);
         let b = leg.sin_a1 * leg.y.dot(&v);
         let c = leg.cos_a2 - leg.cos_a1 * leg.u.dot(&v);
-        let rho = a.hypot(b);
+        // `a`, `b` are at most sin α1 in size: no overflow for `hypot` to guard against.
+        let rho = (a * a + b * b).sqrt();
         if !(rho.is_finite() && c.is_finite()) {
             return Err(IkError::NotFinite);
         }
@@ -410,14 +412,15 @@ impl Spm {
         if sine.is_nan() || sine < IK_SINGULAR_SINE {
             return Err(IkError::SerialSingularity { leg: i, angle_deg: sine.asin().to_degrees() });
         }
-        let gamma = ratio.clamp(-1.0, 1.0).acos();
-        let psi = b.atan2(a);
         let sign = match branch {
             Branch::Working => leg.sign,
             Branch::Other => -leg.sign,
         };
-        let phi = psi - sign * gamma;
-        Ok(leg.reading(phi))
+        // `φ = ψ − s γ` with `cos γ = C/ρ`, `sin γ = H/ρ`, `H = √(ρ² − C²)`: ρ² times its cosine
+        // and sine are `AC + sBH` and `BC − sAH`, one `atan2` (no `acos`, no second `atan2`).
+        let c = c.clamp(-rho, rho);
+        let h = ((rho - c) * (rho + c)).sqrt();
+        Ok(leg.reading((b * c - sign * a * h).atan2(a * c + sign * b * h)))
     }
 
     // ----- Jacobians and singularities ----------------------------------------------------
@@ -602,7 +605,5 @@ pub(crate) fn sag_arm(r: &Rotation3<f64>) -> Vector3<f64> {
 
 /// Wrap an angle to `(−π, π]`.
 pub(crate) fn wrap_angle(a: f64) -> f64 {
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let w = a - two_pi * (a / two_pi).round();
-    if w <= -std::f64::consts::PI { w + two_pi } else { w }
+    crate::model::geometry::wrap(a)
 }

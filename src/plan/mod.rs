@@ -394,7 +394,7 @@ impl Plan {
         // Each joint scale's standard error, were it fitted with the rest on the plan's poses.
         let (p_all, per_candidate_all, prior_all) = &with_scales;
         let m_all = information_of(per_candidate_all, prior_all, &chosen.chosen);
-        let covariance_all = m_all.clone().pseudo_inverse(1e-14 * m_all.amax()).unwrap_or(m_all * f64::NAN);
+        let covariance_all = crate::math::linalg::symmetric_pseudo_inverse(&m_all, 1e-14).unwrap_or(m_all * f64::NAN);
         let joint_scale_std_errors: Vec<(String, f64)> = p_all
             .entries
             .iter()
