@@ -52,10 +52,10 @@ where
 /// at most `relative` times the largest taken as zero. A zero diagonal entry gives a zero row and
 /// column. `None` for non-finite input.
 ///
-/// Not nalgebra's `pseudo_inverse`: its SVD loses accuracy when singular values cluster (on the
-/// 6 × 6 Gram matrix of 150 poses' common rotations it reconstructed the matrix to 5e-4 and its
-/// inverse to 1.3 %; one random 6 × 6 with clustered values in twenty, errors up to 3e-3), while the
-/// symmetric eigen-decomposition reconstructs to 1e-14 (tests below).
+/// Not nalgebra's `pseudo_inverse`: its SVD of a dynamic-size matrix loses accuracy when singular
+/// values cluster (on the 6 × 6 Gram matrix of 150 poses' common rotations it reconstructed the
+/// matrix to 5e-4 and its inverse to 1.3 %; one random 6 × 6 with clustered values in twenty,
+/// errors up to 3e-3), while the symmetric eigen-decomposition reconstructs to 1e-14 (tests below).
 #[cfg(feature = "full")]
 pub(crate) fn symmetric_pseudo_inverse(m: &nalgebra::DMatrix<f64>, relative: f64) -> Option<nalgebra::DMatrix<f64>> {
     let n = m.nrows();
@@ -122,7 +122,7 @@ pub(crate) fn gram_into(j: &nalgebra::DMatrix<f64>, rows: usize, out: &mut nalge
 
 #[cfg(all(test, feature = "full"))]
 mod tests {
-    use nalgebra::{DMatrix, DVector};
+    use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
     use super::symmetric_pseudo_inverse;
 
@@ -198,6 +198,46 @@ mod tests {
                 assert!(error[(i, k)].abs() < 1e-9 * units[k] / units[i], "P B − I at {i},{k}: {:e}", error[(i, k)]);
             }
         }
+    }
+
+    /// `Q₁ diag(σ) Q₂ᵀ` with orthonormal `Q`s from the sequence `next`.
+    fn with_singular_values(sigma: [f64; 3], next: &mut impl FnMut() -> f64) -> Matrix3<f64> {
+        let q = |next: &mut dyn FnMut() -> f64| Matrix3::from_fn(|_, _| next()).qr().q();
+        q(next) * Matrix3::from_diagonal(&Vector3::from(sigma)) * q(next).transpose()
+    }
+
+    #[test]
+    fn near_rotations_are_decomposed_to_rounding() {
+        // Singular values clustered around 1 (a marker constellation's polar decomposition), and
+        // spread, and with one or two zero: U Σ Vᵀ = M, U and V orthonormal. nalgebra's SVD of a
+        // fixed-size 3 × 3 (the only size `bounded_svd` is given) holds to rounding; of the same
+        // matrices as dynamic-size ones it does not (why `symmetric_pseudo_inverse` avoids it).
+        let mut next = numbers(7);
+        let (mut worst, mut worst_nalgebra) = (0.0f64, 0.0f64);
+        for k in 0..2000 {
+            let spread = [1e-3, 1e-6, 0.1, 1.0][k % 4];
+            let mut sigma = [0.0; 3].map(|_| 1.0 + spread * next());
+            if k % 50 == 0 {
+                sigma[2] = 0.0;
+            }
+            if k % 100 == 0 {
+                sigma[1] = 0.0;
+            }
+            let m = with_singular_values(sigma, &mut next);
+            let svd = super::bounded_svd(&m, true, true).unwrap();
+            let (u, vt, s) = (svd.u.unwrap(), svd.v_t.unwrap(), svd.singular_values);
+            let error = (u * Matrix3::from_diagonal(&s) * vt - m).amax() / m.amax();
+            worst = worst.max(error);
+            assert!((u.transpose() * u - Matrix3::identity()).amax() < 1e-14, "U at {k}");
+            assert!((vt * vt.transpose() - Matrix3::identity()).amax() < 1e-14, "V at {k}");
+            let dynamic = nalgebra::DMatrix::from_column_slice(3, 3, m.as_slice());
+            let plain = dynamic.clone().svd(true, true);
+            let rebuilt =
+                plain.u.unwrap() * nalgebra::DMatrix::from_diagonal(&plain.singular_values) * plain.v_t.unwrap();
+            worst_nalgebra = worst_nalgebra.max((rebuilt - dynamic).amax() / m.amax());
+        }
+        assert!(worst < 1e-14, "{worst:e}");
+        assert!(worst_nalgebra > 1e-9, "{worst_nalgebra:e}");
     }
 
     #[test]
