@@ -109,10 +109,14 @@ fn a_free_motion_bag_calibrates_exactly_as_the_csv_recording_of_the_same_numbers
         messages.push(("/joint_states".to_string(), ns, joint_state(ns, &NAMES, &v[1..], false)));
         encoders += &format!("{},{},{},{}\n", seconds(ns), v[1], v[2], v[3]);
     }
-    for row in csv::Reader::from_path(source.join("captures.csv")).unwrap().records() {
+    for (k, row) in csv::Reader::from_path(source.join("captures.csv")).unwrap().records().enumerate() {
         let row = row.unwrap();
         let ns = stamp(row[0].parse().unwrap());
-        let p: Vec<f64> = (2..5).map(|i| row[i].parse().unwrap()).collect();
+        let mut p: Vec<f64> = (2..5).map(|i| row[i].parse().unwrap()).collect();
+        // One gross error (5 cm, hundreds of standard deviations) in both, for the reports below.
+        if k == 500 {
+            p[0] += 0.05;
+        }
         messages.push(("/markers".to_string(), ns + 3_000_000, point(ns, &row[1], [p[0], p[1], p[2]], false)));
         captures += &format!("{},{},{},{},{}\n", seconds(ns), &row[1], p[0], p[1], p[2]);
     }
@@ -144,6 +148,13 @@ fn a_free_motion_bag_calibrates_exactly_as_the_csv_recording_of_the_same_numbers
     let fit = calibrate(&from_bag, &robot, &CalibConfig::default(), &mut |_| {}).unwrap();
     let names: Vec<&str> = fit.parameterisation.entries.iter().map(|e| e.name.as_str()).collect();
     assert_eq!(names[names.len() - 2..], ["camera.latency", "camera.clock_rate"]);
+    // The gross error is flagged in both; the CSV's report names its captures.csv line, the bag's
+    // its pose and marker alone (a message is on no line of any file).
+    let csv_fit = calibrate(&from_csv, &robot, &CalibConfig::default(), &mut |_| {}).unwrap();
+    let (bag_text, csv_text) = (fit.report.to_string(), csv_fit.report.to_string());
+    assert!(csv_text.contains("captures.csv line 502"), "{csv_text}");
+    assert!(!bag_text.contains("captures.csv line") && !bag_text.contains("line 0"), "{bag_text}");
+    assert!(fit.report.flagged.iter().any(|o| o.line == 0 && o.marker.is_some()), "the bag's gross error flagged");
     assert!(fit.report.markers.as_ref().unwrap().clock_rate_ppm.unwrap().std_error.is_some());
     // And `convert` both ways gives the bag's numbers back.
     let back = dir.join("back.mcap");
