@@ -84,7 +84,7 @@ impl VisionError {
             }
             None => None,
         };
-        let reference = pose.id == session.reference_pose && !matches!(reason, MarkerError::NoPoseWithThree { .. });
+        let reference = pose.id == session.reference_pose && !whole;
         VisionError { pose: pose.id, reason, file, line: row.unwrap_or(0), reference }
     }
 }

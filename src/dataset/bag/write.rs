@@ -103,15 +103,16 @@ fn messages(session: &Session) -> Result<Vec<Message>, String> {
                 out.push(joint_state(s.time_s, &s.joints)?);
             }
             same_nanosecond(&out, "encoder samples")?;
-            let bodies = out.len();
+            let cameras = out.len();
             for c in &streams.captures {
                 out.push(point(c.time_s, c.marker, &c.position)?);
             }
             for (t, pose) in streams.body_poses() {
                 out.push(body(t, pose)?);
             }
+            // A body's recording has no marker captures: its messages from `cameras` on are its poses.
             if session.body.is_some() {
-                same_nanosecond(&out[bodies..], "body poses")?;
+                same_nanosecond(&out[cameras..], "body poses")?;
             }
         }
         None => {
