@@ -119,7 +119,8 @@ pub(crate) fn wald(x: &DVector<f64>, cov: &DMatrix<f64>, indices: &[usize]) -> f
     let c = DMatrix::from_fn(k, k, |a, b| cov[(indices[a], indices[b])]);
     let d = DVector::from_fn(k, |a, _| x[indices[a]]);
     crate::math::linalg::symmetric_pseudo_inverse(&c, 1e-14)
-        .map_or(f64::INFINITY, |inv| (d.transpose() * inv * &d)[(0, 0)])
+        // Not a number when the covariance is not (a fit gone non-finite): no evidence either way.
+        .map_or(f64::NAN, |inv| (d.transpose() * inv * &d)[(0, 0)])
 }
 
 /// The score test of the scales `tested` at `outcome`, a fit of the `free` parameters (with the
@@ -147,7 +148,15 @@ pub(crate) fn score<N>(
         let hfs = h.view((0, nf), (nf, ns)).clone_owned();
         let hss = h.view((nf, nf), (ns, ns)).clone_owned();
         let inv = crate::math::linalg::symmetric_pseudo_inverse(&hff, 1e-14)?;
-        let s = hss - hfs.transpose() * &inv * &hfs;
+        let mut s = &hss - hfs.transpose() * &inv * &hfs;
+        // A scale its free parameters mimic to rounding (its Schur complement a 1e-12 of its own
+        // curvature) is undetermined: zeroed, as the inverse's unit diagonal would not see it.
+        for a in 0..ns {
+            if s[(a, a)] <= 1e-12 * hss[(a, a)] {
+                s.row_mut(a).fill(0.0);
+                s.column_mut(a).fill(0.0);
+            }
+        }
         let gs = g.rows(nf, ns) - hfs.transpose() * &inv * g.rows(0, nf);
         Some((s, gs))
     };

@@ -660,7 +660,7 @@ fn regression_test(
     if group.columns == 0 {
         return None;
     }
-    let eigen = nalgebra::SymmetricEigen::new(group.xtx.clone());
+    let eigen = crate::math::linalg::bounded_symmetric_eigen(&group.xtx)?;
     // A direction the Jacobian nearly spans (what is left of it is a millionth of the columns'
     // size) is the model's, not a missing effect's.
     let largest = group.xtx_raw.iter().copied().fold(0.0, f64::max);

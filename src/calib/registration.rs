@@ -108,9 +108,9 @@ pub(crate) fn from_pixels(
     // would be a null direction of its own).
     let columns = if rows.iter().any(|r| r[12] != 0.0) { 13 } else { 12 };
     let a = nalgebra::DMatrix::from_fn(rows.len(), columns, |i, k| rows[i][k]);
-    let svd = (a.transpose() * &a).symmetric_eigen();
-    let k = svd.eigenvalues.imin();
-    let v = svd.eigenvectors.column(k);
+    let eigen = crate::math::linalg::bounded_symmetric_eigen(&(a.transpose() * &a))?;
+    let k = eigen.eigenvalues.imin();
+    let v = eigen.eigenvectors.column(k);
     let m = Matrix3::from_fn(|i, l| v[3 * i + l]);
     let det = m.determinant();
     if det.abs() < f64::MIN_POSITIVE {

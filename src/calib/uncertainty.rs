@@ -71,7 +71,8 @@ pub(crate) fn covariance<N>(outcome: &FitOutcome<N>, free: &[bool], prior: Optio
     }
     let scale = residual_scale(outcome, idx.len());
     let inv = if h.iter().all(|x| x.is_finite()) {
-        crate::math::linalg::symmetric_pseudo_inverse(&h, 1e-14).unwrap_or_else(|| DMatrix::zeros(idx.len(), idx.len()))
+        crate::math::linalg::symmetric_pseudo_inverse(&h, 1e-14)
+            .unwrap_or_else(|| DMatrix::from_element(idx.len(), idx.len(), f64::NAN))
     } else {
         DMatrix::from_element(idx.len(), idx.len(), f64::NAN)
     };
