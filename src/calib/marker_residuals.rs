@@ -80,10 +80,6 @@ impl MarkerObservation {
             (false, Some(_)) => 2,
             (false, None) => p.seen(),
         };
-        // A bag's capture is a message, on no line of any file (its pose's `line` is the message's
-        // number, which the session's own warnings give with the topic): the report then names
-        // the observation by pose and marker alone, as it does a static bag's.
-        let from_bag = session.streams.as_ref().is_some_and(|s| s.bag_topics.is_some());
         for pose in session.poses.iter().filter(|p| seen(p) > 0) {
             if let Err(e) = spm.forward(&pose.joints) {
                 failed.push((pose.id, e));
@@ -95,7 +91,7 @@ impl MarkerObservation {
                 joints: pose.joints,
                 measured,
                 camera,
-                line: if from_bag { 0 } else { line },
+                line,
                 station: pose.station,
                 time_s: pose.time_s,
                 rotation: false,

@@ -171,7 +171,7 @@ impl StationSpans {
         let limit = MAX_STATION_SPREAD_DEG.to_radians();
         for joint in 0..3 {
             // Offsets wrap into (−π, π]: a station across ±180° is not spread by a turn.
-            let offset = wrap_angle(joints[joint] - span.first[joint]);
+            let offset = crate::math::so3::wrap_angle(joints[joint] - span.first[joint]);
             let (low, high) = (span.low[joint], span.high[joint]);
             if offset - low.0 > limit {
                 return Some(TooFar { earlier: low.1, joint, apart: offset - low.0 });
@@ -188,13 +188,6 @@ impl StationSpans {
         }
         None
     }
-}
-
-/// `a` wrapped into (−π, π].
-fn wrap_angle(a: f64) -> f64 {
-    let pi = std::f64::consts::PI;
-    let w = (a + pi).rem_euclid(std::f64::consts::TAU) - pi;
-    if w == -pi { pi } else { w }
 }
 
 /// `joints.csv` text, with full precision; `time_s` (`station`) is written when every reading

@@ -63,7 +63,8 @@ pub struct SessionPose {
     pub markers: Vec<Option<Vector3<f64>>>,
     /// Line of `joints.csv` (0 when not read from a file).
     pub line: usize,
-    /// Line of `markers.csv` of each seen marker (0 when unseen or not read from a file).
+    /// Line of `markers.csv` (or `captures.csv`) of each seen marker (0 when unseen or not read
+    /// from a file, as from a bag).
     pub marker_lines: Vec<usize>,
     /// The station (captures the operator meant as one pose), when recorded.
     pub station: Option<u64>,
@@ -579,6 +580,10 @@ impl Session {
                 });
                 continue;
             };
+            // A bag's capture is a message, on no line of any file: its markers and body carry no
+            // line, so reports and errors name them by pose (the frame's `line` stays its message
+            // number, which the warnings give with the topic).
+            let from_bag = streams.bag_topics.is_some();
             let mut pose = SessionPose {
                 pixels: frame.pixels.iter().map(|p| p.seen).collect(),
                 id,
@@ -588,11 +593,11 @@ impl Session {
                 line: frame.line(),
                 marker_lines: vec![0; m],
                 station: None,
-                body: frame.body.map(|b| b.pose),
+                body: frame.body.map(|b| BodyPose { line: if from_bag { 0 } else { b.pose.line }, ..b.pose }),
             };
             for c in frame.captures {
                 pose.markers[c.marker] = Some(c.position);
-                pose.marker_lines[c.marker] = c.line;
+                pose.marker_lines[c.marker] = if from_bag { 0 } else { c.line };
             }
             poses.push(pose);
         }

@@ -184,6 +184,35 @@ pub(crate) fn workspace_band(r: &Rotation3<f64>) -> (usize, usize) {
     (band(tilt), band(yaw))
 }
 
+/// An angle wrapped to `(−π, π]`. IK's angles are within a turn of that range: one step of `2π`
+/// there (and a fix-up for rounding at the ends); beyond, the exact remainder (`round` is a
+/// library call on the baseline x86-64, and subtracting a rounded number of turns loses the
+/// angle past 1e17). Not a number stays so.
+#[inline]
+pub(crate) fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    let w = if a.abs() <= 3.0 * PI {
+        if a > PI {
+            a - TAU
+        } else if a <= -PI {
+            a + TAU
+        } else {
+            a
+        }
+    } else {
+        let r = a.rem_euclid(TAU);
+        if r > PI { r - TAU } else { r }
+    };
+    // Rounding at the range's ends: −π itself (from −3π + 2π) and anything just beyond π.
+    if w <= -PI {
+        w + TAU
+    } else if w > PI {
+        w - TAU
+    } else {
+        w
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -263,5 +292,30 @@ mod tests {
         let near = nearest_rotation(&(r.matrix() * 2.5)).unwrap();
         assert!(geodesic_angle(&r, &near) < 1e-14);
         assert!(nearest_rotation(&Matrix3::zeros()).is_none());
+    }
+
+    #[test]
+    fn angles_wrap_into_the_half_open_turn() {
+        use std::f64::consts::{PI, TAU};
+
+        let within = |a: f64| {
+            let w = wrap_angle(a);
+            assert!(w > -PI && w <= PI, "wrap_angle({a:e}) = {w:e}");
+            // The same angle: a whole number of turns away (exactly, for the exact remainder).
+            let turns = (a - w) / TAU;
+            assert!((turns - turns.round()).abs() <= 1e-9 * turns.abs().max(1.0), "wrap_angle({a:e}) = {w:e}");
+            w
+        };
+        assert_eq!(within(PI), PI);
+        assert_eq!(within(-PI), PI);
+        assert_eq!(within(3.0 * PI), PI);
+        assert_eq!(within(-3.0 * PI), PI);
+        assert_eq!(within(0.5), 0.5);
+        for a in [1e17, -1e17, 1.7e308, -1e300, 123.456, -7.0 * PI + 1e-9, 2.5 * TAU] {
+            within(a);
+        }
+        // Past 1e17 the old `a − 2π round(a/2π)` left the range (1.7e308 gave −2e292).
+        assert!(wrap_angle(1.7e308).abs() <= PI);
+        assert!(wrap_angle(f64::NAN).is_nan() && wrap_angle(f64::INFINITY).is_nan());
     }
 }

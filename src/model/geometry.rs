@@ -262,7 +262,7 @@ impl Leg {
     /// the offset before the scale divides it).
     #[inline]
     pub(crate) fn reading(&self, phi: f64) -> f64 {
-        wrap(phi - self.delta) / self.scale
+        crate::math::so3::wrap_angle(phi - self.delta) / self.scale
     }
 
     /// Intermediate axis `w(θ)` in B.
@@ -270,63 +270,5 @@ impl Leg {
     pub(crate) fn w(&self, theta: f64) -> Vector3<f64> {
         let (s, c) = self.phi(theta).sin_cos();
         self.u * self.cos_a1 + (self.z * c + self.y * s) * self.sin_a1
-    }
-}
-
-/// An angle wrapped to `(−π, π]`. IK's angles are within a turn of that range: one step of `2π`
-/// there (and a fix-up for rounding at the ends); beyond, the exact remainder (`round` is a library call on the baseline x86-64, and
-/// subtracting a rounded number of turns loses the angle past 1e17). Not a number stays so.
-#[inline]
-pub(crate) fn wrap(a: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    let w = if a.abs() <= 3.0 * PI {
-        if a > PI {
-            a - TAU
-        } else if a <= -PI {
-            a + TAU
-        } else {
-            a
-        }
-    } else {
-        let r = a.rem_euclid(TAU);
-        if r > PI { r - TAU } else { r }
-    };
-    // Rounding at the range's ends: −π itself (from −3π + 2π) and anything just beyond π.
-    if w <= -PI {
-        w + TAU
-    } else if w > PI {
-        w - TAU
-    } else {
-        w
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use std::f64::consts::{PI, TAU};
-
-    use super::wrap;
-
-    #[test]
-    fn angles_wrap_into_the_half_open_turn() {
-        let within = |a: f64| {
-            let w = wrap(a);
-            assert!(w > -PI && w <= PI, "wrap({a:e}) = {w:e}");
-            // The same angle: a whole number of turns away (exactly, for the exact remainder).
-            let turns = (a - w) / TAU;
-            assert!((turns - turns.round()).abs() <= 1e-9 * turns.abs().max(1.0), "wrap({a:e}) = {w:e}");
-            w
-        };
-        assert_eq!(within(PI), PI);
-        assert_eq!(within(-PI), PI);
-        assert_eq!(within(3.0 * PI), PI);
-        assert_eq!(within(-3.0 * PI), PI);
-        assert_eq!(within(0.5), 0.5);
-        for a in [1e17, -1e17, 1.7e308, -1e300, 123.456, -7.0 * PI + 1e-9, 2.5 * TAU] {
-            within(a);
-        }
-        // Past 1e17 the old `a − 2π round(a/2π)` left the range (1.7e308 gave −2e292).
-        assert!(wrap(1.7e308).abs() <= PI);
-        assert!(wrap(f64::NAN).is_nan() && wrap(f64::INFINITY).is_nan());
     }
 }

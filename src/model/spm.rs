@@ -543,7 +543,7 @@ impl Spm {
         // is the same angle only for a scale of 1: the path ends where `φ = sθ + δ` does).
         let delta = Vector3::from_fn(|i, _| {
             let s = self.legs[i].scale;
-            wrap_angle(s * (joints[i] - start[i])) / s
+            so3::wrap_angle(s * (joints[i] - start[i])) / s
         });
         let mut r = Rotation3::identity();
         let full_step = (self.settings.continuation_step / delta.amax().max(1e-300)).min(1.0);
@@ -601,9 +601,4 @@ impl Spm {
 /// The gravity torque's arm on a platform at `r`: `n × (−z)`, `n = R z` its axis, `z` the base's up.
 pub(crate) fn sag_arm(r: &Rotation3<f64>) -> Vector3<f64> {
     (r * Vector3::z()).cross(&-Vector3::z())
-}
-
-/// Wrap an angle to `(−π, π]`.
-pub(crate) fn wrap_angle(a: f64) -> f64 {
-    crate::model::geometry::wrap(a)
 }

@@ -65,9 +65,7 @@ impl VisionError {
     /// `used` are the markers (indices into the session's) the estimate used, in order: a
     /// degeneracy names them by their place in that list.
     fn at(session: &Session, pose: &SessionPose, used: &[usize], reason: MarkerError) -> VisionError {
-        // A bag's marker lines are its messages' numbers, on no line of the bag: named by pose.
-        let from_bag = session.streams.as_ref().is_some_and(|s| s.bag_topics.is_some());
-        let line_of = |k: usize| pose.marker_lines.get(k).copied().filter(|&l| l > 0 && !from_bag);
+        let line_of = |k: usize| pose.marker_lines.get(k).copied().filter(|&l| l > 0);
         let row = match &reason {
             MarkerError::Degenerate(Degeneracy::Coincident { second, .. }) => {
                 used.get(second.saturating_sub(1)).and_then(|&k| line_of(k))
